@@ -1,0 +1,1 @@
+"""USD asset library: generation, index, validation, USD -> MjSpec, path repair."""

@@ -1,0 +1,89 @@
+"""Entry point of the ``pipette`` console script.
+
+Exit codes: 0 success, 1 a :class:`~pipette_cli.errors.PipetteError` (one line on stderr,
+traceback only with ``--debug``), 2 usage errors (typer/click).
+"""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.logging import RichHandler
+
+from pipette_cli import __version__
+from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli import tasks as tasks_cli
+from pipette_cli.cli.common import STATE, err_console
+from pipette_cli.errors import PipetteError
+
+app = typer.Typer(
+    name="pipette",
+    help="Pipette: train robots for biomedical wet labs in MuJoCo.\n\nExample: pipette tasks list",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+app.add_typer(tasks_cli.app, name="tasks")
+app.add_typer(assets_cli.app, name="assets")
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"pipette {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    verbose: Annotated[int, typer.Option("-v", "--verbose", count=True, help="More log output (repeatable).")] = 0,
+    quiet: Annotated[bool, typer.Option("-q", "--quiet", help="Only warnings and errors.")] = False,
+    debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks and debug logs.")] = False,
+    registry_dir: Annotated[
+        list[Path] | None,
+        typer.Option("--registry-dir", help="Extra folder of task YAML files (repeatable; also PIPETTE_REGISTRY_PATH)."),
+    ] = None,
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+) -> None:
+    """Global options; see each command's --help."""
+    STATE.verbosity = -1 if quiet else verbose
+    STATE.debug = debug
+    STATE.registry_dirs = list(registry_dir or [])
+    level = logging.DEBUG if debug or verbose >= 2 else logging.INFO if verbose == 1 else logging.WARNING
+    logging.basicConfig(
+        level=level, format="%(message)s", handlers=[RichHandler(console=err_console, show_path=False)], force=True
+    )
+
+
+def run() -> None:
+    """Console-script entry: run the app and map errors to exit codes."""
+    try:
+        code = app(standalone_mode=False)
+    except PipetteError as exc:
+        if STATE.debug:
+            err_console.print_exception()
+        problems = getattr(exc, "problems", None) or [str(exc)]
+        for line in problems:
+            err_console.print(f"[red]error:[/red] {line}", markup=True, highlight=False, soft_wrap=True)
+        sys.exit(1)
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except typer.Abort:
+        err_console.print("aborted")
+        sys.exit(130)
+    except KeyboardInterrupt:
+        err_console.print("interrupted")
+        sys.exit(130)
+    except typer.TyperException as exc:  # usage errors (exit 2) in non-standalone mode
+        exc.show()
+        sys.exit(exc.exit_code)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+if __name__ == "__main__":
+    run()

@@ -1,0 +1,181 @@
+"""``pipette tasks``: list, show, validate and create task specs."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import PipetteError, SpecError
+from pipette_cli.registry import (
+    YAML_SUFFIXES,
+    Registry,
+    load_registry,
+    registry_dirs,
+    task_files,
+    validate_task_document,
+)
+from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
+from pipette_cli.specs.yaml_io import dump_yaml, format_problem, parse_yaml, read_yaml
+from pipette_cli.templating import render_task_template, task_template_names
+
+app = typer.Typer(help="Browse, check and create task specs.\n\nExample: pipette tasks list --tag hatch_control", no_args_is_help=True)
+
+
+def _registry() -> Registry:
+    return load_registry(STATE.registry_dirs)
+
+
+def _summary(spec: TaskSpec) -> dict[str, object]:
+    return {
+        "id": spec.id,
+        "name": spec.name,
+        "category": spec.category,
+        "embodiment": spec.embodiment.robot,
+        "evaluator": spec.success.type,
+        "tags": list(spec.tags),
+        "instruction": spec.instruction,
+    }
+
+
+@app.command("list")
+def list_tasks(
+    tag: Annotated[str | None, typer.Option("--tag", "-t", help="Only tasks with this tag, category or robot.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """List registered tasks.
+
+    Example: pipette tasks list --tag paper-benchmark --json
+    """
+    registry = _registry()
+    specs = [registry.get(tid) for tid in registry.ids(tag)]
+    if as_json:
+        print_json([_summary(s) for s in specs])
+        return
+    table = Table(title=f"{len(specs)} tasks", show_lines=False)
+    for column in ("id", "robot", "evaluator"):
+        table.add_column(column, no_wrap=True)
+    table.add_column("instruction", overflow="fold")
+    for s in specs:
+        table.add_row(s.id, s.embodiment.robot, s.success.type, s.instruction)
+    out_console.print(table)
+
+
+@app.command("show")
+def show_task(
+    task_id: Annotated[str, typer.Argument(help="Task id, e.g. pipette/PickUpTestTube-v1 or PickUpTestTube.")],
+    as_json: Annotated[bool, typer.Option("--json", help="The full spec as JSON.")] = False,
+) -> None:
+    """Show one task: the YAML file as written (comments included), or the validated spec.
+
+    Example: pipette tasks show PickUpTestTube
+    """
+    entry = _registry().entry(task_id)
+    if as_json:
+        print_json({"path": str(entry.path), **entry.spec.model_dump(mode="json")})
+        return
+    out_console.print(f"# {entry.path}", style="dim")
+    out_console.print(entry.path.read_text(encoding="utf-8"), markup=False, highlight=False, end="")
+
+
+@app.command("validate")
+def validate_tasks(
+    paths: Annotated[list[Path] | None, typer.Argument(help="YAML files or folders (default: the whole registry).")] = None,
+) -> None:
+    """Check task files; every problem is printed as file:line: field: message.
+
+    Exits 1 if any file is invalid. Without PATHs, validates the whole registry, including
+    duplicate ids across files.
+
+    Example: pipette tasks validate registry/pick_up_test_tube.yaml
+    """
+    if not paths:
+        registry = _registry()
+        err_console.print(f"{len(registry.tasks)} tasks valid in {len(registry_dirs(STATE.registry_dirs))} folder(s)")
+        return
+    files: list[Path] = []
+    for path in paths:
+        if path.is_dir():
+            files.extend(task_files([path]))
+        elif path.suffix in YAML_SUFFIXES or path.exists():
+            files.append(path)
+        else:
+            raise PipetteError(f"{path}: no such file or folder")
+    problems: list[str] = []
+    seen: dict[str, Path] = {}
+    for path in files:
+        try:
+            doc = read_yaml(path)
+            spec = validate_task_document(doc, str(path))
+        except SpecError as exc:
+            problems.extend(exc.problems)
+            continue
+        if spec.id in seen:
+            problems.append(format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already in {seen[spec.id]}"))
+            continue
+        seen[spec.id] = path
+        err_console.print(f"ok  {path}  ({spec.id})")
+    if problems:
+        raise SpecError(problems)
+
+
+def _name_from_id(task_id: str) -> str:
+    short = task_id.split("/", 1)[1].rsplit("-v", 1)[0]
+    words = re.sub(r"(?<!^)(?=[A-Z])", " ", short).split()
+    return " ".join([words[0], *(w.lower() for w in words[1:])]) if words else short
+
+
+@app.command("new")
+def new_task(
+    task_id: Annotated[str, typer.Argument(help="New id, e.g. mylab/PickUpCryovial-v1.")],
+    template: Annotated[
+        str, typer.Option("--from", help="A template (pick, place, close_lid, press_button) or an existing task id to copy.")
+    ],
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="File or folder to write (default: ./<name>.yaml).")] = None,
+    instruction: Annotated[str | None, typer.Option("--instruction", help="Language instruction.")] = None,
+    asset: Annotated[str | None, typer.Option("--asset", help="Main object's asset id (templates only).")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+) -> None:
+    """Create a task file from a template or by copying a registered task, validated before writing.
+
+    Example: pipette tasks new mylab/PickUpCryovial-v1 --from pick --asset cryovial_2ml --out registry/
+    """
+    if not re.match(TASK_ID_PATTERN, task_id):
+        raise PipetteError(f"task id {task_id!r} must look like namespace/Name-v1 (e.g. mylab/PickUpCryovial-v1)")
+    registry = _registry()
+    if task_id in registry.tasks:
+        raise PipetteError(f"task id {task_id!r} is already registered ({registry.entry(task_id).path})")
+    name = _name_from_id(task_id)
+    if template in task_template_names():
+        context: dict[str, object] = {
+            "task_id": task_id,
+            "name": name,
+            "instruction": instruction or f"{name}.",
+            "robot": "franka_panda",
+            "initial_joints": [0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785],
+        }
+        if asset:
+            context["asset"] = asset
+        text = render_task_template(template, **context)
+    else:
+        source = registry.entry(template)
+        doc = read_yaml(source.path)
+        doc["id"] = task_id
+        doc["name"] = name
+        if instruction:
+            doc["instruction"] = instruction
+        text = dump_yaml(doc)
+    stem = re.sub(r"(?<!^)(?=[A-Z])", "_", task_id.split("/", 1)[1].rsplit("-v", 1)[0]).lower()
+    target = out or Path(f"{stem}.yaml")
+    if target.is_dir() or (out is not None and str(out).endswith("/")):
+        target = target / f"{stem}.yaml"
+    if target.exists() and not force:
+        raise PipetteError(f"{target} exists; pass --force to overwrite")
+    validate_task_document(parse_yaml(text, str(target)), str(target))
+    target.parent.mkdir(parents=True, exist_ok=True)
+    target.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {target}; check the VERIFY fields, then: pipette tasks validate {target}")

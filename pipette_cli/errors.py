@@ -1,0 +1,74 @@
+"""One root error for Pipette, with a subclass per domain.
+
+The CLI turns any :class:`PipetteError` into a one-line message and exit code 1;
+anything else is a bug and keeps its traceback.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+
+class PipetteError(Exception):
+    """Root of every error Pipette raises on purpose."""
+
+
+class SpecError(PipetteError):
+    """A task spec (YAML or generated) is malformed or inconsistent.
+
+    Attributes:
+        problems: One ``file:line: field: message`` string per problem found.
+    """
+
+    def __init__(self, problems: list[str] | str) -> None:
+        self.problems = [problems] if isinstance(problems, str) else list(problems)
+        head = self.problems[0] if self.problems else "invalid spec"
+        more = f" (and {len(self.problems) - 1} more)" if len(self.problems) > 1 else ""
+        super().__init__(head + more)
+
+
+class TaskNotFound(PipetteError):
+    """A task id is not in the registry."""
+
+
+class AssetError(PipetteError):
+    """An asset is missing, broken, or fails validation."""
+
+
+class EvaluatorError(PipetteError):
+    """A success criterion cannot be built or evaluated."""
+
+
+class SimError(PipetteError):
+    """A scene cannot be built or simulated."""
+
+
+class BackendError(PipetteError):
+    """An LLM backend failed (network, timeout, invalid answer)."""
+
+
+class DatasetError(PipetteError):
+    """A recorded HDF5 file or a LeRobot dataset is unusable."""
+
+
+def suggest(name: str, choices: Iterable[str], *, n: int = 3) -> str:
+    """Return a "did you mean" hint for ``name`` among ``choices``, or a list of valid names.
+
+    Args:
+        name: The unknown name the user gave.
+        choices: The valid names.
+        n: How many close matches to offer.
+
+    Returns:
+        A sentence fragment such as ``"did you mean 'a' or 'b'?"``.
+    """
+    pool = sorted(set(choices))
+    close = difflib.get_close_matches(name, pool, n=n, cutoff=0.5)
+    if not close:
+        lowered = {c.lower(): c for c in pool}
+        close = [lowered[c] for c in difflib.get_close_matches(name.lower(), list(lowered), n=n, cutoff=0.4)]
+    if close:
+        return "did you mean " + " or ".join(repr(c) for c in close) + "?"
+    shown = ", ".join(pool[:12]) + (", ..." if len(pool) > 12 else "")
+    return f"valid names: {shown}" if pool else "none are defined"

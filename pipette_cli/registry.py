@@ -1,0 +1,166 @@
+"""The task registry: every task YAML under the registry folders, validated as a whole.
+
+Search order: the built-in ``registry/`` folder, ``PIPETTE_REGISTRY_PATH`` (``os.pathsep``
+separated), folders given with ``--registry-dir``, then third-party task packs declared as
+entry points in the group ``pipette.tasks`` (the entry point loads to a folder path, or a
+callable returning one or more). Loading is all or nothing: one broken file, an unknown
+asset or a duplicate id refuses the whole registry with every problem listed.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from pipette_cli.assets.library import AssetLibrary, load_asset_library
+from pipette_cli.errors import PipetteError, SpecError, TaskNotFound, suggest
+from pipette_cli.resources import data_dir, env_paths
+from pipette_cli.specs.task import TaskSpec
+from pipette_cli.specs.yaml_io import format_problem, read_yaml, to_plain, validation_problems
+
+log = logging.getLogger(__name__)
+
+REGISTRY_PATH_ENV = "PIPETTE_REGISTRY_PATH"
+ENTRY_POINT_GROUP = "pipette.tasks"
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
+@dataclass(frozen=True)
+class RegisteredTask:
+    """A validated task and the file it came from."""
+
+    spec: TaskSpec
+    path: Path
+
+
+def load_task_file(path: Path, assets: AssetLibrary | None = None) -> TaskSpec:
+    """Read and validate one task YAML file.
+
+    Args:
+        path: The YAML file.
+        assets: Asset index to check asset ids against (the standard one when omitted).
+
+    Raises:
+        SpecError: listing every problem as ``file:line: field: message``.
+    """
+    doc = read_yaml(path)
+    return validate_task_document(doc, str(path), assets)
+
+
+def validate_task_document(doc: Any, source: str, assets: AssetLibrary | None = None) -> TaskSpec:
+    """Validate a parsed YAML document (see :func:`load_task_file`)."""
+    raw = to_plain(doc)
+    try:
+        spec = TaskSpec.model_validate(raw, context={"defer_references": True})
+    except ValidationError as exc:
+        raise SpecError(validation_problems(exc, TaskSpec, raw, doc, source)) from None
+    problems = [format_problem(source, doc, loc, msg) for loc, msg in spec.reference_problems()]
+    library = assets if assets is not None else load_asset_library()
+    asset_fields: list[tuple[tuple[Any, ...], str]] = [(("scene", "bench"), spec.scene.bench)]
+    asset_fields += [(("scene", "objects", i, "asset"), o.asset) for i, o in enumerate(spec.scene.objects)]
+    for loc, asset_id in asset_fields:
+        if asset_id not in library:
+            problems.append(format_problem(source, doc, loc, f"unknown asset {asset_id!r}; {suggest(asset_id, library.ids())}"))
+    if problems:
+        raise SpecError(problems)
+    return spec
+
+
+def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:
+    """Every folder searched for task YAML, in order (see module docstring)."""
+    dirs = [data_dir("registry"), *env_paths(REGISTRY_PATH_ENV), *extra]
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            value = ep.load()
+            value = value() if callable(value) else value
+        except Exception as exc:  # a third-party pack must not crash the CLI
+            raise PipetteError(f"task pack entry point {ep.name!r} ({ep.value}) failed to load: {exc}") from exc
+        dirs.extend(Path(v) for v in (value if isinstance(value, list | tuple) else [value]))
+    return dirs
+
+
+def task_files(dirs: Iterable[Path]) -> list[Path]:
+    """All YAML files under ``dirs`` (recursively), de-duplicated, in a stable order."""
+    files: list[Path] = []
+    seen: set[Path] = set()
+    for folder in dirs:
+        if not folder.is_dir():
+            raise SpecError(f"{folder}: registry folder does not exist")
+        for path in sorted(p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file()):
+            resolved = path.resolve()
+            if resolved not in seen:
+                seen.add(resolved)
+                files.append(path)
+    return files
+
+
+@dataclass(frozen=True)
+class Registry:
+    """All registered tasks by id."""
+
+    tasks: dict[str, RegisteredTask]
+
+    def ids(self, tag: str | None = None) -> list[str]:
+        """Task ids, optionally only those with ``tag`` among their tags, category or robot."""
+        return sorted(
+            tid
+            for tid, t in self.tasks.items()
+            if tag is None or tag in t.spec.tags or tag == t.spec.category or tag == t.spec.embodiment.robot
+        )
+
+    def get(self, task_id: str) -> TaskSpec:
+        """The task ``task_id``; ``PickUpTestTube-v1`` and ``PickUpTestTube`` (latest version) work too.
+
+        Raises:
+            TaskNotFound: with the closest registered ids.
+        """
+        return self.entry(task_id).spec
+
+    def entry(self, task_id: str) -> RegisteredTask:
+        if task_id in self.tasks:
+            return self.tasks[task_id]
+        candidates = [tid for tid in self.tasks if tid.split("/", 1)[1] == task_id]
+        if not candidates and not re.search(r"-v\d+$", task_id):
+            short = task_id.split("/")[-1]
+            candidates = [tid for tid in self.tasks if re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == short]
+            candidates.sort(key=lambda tid: int(tid.rsplit("-v", 1)[1]))
+            candidates = candidates[-1:]
+        if len(candidates) == 1:
+            return self.tasks[candidates[0]]
+        if len(candidates) > 1:
+            raise TaskNotFound(f"task {task_id!r} is ambiguous: {', '.join(sorted(candidates))}")
+        names = list(self.tasks) + [tid.split("/", 1)[1] for tid in self.tasks]
+        raise TaskNotFound(f"unknown task {task_id!r}; {suggest(task_id, names)}")
+
+
+def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None = None) -> Registry:
+    """Load and validate every task; all or nothing.
+
+    Raises:
+        SpecError: every problem in every file, and every duplicate id.
+    """
+    problems: list[str] = []
+    tasks: dict[str, RegisteredTask] = {}
+    library = assets if assets is not None else load_asset_library()
+    for path in task_files(registry_dirs(extra_dirs)):
+        try:
+            doc = read_yaml(path)
+            spec = validate_task_document(doc, str(path), library)
+        except SpecError as exc:
+            problems.extend(exc.problems)
+            continue
+        if spec.id in tasks:
+            problems.append(format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already defined in {tasks[spec.id].path}"))
+            continue
+        tasks[spec.id] = RegisteredTask(spec, path)
+    if problems:
+        raise SpecError(problems)
+    log.debug("loaded %d tasks", len(tasks))
+    return Registry(tasks)

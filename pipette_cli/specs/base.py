@@ -1,0 +1,134 @@
+"""Building blocks shared by all specs: the strict base model, vectors, poses, bounds,
+and the small type registry behind every pluggable ``type:`` field."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Annotated, Any, Generic, TypeVar
+
+from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidatorFunctionWrapHandler, WrapValidator
+from pydantic import model_validator
+from pydantic_core import PydanticCustomError
+
+from pipette_cli.errors import suggest
+
+NAME_PATTERN = r"^[a-z][a-z0-9_]*$"
+Name = Annotated[str, Field(pattern=NAME_PATTERN, description="lower_snake_case name")]
+# "object" or "object/part" where part is a body, joint or site inside the object's asset.
+Ref = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*(/[A-Za-z0-9_]+)?$", description="object or object/part")]
+Vec3 = tuple[float, float, float]
+
+
+class Spec(BaseModel):
+    """Base of every spec: unknown keys are errors, instances are immutable."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class PoseSpec(Spec):
+    """A position in metres and an orientation as XYZ Euler angles in degrees."""
+
+    pos: Vec3
+    euler_deg: Vec3 = (0.0, 0.0, 0.0)
+
+
+class BoundSpec(Spec):
+    """A closed interval; either end may be open (``null``)."""
+
+    min: float | None = None
+    max: float | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> BoundSpec:
+        if self.min is None and self.max is None:
+            raise ValueError("give at least one of 'min' and 'max'")
+        if self.min is not None and self.max is not None and self.min >= self.max:
+            raise ValueError(f"'min' ({self.min}) must be below 'max' ({self.max})")
+        return self
+
+    def contains(self, value: float) -> bool:
+        return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
+
+
+class TypedSpec(Spec):
+    """Base of pluggable specs selected by their ``type`` field."""
+
+    type: str
+
+    def refs(self) -> Iterator[tuple[tuple[str | int, ...], str]]:
+        """Yield ``(field path, object ref)`` for every scene object this spec names."""
+        for name, info in type(self).model_fields.items():
+            value = getattr(self, name)
+            if info.json_schema_extra and info.json_schema_extra.get("ref") and isinstance(value, str):
+                yield (name,), value
+            elif isinstance(value, TypedSpec):
+                for loc, ref in value.refs():
+                    yield (name, *loc), ref
+            elif isinstance(value, tuple | list):
+                for i, item in enumerate(value):
+                    if isinstance(item, TypedSpec):
+                        for loc, ref in item.refs():
+                            yield (name, i, *loc), ref
+
+
+def ref_field(description: str, default: Any = ...) -> Any:
+    """A field holding an ``object`` or ``object/part`` reference, checked against the scene."""
+    return Field(default, description=description, json_schema_extra={"ref": True})
+
+
+T = TypeVar("T", bound=TypedSpec)
+REGISTRIES: list[TypeRegistry[Any]] = []
+
+
+class TypeRegistry(Generic[T]):
+    """Maps ``type`` names to spec classes; adding a type never edits a central list."""
+
+    def __init__(self, kind: str, base: type[T]) -> None:
+        self.kind = kind
+        self.base = base
+        self._types: dict[str, type[T]] = {}
+        REGISTRIES.append(self)
+
+    def register(self, cls: type[T]) -> type[T]:
+        """Class decorator: register ``cls`` under the default of its ``type`` field."""
+        name = cls.model_fields["type"].default
+        if not isinstance(name, str):
+            raise TypeError(f"{cls.__name__} needs a default for its 'type' field")
+        if name in self._types and self._types[name] is not cls:
+            raise ValueError(f"{self.kind} type {name!r} is already registered by {self._types[name].__name__}")
+        self._types[name] = cls
+        return cls
+
+    def names(self) -> list[str]:
+        return sorted(self._types)
+
+    def get(self, name: str) -> type[T]:
+        return self._types[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._types
+
+    def validator(self) -> Callable[[Any, ValidatorFunctionWrapHandler], T]:
+        def dispatch(value: Any, handler: ValidatorFunctionWrapHandler) -> T:
+            if isinstance(value, self.base):
+                return value  # type: ignore[return-value]
+            if not isinstance(value, dict):
+                raise PydanticCustomError("spec_type", "expected a mapping with a 'type' field")
+            name = value.get("type")
+            if name is None:
+                raise PydanticCustomError(
+                    "spec_type", "missing 'type'; expected one of: {names}", {"names": ", ".join(self.names())}
+                )
+            if name not in self._types:
+                raise PydanticCustomError(
+                    "spec_type",
+                    "unknown {kind} type '{name}'; {hint}",
+                    {"kind": self.kind, "name": str(name), "hint": suggest(str(name), self._types)},
+                )
+            return self._types[name].model_validate(value)
+
+        return dispatch
+
+    def field_type(self) -> Any:
+        """The annotation for a field holding one spec of this registry."""
+        return Annotated[SerializeAsAny[self.base], WrapValidator(self.validator())]

@@ -1,0 +1,115 @@
+"""``pipette tasks ...`` end to end, in-process."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from pipette_cli.registry import load_task_file
+
+FIXTURES = Path(__file__).parents[1] / "fixtures" / "tasks"
+
+
+def test_list_json_has_the_twelve_tasks_with_robot_and_evaluator(run_cli) -> None:
+    result = run_cli("tasks", "list", "--json")
+    assert result.exit_code == 0, result.stderr
+    rows = json.loads(result.stdout)
+    assert len(rows) == 12
+    assert all(row["id"].startswith("pipette/") and row["embodiment"] and row["evaluator"] for row in rows)
+    shaker = next(r for r in rows if r["id"] == "pipette/PlaceFlaskOnShaker-v1")
+    assert (shaker["embodiment"], shaker["evaluator"]) == ("agilex_piper", "region_hold")
+
+
+def test_list_filters_by_tag(run_cli) -> None:
+    rows = json.loads(run_cli("tasks", "list", "--tag", "hatch_control", "--json").stdout)
+    assert sorted(r["id"] for r in rows) == [
+        "pipette/CloseCentrifugeLid-v1",
+        "pipette/CloseSpectrophotometerLid-v1",
+        "pipette/OpenCentrifugeLid-v1",
+        "pipette/OpenWaterBathLid-v1",
+    ]
+
+
+def test_list_table_prints_every_task(run_cli) -> None:
+    result = run_cli("tasks", "list")
+    assert result.exit_code == 0 and "12 tasks" in result.stdout
+    assert "PlaceFlaskOnShaker" in result.stdout
+
+
+def test_show_prints_the_file_with_comments_and_json(run_cli) -> None:
+    result = run_cli("tasks", "show", "PickUpTestTube")
+    assert result.exit_code == 0 and "# paper A.8: z_t > z_0 + 0.02 m" in result.stdout
+    data = json.loads(run_cli("tasks", "show", "pipette/PickUpTestTube-v1", "--json").stdout)
+    assert data["success"]["min_height_gain"] == 0.02 and data["path"].endswith("pick_up_test_tube.yaml")
+
+
+def test_unknown_task_exits_1_with_suggestion(run_cli) -> None:
+    result = run_cli("tasks", "show", "PickUpTestTub")
+    assert result.exit_code == 1
+    assert "unknown task 'PickUpTestTub'; did you mean" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_validate_broken_files_exits_1_with_every_location(run_cli) -> None:
+    files = sorted((FIXTURES / "broken").glob("*.yaml"))
+    result = run_cli("tasks", "validate", *files)
+    assert result.exit_code == 1
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == len(files)
+    for path in files:
+        assert any(f"{path}:" in line for line in errors), path
+
+
+def test_validate_reports_duplicate_ids(run_cli) -> None:
+    result = run_cli("tasks", "validate", FIXTURES / "dup")
+    assert result.exit_code == 1 and "duplicate task id 'testlab/PickUpMicrotube-v1'" in result.stderr
+
+
+def test_validate_the_registry_and_a_good_file(run_cli) -> None:
+    assert run_cli("tasks", "validate").exit_code == 0
+    assert run_cli("tasks", "validate", FIXTURES / "valid_pick.yaml").exit_code == 0
+
+
+def test_usage_error_exits_2(run_cli) -> None:
+    assert run_cli("tasks", "list", "--no-such-option").exit_code == 2
+    assert run_cli("tasks", "frobnicate").exit_code == 2
+
+
+def test_debug_shows_the_traceback(run_cli) -> None:
+    result = run_cli("--debug", "tasks", "show", "Nope")
+    assert result.exit_code == 1 and "Traceback" in result.stderr
+
+
+def test_new_from_each_template_writes_a_valid_task(run_cli, tmp_path: Path) -> None:
+    for template in ("pick", "place", "close_lid", "press_button"):
+        task_id = f"mylab/Try{template.title().replace('_', '')}-v1"
+        result = run_cli("tasks", "new", task_id, "--from", template, "--out", tmp_path)
+        assert result.exit_code == 0, result.stderr
+        written = next(tmp_path.glob(f"try_{template}.yaml"))
+        spec = load_task_file(written)
+        assert spec.id == task_id and "VERIFY" in written.read_text()
+
+
+def test_new_by_copying_keeps_comments_and_refuses_overwrite(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "copy.yaml"
+    args = ("tasks", "new", "mylab/PickUpTestTube-v2", "--from", "PickUpTestTube", "--out", out)
+    assert run_cli(*args).exit_code == 0
+    assert load_task_file(out).success.min_height_gain == 0.02
+    assert "# paper A.8: z_t > z_0 + 0.02 m" in out.read_text()
+    again = run_cli(*args)
+    assert again.exit_code == 1 and "exists; pass --force" in again.stderr
+
+
+def test_new_rejects_bad_ids_and_taken_ids(run_cli, tmp_path: Path) -> None:
+    assert "must look like namespace/Name-v1" in run_cli("tasks", "new", "bad id", "--from", "pick").stderr
+    taken = run_cli("tasks", "new", "pipette/PickUpTestTube-v1", "--from", "pick", "--out", tmp_path)
+    assert taken.exit_code == 1 and "already registered" in taken.stderr
+
+
+def test_registry_dir_option_adds_tasks(run_cli) -> None:
+    result = run_cli("--registry-dir", FIXTURES / "dup", "tasks", "list", "--json")
+    assert result.exit_code == 1 and "duplicate task id" in result.stderr
+
+
+def test_version(run_cli) -> None:
+    result = run_cli("--version")
+    assert result.exit_code == 0 and result.stdout.startswith("pipette ")
