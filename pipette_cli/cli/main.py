@@ -16,6 +16,7 @@ from rich.logging import RichHandler
 
 from pipette_cli import __version__
 from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
 from pipette_cli.cli.common import STATE, err_console
 from pipette_cli.errors import PipetteError
@@ -29,6 +30,7 @@ app = typer.Typer(
 )
 app.add_typer(tasks_cli.app, name="tasks")
 app.add_typer(assets_cli.app, name="assets")
+app.add_typer(sim_cli.app, name="sim")
 
 
 def _version(value: bool) -> None:

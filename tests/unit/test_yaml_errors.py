@@ -17,7 +17,7 @@ CASES = {
     "syntax.yaml": (13, "YAML syntax error"),
     "unknown_key.yaml": (24, "success.hold_seconds: unknown key 'hold_seconds'; did you mean 'hold_s'?"),
     "wrong_type.yaml": (24, "success.timeout_s: Input should be a valid number"),
-    "unknown_asset.yaml": (13, "scene.objects.0.asset: unknown asset 'test_tube_16x15'; did you mean 'test_tube_16x150'?"),
+    "unknown_asset.yaml": (13, "scene.objects.0.asset: unknown asset 'test_tube_16x15'; did you mean 'test_tube_16x150'"),
     "unknown_evaluator.yaml": (21, "success.type: unknown evaluator type 'lift_and_hould'; did you mean 'lift_and_hold'"),
     "unknown_object.yaml": (22, "success.object: 'tubes' names no scene object; did you mean 'tube'?"),
 }

@@ -1,0 +1,127 @@
+"""The evaluator contract: a success criterion fed one world state per control step.
+
+An evaluator is built from its spec (:mod:`pipette_cli.specs.evaluators`), reset with the
+state at reset, then updated once per control step. Each update returns a
+:class:`Verdict`: ``success`` once the criterion is met, ``failed`` with a reason once it
+can no longer be met (timeout, dropped, tilted, ...), and continuous metrics either way.
+Runtime classes register under the spec's ``type`` name; an unknown type is an error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from pipette_cli.errors import EvaluatorError, suggest
+from pipette_cli.specs.evaluators import EvaluatorSpec
+
+
+class WorldState(Protocol):
+    """Read-only view of the simulation an evaluator needs; refs are ``object`` or ``object/part``.
+
+    Positions are in the bench frame (metres); joint positions in degrees for hinges and
+    metres for slides.
+    """
+
+    time: float
+    """Simulated seconds since reset."""
+    control_dt: float
+    """Seconds per control step."""
+
+    def position(self, ref: str) -> np.ndarray:
+        """World position of an object's root body, or of one of its bodies or sites."""
+        ...
+
+    def rotation(self, ref: str) -> np.ndarray:
+        """3x3 world rotation matrix of an object's root body (or a body/site)."""
+        ...
+
+    def joint(self, ref: str) -> float:
+        """Position of an articulated joint (degrees for hinges, metres for slides)."""
+        ...
+
+    def bbox_xy(self, ref: str) -> tuple[float, float]:
+        """Size (dx, dy) of the axis-aligned xy bounding box of a part's collision geometry."""
+        ...
+
+    def mechanism(self, name: str) -> MechanismState:
+        """State of a scene mechanism."""
+        ...
+
+
+@dataclass(frozen=True)
+class MechanismState:
+    """What a scripted mechanism reports (paper A.6)."""
+
+    triggered: bool
+    target: float
+    """Current target of the driven joint (degrees or metres)."""
+    min_target: float
+    """Lowest target reached since reset."""
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Outcome of one evaluator update."""
+
+    success: bool = False
+    failed: bool = False
+    reason: str | None = None
+    """Why it failed ("timeout", "dropped", "tilted", "out_of_region", "too_low", ...)."""
+    metrics: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def done(self) -> bool:
+        return self.success or self.failed
+
+
+class Evaluator(Protocol):
+    """Runtime evaluator built from a spec."""
+
+    spec: EvaluatorSpec
+
+    def reset(self, state: WorldState) -> None: ...
+
+    def update(self, state: WorldState) -> Verdict: ...
+
+
+EvaluatorFactory = Callable[[EvaluatorSpec], Evaluator]
+_FACTORIES: dict[str, EvaluatorFactory] = {}
+
+
+def register(type_name: str) -> Callable[[EvaluatorFactory], EvaluatorFactory]:
+    """Decorator: register the runtime class (or factory) for spec type ``type_name``."""
+
+    def decorate(factory: EvaluatorFactory) -> EvaluatorFactory:
+        if type_name in _FACTORIES and _FACTORIES[type_name] is not factory:
+            raise EvaluatorError(f"evaluator {type_name!r} is already registered")
+        _FACTORIES[type_name] = factory
+        return factory
+
+    return decorate
+
+
+def make_evaluator(spec: EvaluatorSpec) -> Evaluator:
+    """Build the runtime evaluator for ``spec``.
+
+    Raises:
+        EvaluatorError: no runtime is registered for ``spec.type`` (never a silent success).
+    """
+    _load_builtins()
+    factory = _FACTORIES.get(spec.type)
+    if factory is None:
+        raise EvaluatorError(f"no evaluator runtime for type {spec.type!r}; {suggest(spec.type, _FACTORIES)}")
+    return factory(spec)
+
+
+def registered_types() -> list[str]:
+    """Names of every evaluator type that has a runtime, built-in families included."""
+    _load_builtins()
+    return sorted(_FACTORIES)
+
+
+def _load_builtins() -> None:
+    import pipette_cli.evaluators  # noqa: F401  (its __init__ imports every family module)

@@ -1,0 +1,1 @@
+"""MuJoCo runtime: scenes from task specs, robots, cameras, controllers, mechanisms."""

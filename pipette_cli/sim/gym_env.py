@@ -1,0 +1,93 @@
+"""Gymnasium environments for every registered task: ``gymnasium.make("pipette/PickUpTestTube-v1")``.
+
+Observations are dicts ``{"top", "main", "wrist": uint8 HxWx3, "state": float32 (dof+1,)}``;
+actions are ``Box`` joint targets within the arm's limits plus a gripper command in [0, 1]
+(>= 0.5 opens). Reward is 1 on the step the task's evaluator succeeds. The episode
+terminates on success or failure (failure includes the task's timeout).
+Registration happens through the ``gymnasium.envs`` entry point of this package.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from pipette_cli.sim.env import Observation, PipetteEnv
+from pipette_cli.sim.render import Profile
+
+
+class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+    """Gymnasium view of :class:`~pipette_cli.sim.env.PipetteEnv`."""
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        task_id: str,
+        image_size: int | None = None,
+        render_profile: Profile = "fast",
+        render_mode: str | None = None,
+    ) -> None:
+        from pipette_cli.registry import load_registry
+
+        self.spec_task = load_registry().get(task_id)
+        self.env = PipetteEnv(self.spec_task, image_size=image_size, render_profile=render_profile)
+        self.render_mode = render_mode
+        world = self.env.world
+        h = image_size or self.spec_task.cameras.height
+        w = image_size or self.spec_task.cameras.width
+        image = spaces.Box(0, 255, shape=(h, w, 3), dtype=np.uint8)
+        dof = world.robot.arm_dof
+        self.observation_space = spaces.Dict(
+            {
+                "top": image,
+                "main": image,
+                "wrist": image,
+                "state": spaces.Box(-np.inf, np.inf, shape=(dof + 1,), dtype=np.float32),
+            }
+        )
+        low = np.append(world.arm_range[:, 0], 0.0).astype(np.float32)
+        high = np.append(world.arm_range[:, 1], 1.0).astype(np.float32)
+        self.action_space = spaces.Box(low, high, dtype=np.float32)
+        self._last: Observation | None = None
+
+    def _obs(self, obs: Observation) -> dict[str, np.ndarray]:
+        self._last = obs
+        return {**{k: v for k, v in obs.images.items()}, "state": obs.state.astype(np.float32)}
+
+    def _info(self, obs: Observation, verdict: Any = None) -> dict[str, Any]:
+        info: dict[str, Any] = {"fresh": obs.fresh, "frame_age": obs.frame_age, "sim_time": obs.sim_time}
+        if verdict is not None:
+            info.update(is_success=verdict.success, failure_reason=verdict.reason, metrics=dict(verdict.metrics))
+        return info
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        episode_seed = int(self.np_random.integers(0, 2**31 - 1)) if seed is None else seed
+        obs = self.env.reset(episode_seed)
+        return self._obs(obs), self._info(obs)
+
+    def step(self, action: np.ndarray):
+        obs, verdict = self.env.step(np.asarray(action, dtype=float))
+        reward = 1.0 if verdict.success else 0.0
+        return self._obs(obs), reward, verdict.done, False, self._info(obs, verdict)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array" or self._last is None:
+            return None
+        return np.concatenate([self._last.images[k] for k in ("top", "main", "wrist")], axis=1)
+
+    def close(self) -> None:
+        self.env.close()
+
+
+def register_envs() -> None:
+    """Register every task of the registry with gymnasium (the ``gymnasium.envs`` entry point)."""
+    from pipette_cli.registry import load_registry
+
+    for task_id in load_registry().ids():
+        if task_id not in gym.registry:
+            gym.register(id=task_id, entry_point=PipetteGymEnv, kwargs={"task_id": task_id}, disable_env_checker=True)

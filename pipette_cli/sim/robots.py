@@ -1,0 +1,180 @@
+"""The three embodiments, loaded from ``mujoco_menagerie`` and prepared for Pipette.
+
+Each robot becomes an ``MjSpec`` with: position-controlled arm joints, one gripper actuator
+driven by a binary command (u = 1 open, u = 0 closed, paper A.3), a ``tcp`` site between the
+fingertips (the IK target and the gripper's sensing point), and a ``wrist_mount`` frame where
+the wrist camera goes. Offline machines set ``MENAGERIE_ROOT`` (see mujoco_menagerie).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from pipette_cli.errors import SimError, suggest
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """Names and numbers that differ between embodiments (inside the robot's own spec)."""
+
+    name: str
+    menagerie: str
+    entry: str
+    arm_joints: tuple[str, ...]
+    arm_actuators: tuple[str, ...]
+    gripper_actuator: str
+    gripper_joint: str
+    """Joint whose position is the gripper state g_t (one finger of the gripper)."""
+    gripper_open: float
+    """Gripper actuator control for u = 1 (open)."""
+    gripper_closed: float
+    """Gripper actuator control for u = 0 (closed)."""
+    ee_body: str
+    tcp_pos: tuple[float, float, float]
+    """Tool centre point in the ee body's frame: between the fingertips."""
+    wrist_camera_body: str
+
+    @property
+    def arm_dof(self) -> int:
+        return len(self.arm_joints)
+
+
+PANDA = RobotConfig(
+    name="franka_panda",
+    menagerie="franka_emika_panda",
+    entry="panda",
+    arm_joints=tuple(f"joint{i}" for i in range(1, 8)),
+    arm_actuators=tuple(f"actuator{i}" for i in range(1, 8)),
+    gripper_actuator="actuator8",
+    gripper_joint="finger_joint1",
+    gripper_open=0.04,  # paper A.5: finger targets 0.04 m open, 0 closed
+    gripper_closed=0.0,
+    ee_body="hand",
+    tcp_pos=(0.0, 0.0, 0.1034),
+    wrist_camera_body="hand",
+)
+PIPER = RobotConfig(
+    name="agilex_piper",
+    menagerie="agilex_piper",
+    entry="piper",
+    arm_joints=tuple(f"joint{i}" for i in range(1, 7)),
+    arm_actuators=tuple(f"joint{i}" for i in range(1, 7)),
+    gripper_actuator="gripper",
+    gripper_joint="joint7",
+    gripper_open=0.035,
+    gripper_closed=0.0,
+    ee_body="link6",
+    tcp_pos=(0.0, 0.0, 0.135),
+    wrist_camera_body="link6",
+)
+UR5E_ROBOTIQ = RobotConfig(
+    name="ur5e_robotiq",
+    menagerie="universal_robots_ur5e",
+    entry="ur5e",
+    arm_joints=(
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ),
+    arm_actuators=("shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3"),
+    gripper_actuator="gripper/fingers_actuator",
+    gripper_joint="gripper/right_driver_joint",
+    gripper_open=0.0,  # Robotiq 2F-85: control 0 open, 255 closed
+    gripper_closed=255.0,
+    ee_body="wrist_3_link",
+    tcp_pos=(0.0, 0.1, 0.0),
+    wrist_camera_body="wrist_3_link",
+)
+ROBOTS: dict[str, RobotConfig] = {r.name: r for r in (PANDA, PIPER, UR5E_ROBOTIQ)}
+
+# Gripper drive for the Panda (paper A.5 asks for a stiff gripper so grasped objects do not
+# slip: stiffness 1e4, damping 1e3, effort 1000 in PhysX). With MuJoCo's implicitfast
+# integrator these gains are stable at 600 Hz; the tendon splits force between both fingers.
+PANDA_GRIPPER_KP = 1.0e4
+PANDA_GRIPPER_KV = 1.0e2
+PANDA_GRIPPER_FORCE = 200.0
+
+
+def robot_config(name: str) -> RobotConfig:
+    """The :class:`RobotConfig` called ``name``.
+
+    Raises:
+        SimError: unknown robot, with the known ones.
+    """
+    try:
+        return ROBOTS[name]
+    except KeyError:
+        raise SimError(f"unknown robot {name!r}; {suggest(name, ROBOTS)}") from None
+
+
+def _menagerie_spec(menagerie: str, entry: str) -> mujoco.MjSpec:
+    import mujoco_menagerie
+
+    try:
+        spec = mujoco_menagerie.get(menagerie).spec(entry)
+    except Exception as exc:
+        raise SimError(
+            f"cannot load robot {menagerie!r} from mujoco_menagerie ({exc}); offline machines must set "
+            "MENAGERIE_ROOT to a local menagerie checkout"
+        ) from exc
+    # agilex_piper names some meshes "./assets/x.obj" under meshdir="assets", which resolves
+    # to "assets/assets/x.obj". Point those at the file that exists.
+    base = Path(spec.modelfiledir)
+    for mesh in spec.meshes:
+        if spec.meshdir and not (base / spec.meshdir / mesh.file).exists() and (base / mesh.file).exists():
+            mesh.file = str(Path(mesh.file).relative_to(spec.meshdir))
+    return spec
+
+
+def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotConfig]:
+    """A fresh, editable spec of robot ``name`` ready to be attached into a scene."""
+    config = robot_config(name)
+    spec = _menagerie_spec(config.menagerie, config.entry)
+    for key in list(spec.keys):
+        spec.delete(key)  # keyframes would not match the composed scene's qpos
+    if config.name == "ur5e_robotiq":
+        gripper = _menagerie_spec("robotiq_2f85", "2f85")
+        for key in list(gripper.keys):
+            gripper.delete(key)
+        spec.attach(gripper, prefix="gripper/", site=spec.site("attachment_site"))
+    if config.name == "franka_panda":
+        act = spec.actuator(config.gripper_actuator)
+        act.gainprm[0] = PANDA_GRIPPER_KP
+        act.biasprm[:3] = [0.0, -PANDA_GRIPPER_KP, -PANDA_GRIPPER_KV]
+        act.ctrlrange = [config.gripper_closed, config.gripper_open]
+        act.forcerange = [-PANDA_GRIPPER_FORCE, PANDA_GRIPPER_FORCE]
+    if config.name == "agilex_piper":
+        for act_name in (*config.arm_actuators, config.gripper_actuator):
+            act = spec.actuator(act_name)
+            joint = spec.joint(act.target)
+            act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+            act.ctrlrange = joint.range
+    ee = spec.body(config.ee_body)
+    if ee is None:
+        raise SimError(f"robot {name!r}: end-effector body {config.ee_body!r} not found in the menagerie model")
+    ee.add_site(name="tcp", pos=list(config.tcp_pos), size=[0.006, 0, 0], rgba=[1, 0.2, 0.2, 0.0], group=4)
+    return spec, config
+
+
+def gripper_ctrl(config: RobotConfig, command: float) -> float:
+    """Actuator control for a gripper command: open when command >= 0.5 (paper A.6)."""
+    return config.gripper_open if command >= 0.5 else config.gripper_closed
+
+
+def home_joints(name: str) -> np.ndarray:
+    """A comfortable arm configuration facing +x, used when a task gives none."""
+    return {
+        "franka_panda": np.array([0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]),
+        "agilex_piper": np.array([0.0, 1.2, -1.2, 0.0, 0.6, 0.0]),
+        "ur5e_robotiq": np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]),
+    }[robot_config(name).name]
