@@ -26,6 +26,12 @@ class AssetEntry:
     category: str
     path: Path
 
+    def semantics(self) -> dict:
+        """The asset's ``pipette:*`` semantics (reads the USD file on demand; needs usd-core)."""
+        from pipette_cli.assets.semantics import read_semantics
+
+        return read_semantics(self.path)
+
 
 @dataclass(frozen=True)
 class AssetLibrary:

@@ -46,7 +46,11 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 "top": image,
                 "main": image,
                 "wrist": image,
-                "state": spaces.Box(-np.inf, np.inf, shape=(dof + 1,), dtype=np.float32),
+                "state": spaces.Box(
+                    np.append(world.arm_range[:, 0], world.gripper_range[0]).astype(np.float32),
+                    np.append(world.arm_range[:, 1], world.gripper_range[1]).astype(np.float32),
+                    dtype=np.float32,
+                ),
             }
         )
         low = np.append(world.arm_range[:, 0], 0.0).astype(np.float32)
@@ -56,7 +60,8 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     def _obs(self, obs: Observation) -> dict[str, np.ndarray]:
         self._last = obs
-        return {**{k: v for k, v in obs.images.items()}, "state": obs.state.astype(np.float32)}
+        # copies: gymnasium requires every call to return fresh arrays, and stale steps reuse frames
+        return {**{k: v.copy() for k, v in obs.images.items()}, "state": obs.state.astype(np.float32)}
 
     def _info(self, obs: Observation, verdict: Any = None) -> dict[str, Any]:
         info: dict[str, Any] = {"fresh": obs.fresh, "frame_age": obs.frame_age, "sim_time": obs.sim_time}

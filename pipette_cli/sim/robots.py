@@ -142,6 +142,9 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotConfig]:
     spec = _menagerie_spec(config.menagerie, config.entry)
     for key in list(spec.keys):
         spec.delete(key)  # keyframes would not match the composed scene's qpos
+    for root in spec.worldbody.bodies:
+        root.pos = [0.0, 0.0, 0.0]  # the task's embodiment.base places the robot (piper.xml offsets its root)
+        root.quat = [1.0, 0.0, 0.0, 0.0]
     if config.name == "ur5e_robotiq":
         gripper = _menagerie_spec("robotiq_2f85", "2f85")
         for key in list(gripper.keys):
@@ -175,6 +178,6 @@ def home_joints(name: str) -> np.ndarray:
     """A comfortable arm configuration facing +x, used when a task gives none."""
     return {
         "franka_panda": np.array([0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785]),
-        "agilex_piper": np.array([0.0, 1.2, -1.2, 0.0, 0.6, 0.0]),
+        "agilex_piper": np.array([0.0, 1.4, -1.5, 0.0, 1.2, 0.0]),
         "ur5e_robotiq": np.array([0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]),
     }[robot_config(name).name]

@@ -107,8 +107,9 @@ def _add_room(spec: mujoco.MjSpec) -> None:
     )
     world = spec.worldbody
     world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4, 4, 0.05], material="floor_mat")
-    world.add_light(name="key", pos=[0.3, -0.8, 2.4], dir=[0.15, 0.35, -1.0], diffuse=[0.6, 0.6, 0.6], castshadow=True)
-    world.add_light(name="fill", pos=[1.5, 1.0, 2.2], dir=[-0.5, -0.3, -1.0], diffuse=[0.35, 0.35, 0.38], castshadow=False)
+    world.add_light(name="key", pos=[0.3, -0.8, 2.4], dir=[0.15, 0.35, -1.0], diffuse=[0.75, 0.75, 0.72], castshadow=True)
+    world.add_light(name="fill", pos=[1.5, 1.0, 2.2], dir=[-0.5, -0.3, -1.0], diffuse=[0.4, 0.4, 0.42], castshadow=False)
+    world.add_light(name="ceiling", pos=[0.5, 0.0, 2.6], dir=[0.0, 0.0, -1.0], diffuse=[0.3, 0.3, 0.3], castshadow=False)
 
 
 def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotConfig:

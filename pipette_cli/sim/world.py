@@ -51,6 +51,7 @@ class World:
         self.gripper_actuator_id = self._id(mujoco.mjtObj.mjOBJ_ACTUATOR, ROBOT_PREFIX + self.robot.gripper_actuator)
         gripper_joint = self._id(mujoco.mjtObj.mjOBJ_JOINT, ROBOT_PREFIX + self.robot.gripper_joint)
         self.gripper_qpos_adr = int(m.jnt_qposadr[gripper_joint])
+        self.gripper_range = m.jnt_range[gripper_joint].copy()
         self.tcp_site_id = self._id(mujoco.mjtObj.mjOBJ_SITE, ROBOT_PREFIX + "tcp")
         self.arm_range = m.jnt_range[self.arm_joint_ids].copy()
         self._nominal_body_pos = m.body_pos.copy()
@@ -61,6 +62,7 @@ class World:
         self.verdict = Verdict()
         self.step_count = 0
         self.seed: int | None = None
+        self.check_initial_state()
 
     # ------------------------------------------------------------------ lookups
     def _id(self, kind: mujoco.mjtObj, name: str) -> int:

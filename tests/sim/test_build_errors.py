@@ -1,0 +1,46 @@
+"""Bad scenes are refused at build time with the task id and the field."""
+
+from __future__ import annotations
+
+import pytest
+
+from pipette_cli.errors import SimError
+from pipette_cli.registry import load_registry
+from pipette_cli.sim.robots import robot_config
+from pipette_cli.sim.world import World
+
+TUBE = load_registry().get("pipette/PickUpTestTube-v1")
+
+
+def with_object_pose(pos: tuple[float, float, float]):
+    obj = TUBE.scene.objects[0].model_copy(update={"pose": TUBE.scene.objects[0].pose.model_copy(update={"pos": pos})})
+    scene = TUBE.scene.model_copy(update={"objects": [obj]})
+    return TUBE.model_copy(update={"scene": scene})
+
+
+def test_unknown_robot_names_the_known_ones() -> None:
+    with pytest.raises(SimError, match="unknown robot 'kuka'; valid names: agilex_piper, franka_panda, ur5e_robotiq"):
+        robot_config("kuka")
+
+
+def test_object_inside_the_bench_is_refused() -> None:
+    with pytest.raises(SimError, match=r"PickUpTestTube-v1: scene.objects: bench and tube interpenetrate"):
+        World(with_object_pose((0.5, 0.0, 0.50)))
+
+
+def test_unreachable_target_is_refused() -> None:
+    with pytest.raises(SimError, match=r"scene.objects.0.pose: 'tube' is 1.20 m from the franka_panda base"):
+        World(with_object_pose((1.2, 0.0, 0.55)))
+
+
+def test_camera_on_a_missing_body_is_refused() -> None:
+    top = TUBE.cameras.top.model_copy(update={"mount": "tube/no_such_body", "look_at": None, "euler_deg": (0, 0, 0)})
+    task = TUBE.model_copy(update={"cameras": TUBE.cameras.model_copy(update={"top": top})})
+    with pytest.raises(SimError, match=r"PickUpTestTube-v1: cameras.top.mount: no body 'tube/no_such_body'"):
+        World(task)
+
+
+def test_reference_to_a_missing_part_names_the_asset() -> None:
+    world = World(TUBE)
+    with pytest.raises(SimError, match="asset 'test_tube_16x150' has no site, body or joint 'lid'"):
+        world.position("tube/lid")
