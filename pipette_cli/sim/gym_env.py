@@ -1,10 +1,12 @@
 """Gymnasium environments for every registered task: ``gymnasium.make("pipette/PickUpTestTube-v1")``.
 
-Observations are dicts ``{"top", "main", "wrist": uint8 HxWx3, "state": float32 (dof+1,)}``;
+Observations follow LeRobot's gym convention (so ``lerobot-eval`` maps them onto
+``observation.images.top|main|wrist`` and ``observation.state``):
+``{"pixels": {"top", "main", "wrist": uint8 HxWx3}, "agent_pos": float32 (dof+1,)}``;
 actions are ``Box`` joint targets within the arm's limits plus a gripper command in [0, 1]
 (>= 0.5 opens). Reward is 1 on the step the task's evaluator succeeds. The episode
 terminates on success or failure (failure includes the task's timeout).
-Registration happens through the ``gymnasium.envs`` entry point of this package.
+Importing :mod:`pipette_cli.envs` registers every task (see there).
 """
 
 from __future__ import annotations
@@ -23,6 +25,15 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     """Gymnasium view of :class:`~pipette_cli.sim.env.PipetteEnv`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    @property
+    def task(self) -> str:
+        """The language instruction (LeRobot reads ``task`` and ``task_description``)."""
+        return self.spec_task.instruction
+
+    @property
+    def task_description(self) -> str:
+        return self.spec_task.instruction
 
     def __init__(
         self,
@@ -43,10 +54,8 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         dof = world.robot.arm_dof
         self.observation_space = spaces.Dict(
             {
-                "top": image,
-                "main": image,
-                "wrist": image,
-                "state": spaces.Box(
+                "pixels": spaces.Dict({"top": image, "main": image, "wrist": image}),
+                "agent_pos": spaces.Box(
                     np.append(world.arm_range[:, 0], world.gripper_range[0]).astype(np.float32),
                     np.append(world.arm_range[:, 1], world.gripper_range[1]).astype(np.float32),
                     dtype=np.float32,
@@ -61,7 +70,7 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def _obs(self, obs: Observation) -> dict[str, np.ndarray]:
         self._last = obs
         # copies: gymnasium requires every call to return fresh arrays, and stale steps reuse frames
-        return {**{k: v.copy() for k, v in obs.images.items()}, "state": obs.state.astype(np.float32)}
+        return {"pixels": {k: v.copy() for k, v in obs.images.items()}, "agent_pos": obs.state.astype(np.float32)}
 
     def _info(self, obs: Observation, verdict: Any = None) -> dict[str, Any]:
         info: dict[str, Any] = {"fresh": obs.fresh, "frame_age": obs.frame_age, "sim_time": obs.sim_time}
@@ -93,6 +102,15 @@ def register_envs() -> None:
     """Register every task of the registry with gymnasium (the ``gymnasium.envs`` entry point)."""
     from pipette_cli.registry import load_registry
 
-    for task_id in load_registry().ids():
+    registry = load_registry()
+    for task_id in registry.ids():
         if task_id not in gym.registry:
-            gym.register(id=task_id, entry_point=PipetteGymEnv, kwargs={"task_id": task_id}, disable_env_checker=True)
+            task = registry.get(task_id)
+            steps = int(round((task.success.timeout_s or 60.0) * task.timing.control_hz)) + 1
+            gym.register(
+                id=task_id,
+                entry_point=PipetteGymEnv,
+                kwargs={"task_id": task_id},
+                max_episode_steps=steps,
+                disable_env_checker=True,
+            )

@@ -64,9 +64,10 @@ def test_gymnasium_make_and_env_checker(task_id: str) -> None:
     try:
         check_env(env.unwrapped, skip_render_check=True)
         obs, info = env.reset(seed=3)
-        assert obs["state"].shape == env.observation_space["state"].shape
+        assert obs["agent_pos"].shape == env.observation_space["agent_pos"].shape
+        assert set(obs["pixels"]) == {"top", "main", "wrist"}
         obs2, _ = env.reset(seed=3)
-        np.testing.assert_array_equal(obs["main"], obs2["main"])
+        np.testing.assert_array_equal(obs["pixels"]["main"], obs2["pixels"]["main"])
         obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
         assert reward == 0.0 and not truncated and "is_success" in info
     finally:
