@@ -1,0 +1,38 @@
+"""``pipette sim render`` and ``pipette sim step-rate``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+pytestmark = pytest.mark.render
+
+
+def test_render_writes_three_views_side_by_side(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "views.png"
+    result = run_cli("sim", "render", "PickUpTestTube", "--image-size", "48", "--profile", "fast", "--out", out)
+    assert result.exit_code == 0, result.stderr
+    image = np.asarray(Image.open(out))
+    assert image.shape == (48, 3 * 48 + 2 * 4, 3)
+    assert image[:, :48].std() > 5 and image[:, -48:].std() > 5
+
+
+def test_step_rate_reports_physics_and_both_render_profiles(run_cli) -> None:
+    result = run_cli("sim", "step-rate", "PickUpTestTube", "--steps", "30", "--image-size", "32", "--json")
+    assert result.exit_code == 0, result.stderr
+    rates = json.loads(result.stdout)
+    assert rates["task"] == "pipette/PickUpTestTube-v1"
+    assert rates["physics_real_time_factor"] > 0 and rates["control_steps_per_s"] > 0
+    assert rates["render_fast_3view_per_s"] > 0 and rates["render_full_3view_per_s"] > 0
+
+
+def test_unknown_task_and_no_display(run_cli, monkeypatch) -> None:
+    assert "unknown task" in run_cli("sim", "render", "NoSuchTask").stderr
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    result = run_cli("sim", "view", "PickUpTestTube")
+    assert result.exit_code == 1 and "needs one" in result.stderr
