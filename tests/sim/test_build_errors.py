@@ -44,3 +44,22 @@ def test_reference_to_a_missing_part_names_the_asset() -> None:
     world = World(TUBE)
     with pytest.raises(SimError, match="asset 'test_tube_16x150' has no site, body or joint 'lid'"):
         world.position("tube/lid")
+
+
+def test_ur5e_with_robotiq_builds_and_grips() -> None:
+    """The third embodiment: UR5e with the Robotiq 2F-85 at its attachment_site."""
+    import numpy as np
+
+    from pipette_cli.sim.robots import home_joints
+
+    embodiment = TUBE.embodiment.model_copy(
+        update={"robot": "ur5e_robotiq", "initial_joints": home_joints("ur5e_robotiq").tolist()}
+    )
+    world = World(TUBE.model_copy(update={"embodiment": embodiment}))
+    world.reset(0)
+    assert world.action_dim == 7 and world.state().shape == (7,)
+    assert world.model.body("robot/gripper/base_mount").parentid == world.model.body("robot/wrist_3_link").id
+    opened = world.state()[-1]
+    for _ in range(30):
+        world.step(np.append(world.arm_qpos(), 0.0))  # close
+    assert world.state()[-1] > opened + 0.3  # the driver joint turns as the fingers close
