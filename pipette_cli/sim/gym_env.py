@@ -21,6 +21,10 @@ from pipette_cli.sim.env import Observation, PipetteEnv
 from pipette_cli.sim.render import Profile
 
 
+STATE_MARGIN = 0.05
+"""Radians (metres for slides) by which observed joints may pass their limits."""
+
+
 class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     """Gymnasium view of :class:`~pipette_cli.sim.env.PipetteEnv`."""
 
@@ -55,9 +59,10 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.observation_space = spaces.Dict(
             {
                 "pixels": spaces.Dict({"top": image, "main": image, "wrist": image}),
+                # joint limits are soft in MuJoCo: allow a small overshoot
                 "agent_pos": spaces.Box(
-                    np.append(world.arm_range[:, 0], world.gripper_range[0]).astype(np.float32),
-                    np.append(world.arm_range[:, 1], world.gripper_range[1]).astype(np.float32),
+                    np.append(world.arm_range[:, 0], world.gripper_range[0]).astype(np.float32) - STATE_MARGIN,
+                    np.append(world.arm_range[:, 1], world.gripper_range[1]).astype(np.float32) + STATE_MARGIN,
                     dtype=np.float32,
                 ),
             }
