@@ -34,3 +34,47 @@ def test_lerobot_discovers_the_plugin_and_builds_the_env() -> None:
         assert reward[0] == 0.0 and not terminated[0]
     finally:
         vec.close()
+
+
+def test_lerobot_eval_runs_a_lerobot_policy_in_a_pipette_task(tmp_path) -> None:
+    """``lerobot-eval --env.type=pipette`` end to end with a tiny, untrained ACT policy (no downloads)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    import torch
+    from lerobot.configs.types import FeatureType, PolicyFeature
+    from lerobot.policies.act.configuration_act import ACTConfig
+    from lerobot.policies.act.modeling_act import ACTPolicy
+    from lerobot.policies.factory import make_pre_post_processors
+
+    size = 32
+    inputs = {f"observation.images.{c}": PolicyFeature(FeatureType.VISUAL, (3, size, size)) for c in ("top", "main", "wrist")}
+    inputs["observation.state"] = PolicyFeature(FeatureType.STATE, (8,))
+    outputs = {"action": PolicyFeature(FeatureType.ACTION, (8,))}
+    config = ACTConfig(
+        input_features=inputs, output_features=outputs, pretrained_backbone_weights=None, chunk_size=5,
+        n_action_steps=5, dim_model=32, dim_feedforward=64, n_encoder_layers=1, n_decoder_layers=1, n_heads=2,
+        push_to_hub=False, device="cpu",
+    )
+    stats = {
+        key: {"mean": torch.zeros(f.shape), "std": torch.ones(f.shape), "min": torch.zeros(f.shape), "max": torch.ones(f.shape)}
+        for key, f in {**inputs, **outputs}.items()
+    }
+    policy_dir = tmp_path / "policy"
+    ACTPolicy(config).save_pretrained(policy_dir)
+    for processor in make_pre_post_processors(config, dataset_stats=stats):
+        processor.save_pretrained(policy_dir)
+    out = tmp_path / "eval"
+    cli = os.path.join(os.path.dirname(sys.executable), "lerobot-eval")
+    result = subprocess.run(
+        [cli, f"--policy.path={policy_dir}", "--env.type=pipette", "--env.task=pipette/CloseCentrifugeLid-v1",
+         f"--env.image_size={size}", "--eval.n_episodes=1", "--eval.batch_size=1", "--policy.device=cpu",
+         f"--output_dir={out}"],
+        capture_output=True, text=True, timeout=600, env={**os.environ, "HF_HUB_OFFLINE": "1"},
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    info = json.loads((out / "eval_info.json").read_text())
+    overall = info["overall"]
+    assert overall["n_episodes"] == 1 and overall["pc_success"] == 0.0  # an untrained policy does not close the lid
