@@ -171,8 +171,8 @@ def new_task(
         text = dump_yaml(doc)
     stem = re.sub(r"(?<!^)(?=[A-Z])", "_", task_id.split("/", 1)[1].rsplit("-v", 1)[0]).lower()
     target = out or Path(f"{stem}.yaml")
-    if target.is_dir() or (out is not None and str(out).endswith("/")):
-        target = target / f"{stem}.yaml"
+    if target.is_dir() or target.suffix not in YAML_SUFFIXES:
+        target = target / f"{stem}.yaml"  # a folder, existing or to be made
     if target.exists() and not force:
         raise PipetteError(f"{target} exists; pass --force to overwrite")
     validate_task_document(parse_yaml(text, str(target)), str(target))

@@ -99,6 +99,12 @@ def test_new_by_copying_keeps_comments_and_refuses_overwrite(run_cli, tmp_path: 
     assert again.exit_code == 1 and "exists; pass --force" in again.stderr
 
 
+def test_new_into_a_folder_that_does_not_exist_yet(run_cli, tmp_path: Path) -> None:
+    result = run_cli("tasks", "new", "mylab/PickUpCryovial-v1", "--from", "pick", "--out", tmp_path / "packs" / "mylab")
+    assert result.exit_code == 0, result.stderr
+    assert load_task_file(tmp_path / "packs" / "mylab" / "pick_up_cryovial.yaml").id == "mylab/PickUpCryovial-v1"
+
+
 def test_new_rejects_bad_ids_and_taken_ids(run_cli, tmp_path: Path) -> None:
     assert "must look like namespace/Name-v1" in run_cli("tasks", "new", "bad id", "--from", "pick").stderr
     taken = run_cli("tasks", "new", "pipette/PickUpTestTube-v1", "--from", "pick", "--out", tmp_path)
