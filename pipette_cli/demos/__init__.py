@@ -1,0 +1,1 @@
+"""Demonstrations: scripted experts, keyboard teleoperation, the HDF5 recorder."""
