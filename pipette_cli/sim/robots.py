@@ -101,8 +101,8 @@ ROBOTS: dict[str, RobotConfig] = {r.name: r for r in (PANDA, PIPER, UR5E_ROBOTIQ
 # slip: stiffness 1e4, damping 1e3, effort 1000 in PhysX). With MuJoCo's implicitfast
 # integrator these gains are stable at 600 Hz; the tendon splits force between both fingers.
 PANDA_GRIPPER_KP = 1.0e4
-PANDA_GRIPPER_KV = 1.0e2
-PANDA_GRIPPER_FORCE = 200.0
+PANDA_GRIPPER_KV = 1000.0
+PANDA_GRIPPER_FORCE = 100.0
 
 
 def robot_config(name: str) -> RobotConfig:
@@ -162,11 +162,36 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotConfig]:
             joint = spec.joint(act.target)
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             act.ctrlrange = joint.range
+    _stiffen_fingers(spec, config)
     ee = spec.body(config.ee_body)
     if ee is None:
         raise SimError(f"robot {name!r}: end-effector body {config.ee_body!r} not found in the menagerie model")
     ee.add_site(name="tcp", pos=list(config.tcp_pos), size=[0.006, 0, 0], rgba=[1, 0.2, 0.2, 0.0], group=4)
     return spec, config
+
+
+FINGER_SOLREF = (0.005, 1.0)
+FINGER_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
+
+
+def _stiffen_fingers(spec: mujoco.MjSpec, config: RobotConfig) -> None:
+    """Stiff, high-friction contacts on the gripper so a grasp holds without sinking in.
+
+    MuJoCo's default contact (solref 0.02 s) lets a 100 N grip press several millimetres into
+    a tube; 5 ms (>= 2 physics steps at 600 Hz) keeps it under a millimetre.
+    """
+    ee = spec.body(config.ee_body)
+    stack = [ee]
+    while stack:
+        body = stack.pop()
+        for geom in body.geoms:
+            if geom.contype or geom.conaffinity:
+                geom.solref = list(FINGER_SOLREF)
+                geom.solimp = list(FINGER_SOLIMP)
+                geom.friction = [1.5, 0.01, 0.001]
+                geom.condim = 4
+                geom.priority = 1  # these parameters win over the touched object's (no averaging)
+        stack.extend(body.bodies)
 
 
 def gripper_ctrl(config: RobotConfig, command: float) -> float:

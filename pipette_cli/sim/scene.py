@@ -2,7 +2,8 @@
 
 Everything composes through ``MjSpec.attach``: each scene object is attached with the prefix
 ``<name>/`` so a spec reference such as ``centrifuge/lid_hinge`` is also the MuJoCo name of
-the joint. The robot is attached with prefix ``robot/``. The model is built once per task
+the joint. The robot is attached with prefix ``robot/``. Assets marked ``pipette:static``
+are welded where they stand; the others (tools, consumables, a lift-off lid) get a free joint. The model is built once per task
 with nominal poses; per-episode randomisation moves bodies at reset (:mod:`.world`).
 """
 
@@ -27,6 +28,7 @@ BENCH_POS = (0.45, 0.0, 0.0)
 CAMERA_NAMES = ("top", "main", "wrist")
 WRIST_CAMERA = ROBOT_PREFIX + "wrist"
 FREE_CATEGORIES = ("tools", "consumables")
+"""Categories that are free bodies when an asset does not say (its ``pipette:static`` decides)."""
 
 
 @dataclass(frozen=True)
@@ -136,7 +138,7 @@ def _attach_objects(spec: mujoco.MjSpec, task: TaskSpec) -> dict[str, ObjectInfo
     for name, asset_id, pose, field in placements:
         try:
             entry = library.get(asset_id)
-            free = entry.category in FREE_CATEGORIES
+            free = not bool(entry.semantics().get("static", entry.category not in FREE_CATEGORIES))
             root = attach_asset(spec, asset_id, name=name, pos=pose.pos, quat=tuple(pose_quat(pose)), free_joint=free)
         except AssetError as exc:
             raise SimError(f"{task.id}: {field}: {exc}") from None
