@@ -33,7 +33,7 @@ def _button_x(body: Body, name: str, pos: tuple[float, float, float], radius: fl
 
 
 def centrifuge(asset_id: str, description: str, depth: float, width: float, height: float, base_mass: float, lid_mass: float,
-               rotor_r: float, kp: float = 200.0, kv: float = 20.0) -> AssetDef:
+               rotor_r: float, kp: float = 200.0, kv: float = 20.0, hinge_friction: float = 0.0) -> AssetDef:
     """Top-loading centrifuge: a bowl in a case, a lid hinged at the back, a front lid-release button."""
     base = Body("base", base_mass)
     panel = 0.035
@@ -65,7 +65,9 @@ def centrifuge(asset_id: str, description: str, depth: float, width: float, heig
     p.solid_box(lid, "lid_shell", (length, width, lid_t), (-length / 2, 0, lid_t / 2), ACCENT, 0.02)
     p.visual(lid, "lid_window", g.box((length * 0.45, width * 0.5, 0.002), (-length * 0.55, 0, lid_t + 0.001), 0.02), SMOKED)
     p.site(lid, "lid_handle", (-length, 0, lid_t / 2))
-    joint = Joint("lid_hinge", "revolute", "base", "lid", anchor=hinge, axis="-y", lower=-100.0, upper=0.0, damping=0.5, armature=0.01)
+    # friction holds a part-open lid against gravity, like the gas strut of a real centrifuge
+    joint = Joint("lid_hinge", "revolute", "base", "lid", anchor=hinge, axis="-y", lower=-100.0, upper=0.0, damping=0.5,
+                  friction=hinge_friction, armature=0.01)
     # kv * timestep must stay well below the lid's inertia about the hinge (explicit Euler)
     drive = PositionDrive("lid_drive", "lid_hinge", kp=kp, kv=kv, max_force=1000.0, ctrl_range=(math.radians(-100), 0.0))
     extra = {"lid_open_angle_deg": -40.0, "lid_closed_angle_deg": 0.0, "button_trigger_radius": 0.02}
@@ -75,7 +77,7 @@ def centrifuge(asset_id: str, description: str, depth: float, width: float, heig
 register("centrifuge_benchtop", CATEGORY, partial(
     centrifuge, "centrifuge_benchtop",
     "Benchtop centrifuge: lid hinged at the back (lid_hinge, 0 closed, opens negative to -100 deg) held by a position servo (lid_drive); red lid-release button on the front console.",
-    0.52, 0.42, 0.30, 32.0, 1.6, 0.14))
+    0.52, 0.42, 0.30, 32.0, 1.6, 0.14, hinge_friction=3.2))
 register("microcentrifuge", CATEGORY, partial(
     centrifuge, "microcentrifuge",
     "Microcentrifuge for 24 x 1.5/2 mL tubes: hinged lid with servo (lid_hinge, opens negative), front lid-release button.",

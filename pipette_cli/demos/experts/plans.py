@@ -117,3 +117,111 @@ def open_water_bath_lid(world: World, rng: np.random.Generator) -> list[Segment]
     lifted = grasp + 0.14 * UP
     back = lifted + np.array([-0.34, 0.0, 0.0])
     return [*pick(world, grasp, rot), seg(lifted, rot, CLOSED, 0.8, world), seg(back, rot, CLOSED, 1.2, world), seg(back, rot, CLOSED, 1.5, world)]
+
+
+@expert("OpenCentrifugeLid")
+def open_centrifuge_lid(world: World, rng: np.random.Generator) -> list[Segment]:
+    button = world.position("centrifuge/button")
+    rot = yaw_down(0.0)
+    front = np.array([button[0] - 0.12, button[1], 0.9])
+    return [
+        seg(front, rot, CLOSED, 1.0, world),
+        seg(button + np.array([-0.08, 0.0, 0.0]), rot, CLOSED, 0.8, world),
+        seg(button + np.array([-0.005, 0.0, 0.0]), rot, CLOSED, 0.6, world),
+        seg(button + np.array([-0.08, 0.0, 0.0]), rot, CLOSED, 0.6, world),
+        seg(button + np.array([-0.08, 0.0, 0.0]), rot, CLOSED, 3.0, world),
+    ]
+
+
+@expert("PipetteToPetriDish")
+def pipette_to_petri_dish(world: World, rng: np.random.Generator) -> list[Segment]:
+    tip, grasp = world.position("pipette/tip"), world.position("pipette/grasp")
+    axis = grasp - tip
+    yaw = float(np.arctan2(axis[1], axis[0]))
+    rot = yaw_down(yaw)  # hand x along the pipette: the fingers close across it
+    hold = grasp + np.array([0.0, 0.0, -0.004])
+    dish = world.position("dish/center")
+    # carry so that the pipette's origin (its tip) ends over the dish, 15 cm up
+    over = dish + np.array([axis[0], axis[1], 0.0]) + np.array([0.0, 0.0, 0.15 + (grasp[2] - tip[2])])
+    return [
+        *pick(world, hold, rot),
+        seg(hold + 0.15 * UP, rot, CLOSED, 0.8, world),
+        seg(over, rot, CLOSED, 1.2, world),
+        seg(over, rot, CLOSED, 2.0, world),
+    ]
+
+
+def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix of ``angle`` radians about unit ``axis`` (Rodrigues)."""
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def close_lid_by_arc(world: World, joint: str, handle: str, reach: float, standoff: float = 0.03) -> list[Segment]:
+    """Sweep the closed gripper along the lid's arc, pushing on the face that closes it.
+
+    The push point sits ``reach`` (a fraction of the handle's distance) out from the hinge,
+    ``standoff`` metres off the lid's surface on the side opposite to the closing motion.
+    """
+    jid = world.joint_id(joint)
+    anchor = world.data.xanchor[jid].copy()
+    axis = world.data.xaxis[jid].copy()
+    theta0 = np.deg2rad(world.joint(joint))
+    v0 = world.position(handle) - anchor
+    v0 *= reach
+
+    def point(theta: float, off: float) -> np.ndarray:
+        v = axis_rotation(axis, theta - theta0) @ v0
+        push = np.sign(-theta0) * np.cross(axis, v)
+        push /= np.linalg.norm(push)
+        return anchor + v - off * push
+
+    rot = yaw_down(0.0)
+    start = theta0 + np.sign(theta0) * np.deg2rad(4)  # a little behind the lid as it stands
+    approach = point(start, standoff + 0.10) + 0.05 * UP
+    via = approach + np.array([-0.15, 0.0, 0.10])  # come round the lid's edge from the robot's side
+    angles = np.linspace(start, -np.sign(theta0) * np.deg2rad(2), 8)
+    segments = [seg(via, rot, CLOSED, 1.0, world), seg(approach, rot, CLOSED, 0.6, world)]
+    segments += [seg(point(start, standoff), rot, CLOSED, 0.6, world)]
+    segments += [seg(point(a, standoff), rot, CLOSED, 0.35, world) for a in angles[1:]]
+    end = point(angles[-1], standoff)
+    segments += [seg(end + 0.02 * UP, rot, CLOSED, 0.3, world), seg(end + 0.12 * UP, rot, CLOSED, 0.8, world)]
+    segments += [seg(end + 0.12 * UP, rot, CLOSED, 2.0, world)]
+    return segments
+
+
+@expert("CloseSpectrophotometerLid")
+def close_spectrophotometer_lid(world: World, rng: np.random.Generator) -> list[Segment]:
+    return close_lid_by_arc(world, "spectro/lid_hinge", "spectro/lid_handle", reach=0.85)
+
+
+def close_lid_by_pulling(world: World, joint: str, handle: str, release_deg: float) -> list[Segment]:
+    """Pinch the lid's front edge (its top while open), pull it along its arc toward shut,
+    and let go at ``release_deg``: gravity, stronger than the hinge friction there, shuts it."""
+    jid = world.joint_id(joint)
+    anchor, axis = world.data.xanchor[jid].copy(), world.data.xaxis[jid].copy()
+    theta0 = np.deg2rad(world.joint(joint))
+    v0 = world.position(handle) - anchor
+    rot = yaw_down(np.pi / 2)  # fingers close along x, across the lid's edge
+
+    def edge(theta: float) -> np.ndarray:
+        return anchor + axis_rotation(axis, theta - theta0) @ v0
+
+    grip = edge(theta0) - 0.01 * UP
+    segments = [
+        seg(grip + 0.12 * UP, rot, OPEN, 1.2, world),
+        seg(grip, rot, OPEN, 0.7, world),
+        seg(grip, rot, OPEN, 0.2, world),
+        seg(grip, rot, CLOSED, 0.5, world),
+    ]
+    angles = np.linspace(theta0, np.deg2rad(release_deg), 6)[1:]
+    segments += [seg(edge(a) - 0.01 * UP, rot, CLOSED, 0.4, world) for a in angles]
+    last = edge(angles[-1]) - 0.01 * UP
+    segments += [seg(last, rot, OPEN, 0.4, world), seg(last + np.array([-0.1, 0.0, 0.1]), rot, OPEN, 0.6, world)]
+    segments += [seg(last + np.array([-0.1, 0.0, 0.1]), rot, OPEN, 2.5, world)]
+    return segments
+
+
+@expert("CloseCentrifugeLid")
+def close_centrifuge_lid(world: World, rng: np.random.Generator) -> list[Segment]:
+    return close_lid_by_arc(world, "centrifuge/lid_hinge", "centrifuge/lid_handle", reach=0.85)
