@@ -177,22 +177,28 @@ def close_lid_by_arc(world: World, joint: str, handle: str, reach: float, stando
         return anchor + v - off * push
 
     rot = yaw_down(0.0)
-    start = theta0 + np.sign(theta0) * np.deg2rad(4)  # a little behind the lid as it stands
-    approach = point(start, standoff + 0.10) + 0.05 * UP
-    via = approach + np.array([-0.15, 0.0, 0.10])  # come round the lid's edge from the robot's side
-    angles = np.linspace(start, -np.sign(theta0) * np.deg2rad(2), 8)
-    segments = [seg(via, rot, CLOSED, 1.0, world), seg(approach, rot, CLOSED, 0.6, world)]
-    segments += [seg(point(start, standoff), rot, CLOSED, 0.6, world)]
-    segments += [seg(point(a, standoff), rot, CLOSED, 0.35, world) for a in angles[1:]]
+    shut = -np.sign(theta0) * np.deg2rad(2)
+
+    def sweep(start: float) -> list[Segment]:
+        approach = point(start, standoff + 0.10) + 0.05 * UP
+        via = approach + np.array([-0.15, 0.0, 0.10])  # come round the lid's edge from the robot's side
+        out = [seg(via, rot, CLOSED, 0.8, world), seg(approach, rot, CLOSED, 0.5, world)]
+        out += [seg(point(start, standoff), rot, CLOSED, 0.4, world)]
+        return out + [seg(point(a, standoff), rot, CLOSED, 0.25, world) for a in np.linspace(start, shut, 8)[1:]]
+
+    # the second pass catches a lid that fell ahead of the hand and stopped on its friction
+    first = theta0 + np.sign(theta0) * np.deg2rad(4)  # a little behind the lid as it stands
+    segments = sweep(first) + sweep(np.sign(theta0) * min(abs(first), np.deg2rad(95)))
+    angles = [shut]
     end = point(angles[-1], standoff)
-    segments += [seg(end + 0.02 * UP, rot, CLOSED, 0.3, world), seg(end + 0.12 * UP, rot, CLOSED, 0.8, world)]
-    segments += [seg(end + 0.12 * UP, rot, CLOSED, 2.0, world)]
+    segments += [seg(end + 0.02 * UP, rot, CLOSED, 0.3, world), seg(end + 0.12 * UP, rot, CLOSED, 0.6, world)]
+    segments += [seg(end + 0.12 * UP, rot, CLOSED, 1.5, world)]
     return segments
 
 
 @expert("CloseSpectrophotometerLid")
 def close_spectrophotometer_lid(world: World, rng: np.random.Generator) -> list[Segment]:
-    return close_lid_by_arc(world, "spectro/lid_hinge", "spectro/lid_handle", reach=0.85)
+    return close_lid_by_arc(world, "spectro/lid_hinge", "spectro/lid_handle", reach=0.85, standoff=0.02)
 
 
 def close_lid_by_pulling(world: World, joint: str, handle: str, release_deg: float) -> list[Segment]:
