@@ -97,12 +97,16 @@ UR5E_ROBOTIQ = RobotConfig(
 )
 ROBOTS: dict[str, RobotConfig] = {r.name: r for r in (PANDA, PIPER, UR5E_ROBOTIQ)}
 
-# Gripper drive for the Panda (paper A.5 asks for a stiff gripper so grasped objects do not
-# slip: stiffness 1e4, damping 1e3, effort 1000 in PhysX). With MuJoCo's implicitfast
-# integrator these gains are stable at 600 Hz; the tendon splits force between both fingers.
+# Gripper drive for the Panda: paper A.5's stiffness 1e4 and damping 1e3 (stable at 600 Hz with
+# implicitfast). The damping also sets the closing speed (~0.1 s time constant): faster fingers
+# knock light tubes away. The paper's effort 1000 is PhysX's; 100 N on the tendon holds every
+# benchmark object without crushing the contacts (scripted-expert sweep, docs/experts.md).
 PANDA_GRIPPER_KP = 1.0e4
-PANDA_GRIPPER_KV = 1000.0
+PANDA_GRIPPER_KV = 1.0e3
 PANDA_GRIPPER_FORCE = 100.0
+PIPER_GRIPPER_KP = 2.0e3
+PIPER_GRIPPER_KV = 1.0e2
+PIPER_GRIPPER_FORCE = 30.0
 
 
 def robot_config(name: str) -> RobotConfig:
@@ -162,6 +166,11 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotConfig]:
             joint = spec.joint(act.target)
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             act.ctrlrange = joint.range
+        # menagerie's finger servo (kp 40 N/m) squeezes with under 1 N: too weak to lift a flask
+        act = spec.actuator(config.gripper_actuator)
+        act.gainprm[0] = PIPER_GRIPPER_KP
+        act.biasprm[:3] = [0.0, -PIPER_GRIPPER_KP, -PIPER_GRIPPER_KV]
+        act.forcerange = [-PIPER_GRIPPER_FORCE, PIPER_GRIPPER_FORCE]
     _stiffen_fingers(spec, config)
     ee = spec.body(config.ee_body)
     if ee is None:

@@ -231,3 +231,41 @@ def close_lid_by_pulling(world: World, joint: str, handle: str, release_deg: flo
 @expert("CloseCentrifugeLid")
 def close_centrifuge_lid(world: World, rng: np.random.Generator) -> list[Segment]:
     return close_lid_by_arc(world, "centrifuge/lid_hinge", "centrifuge/lid_handle", reach=0.85)
+
+
+def pitched(toward: np.ndarray, pitch_deg: float) -> np.ndarray:
+    """Tcp rotation whose z (approach) axis points horizontally along ``toward``, tilted
+    ``pitch_deg`` below the horizon; fingers close along the horizontal perpendicular."""
+    radial = np.array([toward[0], toward[1], 0.0])
+    radial /= np.linalg.norm(radial)
+    th = np.deg2rad(pitch_deg)
+    z = np.cos(th) * radial + np.array([0.0, 0.0, -np.sin(th)])
+    y = np.array([-radial[1], radial[0], 0.0])
+    return np.column_stack([np.cross(y, z), y, z])
+
+
+@expert("PlaceFlaskOnShaker")
+def place_flask_on_shaker(world: World, rng: np.random.Generator) -> list[Segment]:
+    """AgileX Piper: it cannot point straight down here, so it grasps the neck from above-behind
+    with the approach axis pitched 55 degrees down, radially from its base."""
+    base = np.asarray(world.task.embodiment.base.pos)
+    flask, neck = world.position("flask"), world.position("flask/neck") - 0.012 * UP
+    platform = world.position("shaker/platform_center")
+    grab = pitched(neck - base, 55.0)
+    put = pitched(platform - base, 55.0)
+    offset = neck - flask
+    place = platform + offset + 0.01 * UP
+    back = lambda rot: -0.07 * rot[:, 2]  # noqa: E731  (retreat along the approach axis)
+    return [
+        seg(neck + back(grab) + 0.05 * UP, grab, OPEN, 1.0, world),
+        seg(neck + back(grab), grab, OPEN, 0.5, world),
+        seg(neck, grab, OPEN, 0.6, world),
+        seg(neck, grab, OPEN, 0.2, world),
+        seg(neck, grab, CLOSED, 0.6, world),
+        seg(neck + 0.10 * UP, grab, CLOSED, 0.8, world),
+        seg(place + 0.10 * UP, put, CLOSED, 1.4, world),
+        seg(place, put, CLOSED, 0.8, world),
+        seg(place, put, OPEN, 0.5, world),
+        seg(place + back(put), put, OPEN, 0.6, world),
+        seg(place + back(put) + 0.06 * UP, put, OPEN, 2.0, world),
+    ]
