@@ -269,3 +269,31 @@ def place_flask_on_shaker(world: World, rng: np.random.Generator) -> list[Segmen
         seg(place + back(put), put, OPEN, 0.6, world),
         seg(place + back(put) + 0.06 * UP, put, OPEN, 2.0, world),
     ]
+
+
+@expert("PlacePipetteInRack")
+def place_pipette_in_rack(world: World, rng: np.random.Generator) -> list[Segment]:
+    """Grasp the lying pipette across its body, turn it tip-down with the hand pointing +x, slide
+    it into a slot of the stand from the open front, lower it onto the prongs, let go."""
+    tip, grasp = world.position("pipette/tip"), world.position("pipette/grasp")
+    axis = grasp - tip
+    down = yaw_down(float(np.arctan2(axis[1], axis[0])))
+    hold = grasp - 0.004 * UP
+    along = float(np.linalg.norm(axis))  # grasp point's distance from the tip
+    upright = axis_rotation(np.array([0.0, 1.0, 0.0]), -np.pi / 2) @ yaw_down(0.0)  # hand points +x
+    slot = world.position("rack/slot_1")
+    hang = 0.112  # pipette_single_channel semantics: tip to collar
+    hung = np.array([slot[0], slot[1], slot[2] - hang + along])
+    above = hung + 0.012 * UP  # collar just above the prongs
+    front = above + np.array([-0.12, 0.0, 0.0])
+    return [
+        *pick(world, hold, down),
+        seg(hold + 0.2 * UP, down, CLOSED, 0.8, world),
+        seg(front + 0.05 * UP, upright, CLOSED, 1.6, world),
+        seg(front, upright, CLOSED, 0.5, world),
+        seg(above, upright, CLOSED, 1.0, world),
+        seg(hung - 0.004 * UP, upright, CLOSED, 0.6, world),
+        seg(hung - 0.004 * UP, upright, OPEN, 0.5, world),
+        seg(hung + np.array([-0.10, 0.0, 0.0]), upright, OPEN, 0.8, world),
+        seg(hung + np.array([-0.10, 0.0, 0.05]), upright, OPEN, 2.0, world),
+    ]
