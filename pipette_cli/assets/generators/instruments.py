@@ -86,7 +86,7 @@ register("microcentrifuge", CATEGORY, partial(
 
 def incubator() -> AssetDef:
     base = Body("base", 38.0)
-    d, w, h, t = 0.50, 0.50, 0.60, 0.04
+    d, w, h, t = 0.50, 0.50, 0.72, 0.04
     x0, x1 = -d / 2, d / 2
     p.solid_box(base, "floor", (d, w, 0.06), (0, 0, 0.03), CASE)
     p.solid_box(base, "roof", (d, w, t), (0, 0, h - t / 2), CASE)
@@ -94,7 +94,7 @@ def incubator() -> AssetDef:
     for side, y in (("left", -w / 2 + t / 2), ("right", w / 2 - t / 2)):
         p.solid_box(base, f"side_{side}", (d - t, t, h - 0.06 - t), (-t / 2, y, (h + 0.06 - t) / 2), CASE)
     p.visual(base, "chamber_liner", g.box((0.002, w - 2 * t, h - 0.06 - t), (x1 - t - 0.001, 0, (h + 0.06 - t) / 2)), p.STEEL)
-    shelves = (0.20, 0.37)
+    shelves = (0.20, 0.46)  # 0.26 m apart: a robot's wrist fits above a dish on the lower shelf
     for k, top in enumerate(shelves):
         p.solid_box(base, f"shelf_{k}", (d - t - 0.03, w - 2 * t - 0.004, 0.006), (-t / 2 - 0.005, 0, top - 0.003), p.STEEL)
         p.site(base, f"shelf_{k}_center", (-0.03, 0, top))

@@ -297,3 +297,61 @@ def place_pipette_in_rack(world: World, rng: np.random.Generator) -> list[Segmen
         seg(hung + np.array([-0.10, 0.0, 0.0]), upright, OPEN, 0.8, world),
         seg(hung + np.array([-0.10, 0.0, 0.05]), upright, OPEN, 2.0, world),
     ]
+
+
+DISH_CHORD = 0.034
+"""How far behind a 90 mm dish's centre the fingers pinch it: across a 63 mm chord, which fits the
+Panda's 80 mm opening (the diameter does not); friction 1.5 holds a chord pinch up to 56 deg."""
+DISH_PITCH = 22.0
+"""Degrees the hand points below the horizon: low enough to fit between incubator shelves,
+high enough that the palm clears the surface the dish stands on."""
+
+
+def dish_pinch(world: World, dish: str, toward: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tcp pose pinching ``dish`` from the side facing the robot, hand pitched down."""
+    radial = np.array([toward[0], toward[1], 0.0]) / np.linalg.norm(toward[:2])
+    rot = pitched(radial, DISH_PITCH)
+    return world.position(dish) - DISH_CHORD * radial + 0.0095 * UP, rot
+
+
+@expert("RemovePetriDishFromIncubator")
+def remove_petri_dish_from_incubator(world: World, rng: np.random.Generator) -> list[Segment]:
+    pinch, rot = dish_pinch(world, "dish", np.array([1.0, 0.0, 0.0]))
+    out = np.array([0.44, pinch[1], pinch[2] + 0.03])
+    return [
+        seg(np.array([0.36, pinch[1], pinch[2] + 0.05]), rot, OPEN, 1.2, world),
+        seg(pinch + np.array([-0.12, 0.0, 0.022]), rot, OPEN, 0.8, world),
+        seg(pinch + 0.022 * UP, rot, OPEN, 0.6, world),  # fingertips pass over the rim
+        seg(pinch, rot, OPEN, 0.5, world),
+        seg(pinch, rot, OPEN, 0.2, world),
+        seg(pinch, rot, CLOSED, 0.5, world),
+        seg(pinch + 0.015 * UP, rot, CLOSED, 0.4, world),
+        seg(out, rot, CLOSED, 1.2, world),
+        seg(out, rot, CLOSED, 2.0, world),
+    ]
+
+
+@expert("PlacePetriDishInIncubator")
+def place_petri_dish_in_incubator(world: World, rng: np.random.Generator) -> list[Segment]:
+    shelf = world.position("incubator/shelf_0_center")
+    pinch, rot = dish_pinch(world, "dish", np.array([1.0, 0.0, 0.0]))
+    # carry the dish so that its centre lands on the shelf's centre line, well inside
+    offset = world.position("dish") - pinch
+    target_dish = np.array([shelf[0] - 0.02, shelf[1], shelf[2] + 0.004])
+    place = target_dish - offset
+    front = np.array([0.38, place[1], place[2] + 0.03])
+    return [
+        seg(pinch + np.array([-0.10, 0.0, 0.06]), rot, OPEN, 1.2, world),
+        seg(pinch + 0.022 * UP, rot, OPEN, 0.6, world),
+        seg(pinch, rot, OPEN, 0.5, world),
+        seg(pinch, rot, OPEN, 0.2, world),
+        seg(pinch, rot, CLOSED, 0.5, world),
+        seg(pinch + 0.05 * UP, rot, CLOSED, 0.6, world),
+        seg(front, rot, CLOSED, 1.4, world),
+        seg(place + 0.012 * UP, rot, CLOSED, 1.2, world),
+        seg(place, rot, CLOSED, 0.4, world),
+        seg(place, rot, OPEN, 0.4, world),
+        seg(place + np.array([-0.12, 0.0, 0.01]), rot, OPEN, 0.8, world),
+        seg(front, rot, OPEN, 0.8, world),
+        seg(front, rot, OPEN, 2.0, world),
+    ]
