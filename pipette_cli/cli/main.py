@@ -16,6 +16,9 @@ from rich.logging import RichHandler
 
 from pipette_cli import __version__
 from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli import experts as experts_cli
+from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
+from pipette_cli.cli import collect as collect_cli, data as data_cli
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
 from pipette_cli.cli.common import STATE, err_console
@@ -30,7 +33,11 @@ app = typer.Typer(
 )
 app.add_typer(tasks_cli.app, name="tasks")
 app.add_typer(assets_cli.app, name="assets")
+app.add_typer(experts_cli.app, name="experts")
 app.add_typer(sim_cli.app, name="sim")
+app.command("new-task")(authoring_cli.new_task)
+app.command("collect")(collect_cli.collect)
+app.add_typer(data_cli.app, name="data")
 
 
 def _version(value: bool) -> None:

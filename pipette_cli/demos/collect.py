@@ -84,11 +84,11 @@ def record_episode(
             writer.abort()
             return None
         action = np.asarray(policy.act(env.world), dtype=np.float64)
-        writer.add(obs, action, sim_state(env))
+        writer.add(obs, action, sim_state(env.world.model, env.world.data))
         obs, verdict = env.step(action)
         if verdict.done:
             break
-    return writer.close(verdict, env.world.state(), sim_state(env))
+    return writer.close(verdict, env.world.state(), sim_state(env.world.model, env.world.data))
 
 
 @dataclass(frozen=True)

@@ -47,13 +47,11 @@ def episode_name(index: int) -> str:
     return f"episode_{index:06d}"
 
 
-def sim_state(env_or_model: PipetteEnv | mujoco.MjModel, data: mujoco.MjData | None = None) -> np.ndarray:
-    """The MuJoCo integration state (time, qpos, qvel, act, warmstart, ctrl, applied forces, ...)."""
-    if isinstance(env_or_model, PipetteEnv):
-        model, data = env_or_model.world.model, env_or_model.world.data
-    else:
-        model = env_or_model
-    assert data is not None
+def sim_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    """The MuJoCo integration state: time, qpos, qvel, act, warm start, ctrl, applied forces, mocap, ...
+
+    Everything ``mj_step`` reads; ``mj_setState(model, data, state, SIM_STATE)`` restores it.
+    """
     out = np.empty(mujoco.mj_stateSize(model, SIM_STATE))
     mujoco.mj_getState(model, data, out, SIM_STATE)
     return out
@@ -229,7 +227,7 @@ class EpisodeWriter:
         for camera, frame in obs.images.items():
             dataset = self._image_dataset(camera, frame)
             last = self._last_chunk.get(camera)
-            if last is None or last[0] is not frame:
+            if last is None or obs.fresh or last[0] is not frame:  # a stale step reuses the same array
                 frame = np.ascontiguousarray(frame, dtype=np.uint8)
                 last = (obs.images[camera], zlib.compress(frame.tobytes(), GZIP_LEVEL))
                 self._last_chunk[camera] = last

@@ -9,7 +9,6 @@ and after each step the simulator state is compared byte for byte with the next 
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -116,7 +115,6 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
                 if report.first_mismatch is None:
                     report.first_mismatch = k + 1
         report.replayed = _outcome(verdict, undecided)
-        report.replayed["metrics"] = json.loads(json.dumps(report.replayed["metrics"]))
     finally:
         env.close()
     return report

@@ -225,12 +225,12 @@ def teleop_episode(
                 return TeleopOutcome(event)
             if event == "save" and writer.num_steps:
                 undecided = TRUNCATED if writer.num_steps >= max_steps else STOPPED
-                summary = writer.close(verdict, env.world.state(), sim_state(env), undecided=undecided)
+                summary = writer.close(verdict, env.world.state(), sim_state(env.world.model, env.world.data), undecided=undecided)
                 return TeleopOutcome("save", summary)
             if not done:
                 with lock():
                     action = teleop.act(env.world)
-                    writer.add(obs, action, sim_state(env))
+                    writer.add(obs, action, sim_state(env.world.model, env.world.data))
                     obs, verdict = env.step(action)
                 done = verdict.done or writer.num_steps >= max_steps
                 if done and on_done is not None:

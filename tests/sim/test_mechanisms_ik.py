@@ -90,5 +90,5 @@ def test_open_lids_stay_open_and_contact_closes_them(task_id: str, joint: str, s
             break
     assert verdict.success, verdict
     assert abs(world.joint(joint)) < 5.0
-    assert sign * start > 60.0
+    assert sign * start > 35.0  # it really started open
     mujoco.mj_resetData(world.model, world.data)

@@ -1,0 +1,188 @@
+"""``--check``: does a drafted task build, start unsolved, stay put, and can an expert solve it?
+
+1. Build the :class:`~pipette_cli.sim.world.World` (compile, no interpenetration, reach).
+2. For each episode seed: reset, then hold the robot still for the whole time limit. The
+   evaluator must not succeed (a task solved by doing nothing is a broken task) and the free
+   objects must stay where they were put (a tube rolling off the pan is a broken layout).
+3. :func:`solve_check`: when a scripted expert exists for the task or its family, run it and
+   count the successes; otherwise report "solvability not checked".
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pipette_cli.authoring.draft import INTENTS
+from pipette_cli.errors import PipetteError
+from pipette_cli.specs.task import TaskSpec
+
+log = logging.getLogger(__name__)
+
+MAX_DRIFT_M = 0.05
+"""Free objects may drift this much while the robot stands still (lying tubes and pipettes rock by a few cm in the registry too)."""
+FAMILY_EXPERTS: dict[str, tuple[str, ...]] = {
+    # draft family -> expert names tried in order (``register_expert(name)`` in pipette_cli.demos.experts)
+    "pick": ("pick",),
+    "place": ("place",),
+    "insert": ("insert", "place"),
+    "transfer": ("transfer", "place"),
+    "open": ("open_lid", "lid"),
+    "close": ("close_lid", "lid"),
+    "press": ("press_button", "press"),
+    "position": ("position",),
+}
+
+
+@dataclass
+class SolveReport:
+    """Outcome of running a scripted expert on a task."""
+
+    status: str  # "solved" | "unsolved" | "not_checked"
+    expert: str | None = None
+    successes: int = 0
+    episodes: int = 0
+    reasons: list[str] = field(default_factory=list)
+    detail: str = ""
+
+    def summary(self) -> str:
+        if self.status == "not_checked":
+            return f"solvability not checked: {self.detail}"
+        return f"expert '{self.expert}' solved {self.successes}/{self.episodes} episodes" + (
+            f" (failures: {', '.join(sorted(set(self.reasons)))})" if self.reasons else "")
+
+
+@dataclass
+class CheckReport:
+    """Outcome of :func:`check_task`."""
+
+    task_id: str
+    problems: list[str] = field(default_factory=list)
+    episodes: int = 0
+    idle_steps: int = 0
+    max_drift_m: float = 0.0
+    solve: SolveReport = field(default_factory=lambda: SolveReport("not_checked", detail="not run"))
+    seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+    def as_dict(self) -> dict:
+        return {"task": self.task_id, "ok": self.ok, "problems": self.problems, "episodes": self.episodes,
+                "idle_steps": self.idle_steps, "max_drift_m": round(self.max_drift_m, 4),
+                "solve": {"status": self.solve.status, "expert": self.solve.expert, "successes": self.solve.successes,
+                          "episodes": self.solve.episodes, "detail": self.solve.summary()},
+                "seconds": round(self.seconds, 2)}
+
+
+def family_of(task: TaskSpec) -> str | None:
+    """The draft family recorded in the task's tags (``generated, place, ...``)."""
+    return next((t for t in task.tags if t in INTENTS), None)
+
+
+def _idle_action(world) -> np.ndarray:
+    gripper = 1.0 if world.task.embodiment.gripper == "open" else 0.0
+    return np.append(np.asarray(world.task.embodiment.initial_joints, dtype=float), gripper)
+
+
+def _episode_steps(task: TaskSpec, world) -> int:
+    timeout = task.success.timeout_s or 10.0
+    return int(np.ceil(min(timeout, 30.0) / world.control_dt)) + 1
+
+
+def check_task(task: TaskSpec, episodes: int = 2, *, solve: bool = True) -> CheckReport:
+    """Build ``task`` and run the checks above; problems are listed, never raised."""
+    from pipette_cli.sim.world import World
+
+    start = time.perf_counter()
+    report = CheckReport(task.id, episodes=episodes)
+    try:
+        world = World(task)
+    except PipetteError as exc:
+        report.problems.append(f"the scene does not build: {exc}")
+        report.seconds = time.perf_counter() - start
+        return report
+    free = [o.name for o in task.scene.objects if world.objects[o.name].free]
+    for seed in range(episodes):
+        world.reset(seed)
+        action = _idle_action(world)
+        verdict = world.step(action)
+        if verdict.success:
+            report.problems.append(f"seed {seed}: the evaluator succeeds right after reset")
+            continue
+        start_pos = {name: world.position(name) for name in free}
+        steps = _episode_steps(task, world)
+        for _ in range(steps):
+            verdict = world.step(action)
+            if verdict.success:
+                report.problems.append(f"seed {seed}: the evaluator succeeds while the robot does nothing "
+                                       f"(t = {world.step_count * world.control_dt:.1f} s); the task is trivial")
+                break
+            if verdict.done:
+                break
+        report.idle_steps += world.step_count
+        for name in free:
+            drift = float(np.linalg.norm(world.position(name) - start_pos[name]))
+            report.max_drift_m = max(report.max_drift_m, drift)
+            if drift > MAX_DRIFT_M:
+                report.problems.append(f"seed {seed}: {name} moved {drift * 1000:.0f} mm by itself while the robot "
+                                       "stood still; it does not rest where the layout put it")
+    if solve and report.ok:
+        report.solve = solve_check(task, episodes)
+    report.seconds = time.perf_counter() - start
+    return report
+
+
+def _find_expert(task: TaskSpec):
+    from pipette_cli.demos.experts.base import make_expert
+
+    family = family_of(task)
+    names = [task.id, *FAMILY_EXPERTS.get(family or "", ())]
+    for name in names:
+        try:
+            return name, make_expert(name)
+        except PipetteError:
+            continue
+        except Exception as exc:  # an expert module that fails to import must not hide the others
+            log.warning("expert %s unavailable: %s", name, exc)
+    return None, None
+
+
+def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
+    """Run the scripted expert of ``task_spec`` (its own, or its family's) for ``episodes`` seeds.
+
+    Returns ``status="not_checked"`` when no expert is registered for the task or its family.
+    """
+    from pipette_cli.sim.world import World
+
+    family = family_of(task_spec)
+    name, expert = _find_expert(task_spec)
+    if expert is None:
+        tried = ", ".join(FAMILY_EXPERTS.get(family or "", ())) or "none"
+        return SolveReport("not_checked", detail=f"no scripted expert for this task or its family "
+                                                 f"'{family}' (tried: {tried})")
+    world = World(task_spec)
+    report = SolveReport("unsolved", expert=name, episodes=episodes)
+    for seed in range(episodes):
+        world.reset(seed)
+        try:
+            expert.reset(world, np.random.default_rng(seed))
+            verdict = world.verdict
+            for _ in range(_episode_steps(task_spec, world) + 30):
+                verdict = world.step(expert.act(world))
+                if verdict.done:
+                    break
+        except PipetteError as exc:
+            report.reasons.append(f"expert error: {exc}")
+            continue
+        if verdict.success:
+            report.successes += 1
+        else:
+            report.reasons.append(verdict.reason or "not done")
+    if report.successes == episodes:
+        report.status = "solved"
+    return report

@@ -1,0 +1,156 @@
+"""Geometry the drafting code needs, measured from the compiled assets and robots.
+
+Everything is in the asset's own frame (origin at the bottom centre of its footprint), for
+the authored pose of static assets and the resting pose of free ones. Results are cached per
+process: measuring every asset of the library takes about a second.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cache
+
+import mujoco
+import numpy as np
+
+from pipette_cli.assets.library import load_asset_library
+
+FREE_CATEGORIES = ("tools", "consumables")
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """A hinge (degrees) or slide (metres) with its limits."""
+
+    name: str
+    kind: str  # "hinge" | "slide"
+    low: float
+    high: float
+
+    @property
+    def open_limit(self) -> float:
+        """The limit farther from 0 (closed): the fully open value."""
+        return self.high if abs(self.high) >= abs(self.low) else self.low
+
+    @property
+    def unit(self) -> str:
+        return "deg" if self.kind == "hinge" else "m"
+
+
+@dataclass(frozen=True)
+class AssetGeometry:
+    """Collision boxes, sites and joints of one asset."""
+
+    asset_id: str
+    category: str
+    free: bool
+    semantics: dict
+    boxes: np.ndarray  # (n, 6): min xyz, max xyz of every collision geom
+    sites: dict[str, tuple[float, float, float]]
+    joints: dict[str, JointInfo]
+    rest_euler_deg: tuple[float, float, float]
+
+    @property
+    def low(self) -> np.ndarray:
+        return self.boxes[:, :3].min(axis=0)
+
+    @property
+    def high(self) -> np.ndarray:
+        return self.boxes[:, 3:].max(axis=0)
+
+    @property
+    def half_xy(self) -> tuple[float, float]:
+        """Half the footprint, about the origin (the larger side of each axis)."""
+        lo, hi = self.low, self.high
+        return float(max(-lo[0], hi[0])), float(max(-lo[1], hi[1]))
+
+    @property
+    def radius_xy(self) -> float:
+        """Radius of the smallest disc about the origin that holds the footprint."""
+        hx, hy = self.half_xy
+        return float(np.hypot(hx, hy))
+
+    @property
+    def origin_height(self) -> float:
+        """Height of the origin above the surface the object rests on (0 for most assets)."""
+        return float(-self.low[2])
+
+    @property
+    def height(self) -> float:
+        return float(self.high[2] - self.low[2])
+
+
+def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms) -> np.ndarray:
+    out = []
+    for g in geoms:
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            continue
+        rot = data.geom_xmat[g].reshape(3, 3)
+        center = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3]
+        half = np.abs(rot) @ model.geom_aabb[g, 3:]
+        out.append(np.concatenate([center - half, center + half]))
+    return np.array(out).reshape(-1, 6)
+
+
+def quat_to_euler_deg(quat) -> tuple[float, float, float]:
+    """wxyz quaternion -> intrinsic x-y-z Euler angles in degrees (MuJoCo's eulerseq "xyz")."""
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
+    r = mat.reshape(3, 3)
+    b = np.arcsin(np.clip(r[0, 2], -1.0, 1.0))
+    a = np.arctan2(-r[1, 2], r[2, 2])
+    c = np.arctan2(-r[0, 1], r[0, 0])
+    return tuple(round(float(np.rad2deg(v)), 6) + 0.0 for v in (a, b, c))  # type: ignore[return-value]
+
+
+@cache
+def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = ()) -> AssetGeometry:
+    """Compile ``asset_id`` alone (rest pose, joints at ``joint_values``: deg / m) and measure it."""
+    from pipette_cli.assets.loader import load_asset_spec
+
+    entry = load_asset_library().get(asset_id)
+    semantics = entry.semantics()
+    free = entry.category in FREE_CATEGORIES
+    spec = load_asset_spec(asset_id, free_joint=free)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    rest = semantics.get("rest_quat") or [1.0, 0.0, 0.0, 0.0]
+    if free and model.njnt and int(model.jnt_type[0]) == int(mujoco.mjtJoint.mjJNT_FREE):
+        data.qpos[3:7] = rest
+    joints: dict[str, JointInfo] = {}
+    for j in range(model.njnt):
+        kind = int(model.jnt_type[j])
+        if kind not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+            continue
+        hinge = kind == int(mujoco.mjtJoint.mjJNT_HINGE)
+        low, high = model.jnt_range[j]
+        scale = np.rad2deg(1.0) if hinge else 1.0
+        joints[model.joint(j).name] = JointInfo(model.joint(j).name, "hinge" if hinge else "slide",
+                                                round(float(low * scale), 4), round(float(high * scale), 4))
+    for name, value in joint_values:
+        info = joints[name]
+        data.qpos[model.jnt_qposadr[model.joint(name).id]] = np.deg2rad(value) if info.kind == "hinge" else value
+    mujoco.mj_forward(model, data)
+    boxes = _geom_boxes(model, data, range(model.ngeom))
+    sites = {model.site(i).name: tuple(float(v) for v in data.site_xpos[i]) for i in range(model.nsite)}
+    return AssetGeometry(asset_id, entry.category, free, semantics, boxes, sites, joints,
+                         quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0))
+
+
+@cache
+def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55)) -> np.ndarray:
+    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose."""
+    from pipette_cli.sim.robots import home_joints, make_robot_spec
+
+    spec, config = make_robot_spec(robot)
+    scene = mujoco.MjSpec()
+    for field in ("timestep", "integrator", "cone", "impratio"):
+        setattr(scene.option, field, getattr(spec.option, field))
+    frame = scene.worldbody.add_frame(pos=list(base))
+    scene.attach(spec, prefix="r/", frame=frame)
+    model = scene.compile()
+    data = mujoco.MjData(model)
+    for joint, value in zip(config.arm_joints, home_joints(robot), strict=True):
+        data.qpos[model.jnt_qposadr[model.joint("r/" + joint).id]] = value
+    mujoco.mj_forward(model, data)
+    return _geom_boxes(model, data, range(model.ngeom))

@@ -1,0 +1,140 @@
+"""``pipette new-task`` and ``pipette assets new``: author tasks and assets from descriptions."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.syntax import Syntax
+
+from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import PipetteError
+
+BACKEND_HELP = "offline (default: a deterministic parser), openai (OpenAI-compatible server) or ollama."
+
+
+def _confirm(question: str, yes: bool) -> bool:
+    if yes:
+        return True
+    if not sys.stdin or not sys.stdin.isatty():
+        try:
+            answer = sys.stdin.readline() if sys.stdin else ""
+        except (OSError, ValueError):
+            answer = ""
+        if not answer:
+            err_console.print(f"{question} [y/N] no answer (stdin is not a terminal); pass --yes to write")
+            return False
+        err_console.print(f"{question} [y/N] {answer.strip()}")
+        return answer.strip().lower() in ("y", "yes")
+    return typer.confirm(question, default=False, err=True)
+
+
+def new_task(
+    description: Annotated[str, typer.Argument(help="What the robot should do, in plain English.")],
+    backend: Annotated[str, typer.Option("--backend", "-b", help=BACKEND_HELP)] = "offline",
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="File or folder to write (default: ./<name>.yaml).")] = None,
+    check: Annotated[bool, typer.Option("--check", help="Build, roll out doing nothing, and run a scripted expert if one exists.")] = False,
+    episodes: Annotated[int, typer.Option("--episodes", min=1, max=50, help="Episodes for --check.")] = 2,
+    yes: Annotated[bool, typer.Option("--yes", "-y", help="Write without asking.")] = False,
+    task_id: Annotated[str | None, typer.Option("--id", help="Task id to use instead of the derived one.")] = None,
+    namespace: Annotated[str, typer.Option("--namespace", help="Namespace of the derived id.")] = "generated",
+    model: Annotated[str | None, typer.Option("--model", help="LLM model (else PIPETTE_LLM_MODEL / PIPETTE_OLLAMA_MODEL).")] = None,
+    base_url: Annotated[str | None, typer.Option("--base-url", help="LLM server URL (else PIPETTE_LLM_BASE_URL / OLLAMA_HOST).")] = None,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Show the draft; write nothing.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+    allow_unsolved: Annotated[bool, typer.Option("--allow-unsolved", help="With --check, write even if the expert fails.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the draft, the plan and the check as JSON.")] = False,
+) -> None:
+    """Draft a task from a description: objects from the asset library, a reachable layout, an
+    evaluator with thresholds from the assets' geometry, and an instruction. Shows the YAML
+    (fields to verify are marked VERIFY) and writes it after confirmation (or --yes).
+
+    Example: pipette new-task "Place the 15 mL conical tube into the tube rack" --check --out registry/generated/ --yes
+    """
+    from pipette_cli.authoring.backends import make_backend
+    from pipette_cli.authoring.check import check_task
+    from pipette_cli.authoring.workflow import draft_task, write_task
+    from pipette_cli.registry import load_registry
+
+    registry = load_registry(STATE.registry_dirs)
+    engine = make_backend(backend, model=model, base_url=base_url)
+    drafted = draft_task(description, engine, namespace=namespace, task_id=task_id, registry=registry)
+    target = drafted.target_path(out)
+    report = None
+    if check:
+        with err_console.status(f"checking {drafted.spec.id} ({episodes} episodes)"):
+            report = check_task(drafted.spec, episodes)
+    if as_json:
+        print_json({"id": drafted.spec.id, "path": str(target), "draft": drafted.draft.model_dump(mode="json"),
+                    "yaml": drafted.yaml_text, "check": report.as_dict() if report else None})
+    else:
+        if out_console.is_terminal:
+            out_console.print(Syntax(drafted.yaml_text, "yaml", theme="ansi_dark", word_wrap=True))
+        else:
+            out_console.print(drafted.yaml_text, end="", markup=False, highlight=False)
+        err_console.print(f"drafted {drafted.spec.id} ({drafted.plan.family}, {drafted.spec.success.type}) "
+                          f"with the {engine.name} backend")
+    if report is not None:
+        for problem in report.problems:
+            err_console.print(f"[red]check:[/red] {problem}")
+        err_console.print(f"check: {'ok' if report.ok else 'FAILED'}; idle rollout {report.idle_steps} steps, "
+                          f"objects moved at most {report.max_drift_m * 1000:.1f} mm; {report.solve.summary()} "
+                          f"({report.seconds:.1f} s)")
+        if not report.ok:
+            raise PipetteError(f"{drafted.spec.id}: --check failed; nothing written")
+        if report.solve.status == "unsolved" and not allow_unsolved:
+            raise PipetteError(f"{drafted.spec.id}: the scripted expert did not solve it; nothing written "
+                               "(--allow-unsolved writes it anyway)")
+    if dry_run:
+        err_console.print("dry run: nothing written")
+        return
+    if not _confirm(f"write {target}?", yes):
+        err_console.print("not written")
+        raise typer.Exit(1)
+    path = write_task(drafted, target, force=force)
+    err_console.print(f"wrote {path}; check the VERIFY fields, then: pipette tasks validate {path}")
+
+
+@assets_cli.app.command("new")
+def new_asset(
+    description: Annotated[str, typer.Argument(help="The asset in plain English, e.g. 'a 300 mL beaker'.")],
+    backend: Annotated[str, typer.Option("--backend", "-b", help=BACKEND_HELP)] = "offline",
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Asset root to write <category>/<id>.usda under (default: first PIPETTE_ASSET_PATH entry, else ./pipette_assets).")] = None,
+    asset_id: Annotated[str | None, typer.Option("--id", help="Asset id (default: derived from the generator and size).")] = None,
+    yes: Annotated[bool, typer.Option("--yes", "-y", help="Write without asking.")] = False,
+    force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
+    model: Annotated[str | None, typer.Option("--model", help="LLM model for openai/ollama.")] = None,
+    base_url: Annotated[str | None, typer.Option("--base-url", help="LLM server URL.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """Make a new USD asset from a description: picks a parametric generator and its parameters
+    (offline or with an LLM backend), writes the .usda and validates it (USD, compile, physics).
+
+    Example: pipette assets new "a 300 mL Erlenmeyer flask" --out my_assets/ --yes
+    """
+    from pipette_cli.authoring.assets_new import default_asset_root, draft_asset, write_asset
+    from pipette_cli.authoring.backends import make_backend
+
+    engine = make_backend(backend, model=model, base_url=base_url)
+    drafted = draft_asset(description, engine, asset_id=asset_id)
+    root = out or default_asset_root()
+    summary = drafted.summary()
+    if drafted.existing and not asset_id:
+        if as_json:
+            print_json({"existing": drafted.existing, **summary})
+        err_console.print(f"the library already has this asset: {drafted.existing} "
+                          f"({drafted.spec.generator}, {drafted.spec.describe()}); pass --id to write a copy")
+        return
+    if not as_json:
+        out_console.print(f"{drafted.asset_id}: {drafted.spec.generator} {drafted.spec.describe()} -> {root}/{drafted.category}/")
+    if not _confirm(f"write {drafted.asset_id} under {root}?", yes):
+        err_console.print("not written")
+        raise typer.Exit(1)
+    report = write_asset(drafted, root, force=force)
+    if as_json:
+        print_json({**summary, "path": str(report.path), "validation": report.as_dict()})
+    err_console.print(f"wrote {report.path} (valid: USD, MuJoCo compile, physics; {report.seconds:.1f} s); "
+                      f"use it with PIPETTE_ASSET_PATH={root}")

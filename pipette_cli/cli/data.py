@@ -1,0 +1,139 @@
+"""``pipette data``: inspect, edit and replay recorded HDF5 episode files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.table import Table
+
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import DatasetError
+
+app = typer.Typer(help="Inspect, edit and replay recorded episode files.\n\nExample: pipette data inspect tube.h5", no_args_is_help=True)
+
+
+@app.command("inspect")
+def inspect(
+    file: Annotated[Path, typer.Argument(help="HDF5 file written by `pipette collect`.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """Show a file's task, image size and episodes (seed, steps, outcome), pending parts included.
+
+    Never modifies the file.
+
+    Example: pipette data inspect tube.h5 --json
+    """
+    from pipette_cli.demos.store import file_size, parts_dir, scan
+
+    status = scan(file)
+    if status.info is None:
+        raise DatasetError(f"{file}: no such file")
+    info = status.info
+    episodes = [
+        {
+            "index": ref.index, "seed": ref.summary.seed, "source": ref.summary.source, "steps": ref.summary.num_steps,
+            "success": ref.summary.success, "reason": ref.summary.reason, "metrics": ref.summary.metrics,
+            "pending": ref.pending,
+        }
+        for ref in status.episodes
+    ]
+    successes = sum(e["success"] for e in episodes)
+    report = {
+        "file": str(file), "task_id": info.task_id, "embodiment": info.embodiment, "instruction": info.instruction,
+        "image_size": [info.image_height, info.image_width], "cameras": list(info.cameras),
+        "control_hz": info.control_hz, "vision_hz": info.vision_hz,
+        "num_episodes": len(episodes), "pending": len(status.pending), "successes": successes,
+        "success_rate": successes / len(episodes) if episodes else 0.0,
+        "steps": sum(e["steps"] for e in episodes), "size_mb": round(file_size(file) / 1e6, 3),
+        "episodes": episodes,
+    }
+    if as_json:
+        print_json(report)
+        return
+    table = Table(title=f"{file}: {info.task_id} ({info.embodiment}, {info.image_height}x{info.image_width}, {report['size_mb']} MB)")
+    for column in ("episode", "seed", "source", "steps", "outcome", "note"):
+        table.add_column(column, justify="right" if column in ("episode", "seed", "steps") else "left")
+    for e in episodes:
+        outcome = "[green]success[/green]" if e["success"] else f"[red]failed[/red] {e['reason']}"
+        table.add_row(str(e["index"]), str(e["seed"]), e["source"], str(e["steps"]), outcome, "pending" if e["pending"] else "")
+    out_console.print(table)
+    err_console.print(f"{len(episodes)} episodes, {successes} successful, {report['steps']} control steps")
+    if status.pending:
+        err_console.print(
+            f"{len(status.pending)} episodes of an interrupted run are pending in {parts_dir(file)}; "
+            f"`pipette data pack {file}` (or rerunning collect) moves them into the file",
+            soft_wrap=True,
+        )
+
+
+@app.command("delete-episode")
+def delete_episode(
+    file: Annotated[Path, typer.Argument(help="HDF5 episode file.")],
+    index: Annotated[int, typer.Argument(min=0, help="Episode index (later episodes move down by one).")],
+) -> None:
+    """Delete one episode; the file is rewritten atomically (unchanged if anything fails).
+
+    Example: pipette data delete-episode tube.h5 3
+    """
+    from pipette_cli.demos.store import delete_episode as delete
+
+    summary = delete(file, index)
+    err_console.print(f"deleted episode {index} (seed {summary.seed}) from {file}", soft_wrap=True)
+
+
+@app.command("pack")
+def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> None:
+    """Move the episodes an interrupted `pipette collect` left in FILE.parts into the file.
+
+    Example: pipette data pack tube.h5
+    """
+    from pipette_cli.demos.store import pack as pack_parts
+    from pipette_cli.demos.store import scan
+
+    if scan(file).info is None:
+        raise DatasetError(f"{file}: no such file")
+    err_console.print(f"packed {pack_parts(file)} pending episodes into {file}", soft_wrap=True)
+
+
+@app.command("replay")
+def replay(
+    file: Annotated[Path, typer.Argument(help="HDF5 episode file.")],
+    episode: Annotated[int, typer.Option("--episode", "-e", help="Episode index.")] = 0,
+    check: Annotated[bool, typer.Option("--check", help="Exit 1 unless every state and the outcome are reproduced bit-exactly.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """Re-execute an episode's actions from its recorded initial state and compare.
+
+    Resets the task with the episode's seed, restores the recorded simulator state of step 0,
+    applies the recorded actions and compares every recorded simulator state byte for byte
+    and the final verdict. Never modifies the file.
+
+    Example: pipette data replay tube.h5 --episode 0 --check
+    """
+    from pipette_cli.demos.replay import replay_episode
+    from pipette_cli.demos.store import scan
+    from pipette_cli.registry import load_registry
+
+    status = scan(file)
+    if status.info is None:
+        raise DatasetError(f"{file}: no such file")
+    status.episode(episode)  # range check before building the scene
+    task = load_registry(STATE.registry_dirs).get(status.info.task_id)
+    report = replay_episode(file, episode, task)
+    if report.spec_changed:
+        err_console.print(f"[yellow]warning:[/yellow] the {task.id} spec changed since episode {episode} was recorded", soft_wrap=True)
+    if as_json:
+        print_json(report.as_dict())
+    else:
+        states = (
+            f"all {report.states_compared} states bit-exact"
+            if report.states_equal
+            else f"states differ from step {report.first_mismatch} on (max |diff| {report.max_abs_diff:.3g})"
+        )
+        outcome = "same outcome" if report.outcome_equal else f"outcome {report.replayed} != recorded {report.recorded}"
+        verdict = "success" if report.replayed.get("success") else f"failed ({report.replayed.get('reason')})"
+        out_console.print(f"episode {episode} (seed {report.seed}, {report.steps} steps): {verdict}; {states}; {outcome}")
+    if check and not report.ok:
+        raise DatasetError(f"{file}: episode {episode} does not replay exactly")

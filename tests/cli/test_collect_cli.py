@@ -1,0 +1,75 @@
+"""``pipette collect``: recording, resuming, and the refusals that leave a file untouched."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+from pipette_cli.demos.experts import base as experts
+
+pytestmark = pytest.mark.render
+FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "demos"
+sys.path.insert(0, str(FIXTURES))
+import demo_experts  # noqa: E402
+
+REGISTRY = str(FIXTURES / "registry")
+TASK = "testlab/HoldTube-v1"
+
+
+@pytest.fixture
+def wiggle(monkeypatch: pytest.MonkeyPatch) -> None:
+    experts.expert_names()  # load the built-in experts first
+    monkeypatch.setitem(experts._EXPERTS, "HoldTube", demo_experts.Wiggle)
+
+
+def _collect(run_cli, out: Path, *extra: str):
+    return run_cli("--registry-dir", REGISTRY, "collect", TASK, "--out", out, "--image-size", "16", *extra)
+
+
+def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "x.h5"
+    result = _collect(run_cli, out, "--episodes", "1")
+    assert result.exit_code == 1
+    assert result.stderr.strip().startswith("error: no scripted expert for task 'testlab/HoldTube-v1'")
+    assert "Traceback" not in result.stderr and not out.exists()
+
+
+def test_collect_then_resume_to_more_episodes(run_cli, wiggle, tmp_path: Path) -> None:
+    out = tmp_path / "x.h5"
+    first = _collect(run_cli, out, "--episodes", "2", "--seed", "3")
+    assert first.exit_code == 0, first.stderr
+    assert "2 episodes (2 new" in first.stdout
+    again = _collect(run_cli, out, "--episodes", "3", "--seed", "3")
+    assert again.exit_code == 0, again.stderr
+    assert "2 episodes already recorded; 1 to go" in again.stderr and "3 episodes (1 new" in again.stdout
+    done = _collect(run_cli, out, "--episodes", "3", "--seed", "3")
+    assert "3 episodes (0 new" in done.stdout
+    report = json.loads(run_cli("data", "inspect", out, "--json").stdout)
+    assert [e["seed"] for e in report["episodes"]] == [3, 4, 5]
+    assert all(e["steps"] == 15 and e["source"] == "scripted" for e in report["episodes"])
+
+
+def test_a_file_of_another_task_or_image_size_is_refused_untouched(run_cli, wiggle, tmp_path: Path) -> None:
+    out = tmp_path / "x.h5"
+    assert _collect(run_cli, out, "--episodes", "1").exit_code == 0
+    before = out.read_bytes()
+    other = run_cli("collect", "PickUpTestTube", "--out", out, "--episodes", "2", "--image-size", "16")
+    assert other.exit_code == 1
+    assert "holds episodes of task testlab/HoldTube-v1, not pipette/PickUpTestTube-v1" in other.stderr
+    bigger = _collect(run_cli, out, "--episodes", "2", "--image-size", "32")
+    assert bigger.exit_code == 1 and "has 16x16 images, not 32x32; pass --image-size 16" in bigger.stderr
+    assert out.read_bytes() == before
+
+
+def test_teleop_needs_a_display_and_one_worker(run_cli, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    result = _collect(run_cli, tmp_path / "t.h5", "--source", "teleop", "--episodes", "1")
+    assert result.exit_code == 1 and "needs a display" in result.stderr
+    workers = _collect(run_cli, tmp_path / "t.h5", "--source", "teleop", "--workers", "2")
+    assert workers.exit_code == 1 and "--workers applies to --source scripted only" in workers.stderr
+    assert _collect(run_cli, tmp_path / "t.h5", "--source", "vr").exit_code == 2
+    assert not (tmp_path / "t.h5").exists()

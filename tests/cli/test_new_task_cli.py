@@ -1,0 +1,82 @@
+"""``pipette new-task`` and ``pipette assets new`` end to end, in-process."""
+
+from __future__ import annotations
+
+import io
+import json
+import sys
+
+import pytest
+
+from pipette_cli.registry import load_task_file
+
+TEXT = "Put the 96-well plate on the orbital shaker"
+TASK_ID = "generated/PlaceWellPlate96OnOrbitalShaker-v1"
+
+
+def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", TEXT, "--out", tmp_path, "--yes")
+    assert result.exit_code == 0, result.stderr
+    path = tmp_path / "place_well_plate96_on_orbital_shaker.yaml"
+    assert path.is_file() and "instruction: Put the 96-well plate on the orbital shaker." in result.stdout
+    assert result.stdout == path.read_text()  # what the user confirmed is what was written
+    assert load_task_file(path).id == TASK_ID
+    assert run_cli("tasks", "validate", path).exit_code == 0
+    listed = json.loads(run_cli("--registry-dir", tmp_path, "tasks", "list", "--json").stdout)
+    assert TASK_ID in {row["id"] for row in listed} and len(listed) == 13
+    again = run_cli("--registry-dir", tmp_path, "new-task", TEXT, "--out", tmp_path, "--yes")
+    assert again.exit_code == 1 and "already registered" in again.stderr
+
+
+def test_check_reports_the_idle_rollout_and_solvability(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", TEXT, "--check", "--dry-run")
+    assert result.exit_code == 0, result.stderr
+    assert "check: ok" in result.stderr and ("solvability not checked" in result.stderr or "expert" in result.stderr)
+    assert "nothing written" in result.stderr and not list(tmp_path.iterdir())
+
+
+def test_check_json_has_the_report(run_cli) -> None:
+    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--dry-run", "--json").stdout)
+    assert data["id"] == "generated/CloseSpectrophotometerLid-v1" and data["check"]["ok"] is True
+    assert data["draft"]["intent"] == "close" and data["check"]["idle_steps"] > 0
+
+
+def test_unknown_object_exits_1_and_writes_nothing(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", "Put the 15 mL tube in the autoclave", "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and "unknown object or word 'autoclave'" in result.stderr
+    assert "Traceback" not in result.stderr and not list(tmp_path.iterdir())
+
+
+def test_answering_no_writes_nothing(run_cli, tmp_path, monkeypatch) -> None:
+    monkeypatch.setattr(sys, "stdin", io.StringIO("n\n"))
+    result = run_cli("new-task", TEXT, "--out", tmp_path)
+    assert result.exit_code == 1 and "not written" in result.stderr and not list(tmp_path.iterdir())
+    monkeypatch.setattr(sys, "stdin", io.StringIO("y\n"))
+    assert run_cli("new-task", TEXT, "--out", tmp_path).exit_code == 0 and len(list(tmp_path.iterdir())) == 1
+
+
+def test_unknown_backend_lists_the_known_ones(run_cli) -> None:
+    result = run_cli("new-task", TEXT, "--backend", "gpt")
+    assert result.exit_code == 1 and "unknown backend 'gpt'" in result.stderr and "openai" in result.stderr
+
+
+def test_assets_new_writes_a_validated_usd_asset(run_cli, tmp_path) -> None:
+    result = run_cli("assets", "new", "a 300 mL Erlenmeyer flask", "--out", tmp_path, "--yes")
+    assert result.exit_code == 0, result.stderr
+    path = tmp_path / "consumables" / "erlenmeyer_flask_300ml.usda"
+    assert path.is_file()
+    assert run_cli("assets", "validate", path).exit_code == 0
+    show = json.loads(run_cli("assets", "show", path, "--json").stdout)
+    assert show["volume_ml"] == 300.0 and 0.083 < show["dimensions"][0] < 0.105  # between the 250 and 500 mL flasks
+
+
+def test_assets_new_knows_what_the_library_already_has(run_cli, tmp_path) -> None:
+    result = run_cli("assets", "new", "a 250 mL Erlenmeyer flask", "--out", tmp_path, "--yes")
+    assert result.exit_code == 0 and "already has this asset: erlenmeyer_flask_250ml" in result.stderr
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(("text", "message"), [("a flux capacitor", "no parametric generator"), ("a 90000 mL beaker", "less than or equal to 5000")])
+def test_assets_new_rejects_what_it_cannot_make(run_cli, tmp_path, text, message) -> None:
+    result = run_cli("assets", "new", text, "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and message in result.stderr and not list(tmp_path.iterdir())

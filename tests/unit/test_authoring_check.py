@@ -1,0 +1,75 @@
+"""``--check``: trivial tasks and unstable layouts are caught; experts are looked up by family."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipette_cli.authoring.backends import make_backend
+from pipette_cli.authoring.check import FAMILY_EXPERTS, check_task, solve_check
+from pipette_cli.authoring.workflow import draft_task
+from pipette_cli.demos.experts import base as experts
+from pipette_cli.specs.task import TaskSpec
+
+TEXT = "Put the 96-well plate on the orbital shaker"
+
+
+@pytest.fixture(scope="module")
+def plate_task() -> TaskSpec:
+    return draft_task(TEXT, make_backend("offline")).spec
+
+
+def with_changes(spec: TaskSpec, success: dict | None = None, lift: float = 0.0) -> TaskSpec:
+    data = spec.model_dump(mode="json")
+    if success is not None:
+        data["success"] = success
+    if lift:
+        plate = next(o for o in data["scene"]["objects"] if o["name"] == "plate")
+        plate["pose"]["pos"][2] += lift
+    return TaskSpec.model_validate(data)
+
+
+class StandStill:
+    def reset(self, world, rng) -> None:
+        self.action = np.append(np.asarray(world.task.embodiment.initial_joints, dtype=float), 1.0)
+
+    def act(self, world) -> np.ndarray:
+        return self.action
+
+
+@pytest.fixture
+def no_family_experts(monkeypatch):
+    experts._load_builtins()
+    for names in FAMILY_EXPERTS.values():
+        for name in names:
+            monkeypatch.delitem(experts._EXPERTS, name, raising=False)
+
+
+def test_a_drafted_task_passes_the_idle_checks(plate_task, no_family_experts) -> None:
+    report = check_task(plate_task, episodes=2)
+    assert report.ok, report.problems
+    assert report.idle_steps >= 2 * 15 * 30  # the whole 15 s time limit was rolled out, twice
+    assert report.max_drift_m < 0.005
+    assert report.solve.status == "not_checked" and "no scripted expert" in report.solve.summary()
+
+
+def test_a_task_solved_by_doing_nothing_is_refused(plate_task) -> None:
+    trivial = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.5, "timeout_s": 5})
+    report = check_task(trivial, episodes=1, solve=False)
+    assert not report.ok and "the task is trivial" in report.problems[0]
+
+
+def test_an_object_that_does_not_rest_is_reported(plate_task) -> None:
+    floating = with_changes(plate_task, lift=0.3)  # starts 30 cm in the air and falls
+    report = check_task(floating, episodes=1, solve=False)
+    assert any("plate moved" in p for p in report.problems) and report.max_drift_m > 0.05
+
+
+def test_solve_check_uses_the_family_expert(plate_task, monkeypatch, no_family_experts) -> None:
+    monkeypatch.setitem(experts._EXPERTS, "place", StandStill)
+    report = solve_check(plate_task, episodes=2)
+    assert report.status == "unsolved" and report.expert == "place" and report.successes == 0
+    assert report.reasons == ["out_of_region", "out_of_region"]
+    easy = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3})
+    solved = solve_check(easy, episodes=2)
+    assert solved.status == "solved" and solved.successes == 2

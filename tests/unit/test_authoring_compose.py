@@ -1,0 +1,128 @@
+"""Drafting internals: thresholds derived from asset geometry, layout reach, schema, parser details."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from pipette_cli.authoring.backends import make_backend
+from pipette_cli.authoring.draft import TaskDraftSpec, strict_json_schema
+from pipette_cli.authoring.measure import measure_asset
+from pipette_cli.authoring.parser import parse_description
+from pipette_cli.authoring.vocabulary import load_vocabulary
+from pipette_cli.authoring.workflow import draft_task
+
+
+def drafted(text: str):
+    return draft_task(text, make_backend("offline"))
+
+
+def test_balance_placement_reproduces_the_paper_disc_and_band() -> None:
+    spec = drafted("Put the skirted 50 mL tube on the balance").spec
+    s = spec.success
+    assert s.type == "region_hold" and s.within.center == "balance/pan_center"
+    assert s.within.radius == pytest.approx(0.5 * 0.13 / 2)  # paper A.8: 0.5 x half the pan's shorter side
+    assert s.z.min == pytest.approx(0.55 + 0.09 - 0.01)  # the pan top is 0.09 m above the bench (A.8: 0.63)
+    assert s.max_tilt_deg == 15.0
+
+
+def test_rack_insertion_region_covers_every_slot_and_excludes_lying_on_top() -> None:
+    d = drafted("Put the 15 mL falcon tube in the conical tube rack")
+    rack = d.spec.object("rack")
+    geom = measure_asset("conical_tube_rack_15ml")
+    s = d.spec.success
+    for name, (x, y, _) in geom.sites.items():
+        if name.startswith("slot_"):
+            assert s.x.min < rack.pose.pos[0] + x < s.x.max and s.y.min < rack.pose.pos[1] + y < s.y.max
+    lying_on_top = 0.55 + geom.high[2] + 0.0085
+    assert s.z.max < lying_on_top and s.z.min < 0.554
+
+
+def test_lids_start_open_and_close_to_within_five_degrees_with_the_right_sign() -> None:
+    spectro = drafted("Close the lid of the spectrophotometer").spec
+    assert spectro.scene.joint_states[0].value == pytest.approx(0.95 * 110)
+    assert spectro.success.bound.max == 5.0 and spectro.success.bound.min is None
+    centrifuge = drafted("Close the centrifuge lid").spec
+    assert centrifuge.scene.joint_states[0].value == pytest.approx(-0.95 * 100)
+    assert centrifuge.success.bound.min == -5.0
+    opening = drafted("Open the plate reader drawer").spec
+    assert opening.success.unit == "m" and opening.success.bound.min == pytest.approx(0.75 * 0.16)
+
+
+def test_press_uses_the_button_mechanism_like_the_benchmark() -> None:
+    spec = drafted("Press the release button on the centrifuge").spec
+    mech = spec.scene.mechanisms[0]
+    assert (mech.type, mech.button, mech.target_deg) == ("button_release", "centrifuge/button", -40.0)
+    assert spec.success.type == "mechanism_triggered" and spec.success.target.max == -39.0
+
+
+def test_the_layout_stays_in_the_chosen_robots_reach() -> None:
+    spec = drafted("Place the flask on the orbital shaker with the Piper arm").spec
+    assert spec.embodiment.robot == "agilex_piper" and len(spec.embodiment.initial_joints) == 6
+    shaker = spec.object("shaker").pose.pos
+    site = measure_asset("orbital_shaker").sites["platform_center"]
+    assert math.hypot(shaker[0] + site[0], shaker[1] + site[1]) <= 0.55
+    assert math.hypot(*spec.object("flask").pose.pos[:2]) <= 0.55
+
+
+def test_position_needs_the_tip_lifted_above_the_target() -> None:
+    spec = drafted("Hold the pipette over the petri dish").spec
+    s = spec.success
+    assert s.type == "near_target" and s.object == "pipette/tip" and s.target == "dish/center"
+    dish_top = spec.object("dish").pose.pos[2] + 0.015
+    assert s.min_z >= dish_top + 0.03 and s.max_xy_distance == pytest.approx(0.0924 / 2, abs=0.002)
+
+
+def test_removal_from_the_balance_must_come_down_to_the_bench() -> None:
+    spec = drafted("Take the skirted tube off the balance").spec
+    assert spec.success.type == "displacement" and spec.success.delta.z.max == pytest.approx(-(0.09 - 0.01))
+    tube = spec.object("tube").pose.pos
+    assert tube[2] > 0.55 + 0.085  # it starts on the pan
+
+
+def test_yaml_marks_the_fields_to_verify_and_explains_derived_numbers() -> None:
+    text = drafted("Put the skirted 50 mL tube on the balance").yaml_text
+    radius_line = next(line for line in text.splitlines() if line.strip().startswith("within:"))
+    assert "# VERIFY" in radius_line and "half-width" in radius_line
+    assert "pose: {pos:" in text and "# VERIFY" in next(line for line in text.splitlines() if "pose:" in line)
+
+
+def test_llm_schema_is_strict() -> None:
+    schema = strict_json_schema(TaskDraftSpec)
+
+    def objects(node):
+        if isinstance(node, dict):
+            if node.get("type") == "object" and "properties" in node:
+                yield node
+            for v in node.values():
+                yield from objects(v)
+        elif isinstance(node, list):
+            for v in node:
+                yield from objects(v)
+
+    found = list(objects(schema))
+    assert len(found) >= 3
+    for node in found:
+        assert node["additionalProperties"] is False and set(node["required"]) == set(node["properties"])
+    assert '\'default\':' not in str(schema)
+
+
+@pytest.mark.parametrize(
+    ("text", "asset"),
+    [
+        ("Pick up the 1,000 µL tip", "pipette_tip_1000ul"),
+        ("Pick up the T-25 flask", "cell_culture_flask_t25"),
+        ("Pick up the 8-channel pipette", "pipette_multichannel_8"),
+        ("Pick up the 12 channel pipette", "pipette_multichannel_12"),
+        ("Pick up the uncapped 50 mL falcon tube", "conical_tube_50ml_nocap"),
+        ("Pick up the 15 mL tube without its cap", "conical_tube_15ml_nocap"),
+        ("Pick up the 1 L media bottle", "media_bottle_1000ml"),
+        ("Pick up the 13 x 100 mm test tube", "test_tube_13x100"),
+        ("Pick up the 384-well plate", "well_plate_384"),
+        ("Grab the forceps", "tweezers"),
+    ],
+)
+def test_sizes_and_synonyms_pick_the_right_asset(text: str, asset: str) -> None:
+    result = parse_description(text, load_vocabulary())
+    assert result.draft.one("item").asset == asset
