@@ -38,7 +38,7 @@ def check(
     """
     registry = load_registry(STATE.registry_dirs)
     known = set(expert_names())
-    ids = [registry.get(t).id for t in tasks] if tasks else [t for t in registry.ids() if t.split("/")[1].rsplit("-v", 1)[0] in known]
+    ids = [registry.get(t).id for t in tasks] if tasks else [t for t in registry.ids() if t.rsplit("-v", 1)[0] in known]
     reports = []
     for task_id in ids:
         report = check_expert(registry.get(task_id), episodes, seed)

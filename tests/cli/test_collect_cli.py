@@ -22,7 +22,7 @@ TASK = "testlab/HoldTube-v1"
 @pytest.fixture
 def wiggle(monkeypatch: pytest.MonkeyPatch) -> None:
     experts.expert_names()  # load the built-in experts first
-    monkeypatch.setitem(experts._EXPERTS, "HoldTube", demo_experts.Wiggle)
+    monkeypatch.setitem(experts._EXPERTS, "testlab/HoldTube", demo_experts.Wiggle)
 
 
 def _collect(run_cli, out: Path, *extra: str):

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from pipette_cli.registry import load_task_file
+from pipette_cli.registry import load_registry, load_task_file
 
 TEXT = "Put the 96-well plate on the orbital shaker"
 TASK_ID = "generated/PlaceWellPlate96OnOrbitalShaker-v1"
@@ -23,21 +23,27 @@ def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
     assert load_task_file(path).id == TASK_ID
     assert run_cli("tasks", "validate", path).exit_code == 0
     listed = json.loads(run_cli("--registry-dir", tmp_path, "tasks", "list", "--json").stdout)
-    assert TASK_ID in {row["id"] for row in listed} and len(listed) == 13
+    assert TASK_ID in {row["id"] for row in listed} and len(listed) == len(load_registry().tasks) + 1
     again = run_cli("--registry-dir", tmp_path, "new-task", TEXT, "--out", tmp_path, "--yes")
     assert again.exit_code == 1 and "already registered" in again.stderr
 
 
 def test_check_reports_the_idle_rollout_and_solvability(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", TEXT, "--check", "--dry-run")
+    result = run_cli("new-task", "Close the lid of the thermal cycler", "--check", "--dry-run", "--id", "mylab/ShutCycler-v1")
     assert result.exit_code == 0, result.stderr
-    assert "check: ok" in result.stderr and ("solvability not checked" in result.stderr or "expert" in result.stderr)
+    assert "check: ok" in result.stderr and "expert 'close_lid' solved 2/2" in " ".join(result.stderr.split())
     assert "nothing written" in result.stderr and not list(tmp_path.iterdir())
 
 
+def test_check_refuses_a_task_the_family_expert_cannot_solve(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", TEXT, "--check", "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and "did not solve it; nothing written" in " ".join(result.stderr.split())
+    assert not list(tmp_path.iterdir())
+
+
 def test_check_json_has_the_report(run_cli) -> None:
-    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--dry-run", "--json").stdout)
-    assert data["id"] == "generated/CloseSpectrophotometerLid-v1" and data["check"]["ok"] is True
+    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--dry-run", "--json", "--id", "mylab/ShutSpectro-v1").stdout)
+    assert data["id"] == "mylab/ShutSpectro-v1" and data["check"]["ok"] is True
     assert data["draft"]["intent"] == "close" and data["check"]["idle_steps"] > 0
 
 

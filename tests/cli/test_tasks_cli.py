@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pipette_cli.registry import load_task_file
+from pipette_cli.registry import load_registry, load_task_file
 
 FIXTURES = Path(__file__).parents[1] / "fixtures" / "tasks"
 
@@ -14,15 +14,17 @@ def test_list_json_has_the_twelve_tasks_with_robot_and_evaluator(run_cli) -> Non
     result = run_cli("tasks", "list", "--json")
     assert result.exit_code == 0, result.stderr
     rows = json.loads(result.stdout)
-    assert len(rows) == 12
-    assert all(row["id"].startswith("pipette/") and row["embodiment"] and row["evaluator"] for row in rows)
+    assert len([r for r in rows if "paper-benchmark" in r["tags"]]) == 12
+    assert len(rows) == len(load_registry().tasks)  # plus the tasks `pipette new-task` added
+    assert all(row["id"].count("/") == 1 and row["embodiment"] and row["evaluator"] for row in rows)
     shaker = next(r for r in rows if r["id"] == "pipette/PlaceFlaskOnShaker-v1")
     assert (shaker["embodiment"], shaker["evaluator"]) == ("agilex_piper", "region_hold")
 
 
 def test_list_filters_by_tag(run_cli) -> None:
     rows = json.loads(run_cli("tasks", "list", "--tag", "hatch_control", "--json").stdout)
-    assert sorted(r["id"] for r in rows) == [
+    assert {r["category"] for r in rows} == {"hatch_control"}
+    assert sorted(r["id"] for r in rows if "paper-benchmark" in r["tags"]) == [
         "pipette/CloseCentrifugeLid-v1",
         "pipette/CloseSpectrophotometerLid-v1",
         "pipette/OpenCentrifugeLid-v1",
@@ -32,7 +34,7 @@ def test_list_filters_by_tag(run_cli) -> None:
 
 def test_list_table_prints_every_task(run_cli) -> None:
     result = run_cli("tasks", "list")
-    assert result.exit_code == 0 and "12 tasks" in result.stdout
+    assert result.exit_code == 0 and f"{len(load_registry().tasks)} tasks" in result.stdout
     assert "PlaceFlaskOnShaker" in result.stdout
 
 

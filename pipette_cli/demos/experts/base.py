@@ -7,6 +7,7 @@ policy or a teleoperator produces: arm joint targets plus a gripper command (1 o
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from typing import Protocol
 
@@ -32,15 +33,21 @@ ExpertFactory = Callable[[], Expert]
 _EXPERTS: dict[str, ExpertFactory] = {}
 
 
-def register_expert(*task_names: str) -> Callable[[ExpertFactory], ExpertFactory]:
-    """Register an expert factory for tasks by short name without version (``PickUpTestTube``)."""
+def register_expert(*names: str) -> Callable[[ExpertFactory], ExpertFactory]:
+    """Register an expert factory under task ids without version (``pipette/PickUpTestTube``) or
+    under family names without a namespace (``pick``, ``close_lid``) for generated tasks."""
 
     def decorate(factory: ExpertFactory) -> ExpertFactory:
-        for name in task_names:
-            _EXPERTS[name] = factory
+        for name in names:
+            _EXPERTS[_key(name)] = factory
         return factory
 
     return decorate
+
+
+def _key(name: str) -> str:
+    """``pipette/PickUpTestTube-v1`` -> ``pipette/PickUpTestTube``; family names stay as they are."""
+    return re.sub(r"-v[0-9]+$", "", name)
 
 
 def expert_names() -> list[str]:
@@ -49,16 +56,19 @@ def expert_names() -> list[str]:
 
 
 def make_expert(task_id: str) -> Expert:
-    """The scripted expert for ``task_id`` (any version).
+    """The scripted expert for ``task_id`` (any version), or for a family name.
+
+    The namespace is part of the key: a generated ``generated/CloseSpectrophotometerLid-v1``
+    does not get the benchmark's expert, whose plan names that task's scene objects.
 
     Raises:
         PipetteError: no expert is registered for the task.
     """
     _load_builtins()
-    short = task_id.split("/")[-1].rsplit("-v", 1)[0]
-    factory = _EXPERTS.get(short)
+    key = _key(task_id)
+    factory = _EXPERTS.get(key)
     if factory is None:
-        raise PipetteError(f"no scripted expert for task {task_id!r}; {suggest(short, _EXPERTS)}")
+        raise PipetteError(f"no scripted expert for task {task_id!r}; {suggest(key, _EXPERTS)}")
     return factory()
 
 

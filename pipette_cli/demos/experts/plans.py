@@ -38,10 +38,10 @@ class PlanExpert:
 
 
 def expert(*names: str) -> Callable[[Plan], Plan]:
-    """Register ``plan`` as the expert of the named tasks."""
+    """Register ``plan`` as the expert of the named benchmark tasks (namespace ``pipette``)."""
 
     def decorate(plan: Plan) -> Plan:
-        register_expert(*names)(lambda: PlanExpert(plan))
+        register_expert(*(f"pipette/{name}" for name in names))(lambda: PlanExpert(plan))
         return plan
 
     return decorate
