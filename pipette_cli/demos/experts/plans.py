@@ -299,10 +299,10 @@ def place_pipette_in_rack(world: World, rng: np.random.Generator) -> list[Segmen
     ]
 
 
-DISH_CHORD = 0.037
-"""How far behind a 90 mm dish's centre the fingers pinch it: across a 55 mm chord, which fits the
-Panda's 80 mm opening (the diameter does not); the contact normals lean ~50 deg off the
-closing direction, inside friction 1.5's 56 deg cone. (Tuned over 50 seeds with the pitch.)"""
+DISH_CHORD = 0.026
+"""How far behind a 90 mm dish's centre the fingers pinch it: across a 76 mm chord, just inside the
+Panda's 80 mm opening (the diameter is not). Pinching further back makes the contact normals lean
+toward the friction cone's edge and the dish squeezes out like a pip (tuned over 50 seeds)."""
 DISH_PITCH = 30.0
 """Degrees the hand points below the horizon: low enough to fit between incubator shelves,
 high enough that the palm clears the surface the dish stands on."""
