@@ -128,10 +128,13 @@ class Registry:
             return self.tasks[task_id]
         candidates = [tid for tid in self.tasks if tid.split("/", 1)[1] == task_id]
         if not candidates and not re.search(r"-v\d+$", task_id):
-            short = task_id.split("/")[-1]
-            candidates = [tid for tid in self.tasks if re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == short]
-            candidates.sort(key=lambda tid: int(tid.rsplit("-v", 1)[1]))
-            candidates = candidates[-1:]
+            base = task_id  # "Name" or "namespace/Name": the latest version in each namespace
+            same = [tid for tid in self.tasks if re.sub(r"-v\d+$", "", tid) == base
+                    or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == base]
+            latest: dict[str, str] = {}
+            for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
+                latest[tid.split("/", 1)[0]] = tid
+            candidates = list(latest.values())
         if len(candidates) == 1:
             return self.tasks[candidates[0]]
         if len(candidates) > 1:

@@ -19,7 +19,7 @@ from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
 from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
 from pipette_cli.specs.task import ROBOT_ARM_DOF, TASK_ID_PATTERN, TaskSpec
-from pipette_cli.specs.yaml_io import parse_yaml
+from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 
 PROMPT_TEMPLATE = "prompts/task_draft.md.j2"
 
@@ -72,9 +72,11 @@ def finish_draft(draft: TaskDraftSpec, description: str, backend: str, *, vocab:
     text = render_plan(plan, description=description, backend=backend)
     source = f"<draft {plan.file_stem}.yaml>"
     try:
-        spec = validate_task_document(parse_yaml(text, source), source)
+        doc = parse_yaml(text, source)
+        spec = validate_task_document(doc, source)
     except SpecError as exc:
         raise DraftError(["the drafted YAML does not validate (a bug in the template or plan):", *exc.problems]) from None
+    text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
     if build:
         from pipette_cli.sim.world import World
 

@@ -89,8 +89,18 @@ def test_contract_spec_round_trips(task_id: str) -> None:
 def test_lookup_by_short_name_and_did_you_mean() -> None:
     assert REGISTRY.get("PickUpTestTube-v1").id == "pipette/PickUpTestTube-v1"
     assert REGISTRY.get("PickUpTestTube").id == "pipette/PickUpTestTube-v1"
+    assert REGISTRY.get("pipette/PickUpTestTube").id == "pipette/PickUpTestTube-v1"
     with pytest.raises(TaskNotFound, match="did you mean .*PickUpTestTube"):
         REGISTRY.get("PickUpTestTub")
+
+
+def test_a_short_name_in_two_namespaces_is_ambiguous(tmp_path: Path) -> None:
+    text = (FIXTURES / "valid_pick.yaml").read_text().replace("testlab/PickUpMicrotube-v1", "mylab/PickUpTestTube-v1")
+    (tmp_path / "pick.yaml").write_text(text)
+    registry = load_registry([tmp_path])
+    with pytest.raises(TaskNotFound, match="ambiguous: mylab/PickUpTestTube-v1, pipette/PickUpTestTube-v1"):
+        registry.get("PickUpTestTube")
+    assert registry.get("pipette/PickUpTestTube").id == "pipette/PickUpTestTube-v1"
 
 
 def test_extra_folders_from_env_and_option(monkeypatch: pytest.MonkeyPatch) -> None:
