@@ -15,10 +15,12 @@ import typer
 from rich.logging import RichHandler
 
 from pipette_cli import __version__
+from pipette_cli.cli import agent as agent_cli
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli import experts as experts_cli
 from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
 from pipette_cli.cli import collect as collect_cli, data as data_cli
+from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
 from pipette_cli.cli.common import STATE, err_console
@@ -32,12 +34,14 @@ app = typer.Typer(
     add_completion=False,
 )
 app.add_typer(tasks_cli.app, name="tasks")
+app.command("agent")(agent_cli.agent)
 app.add_typer(assets_cli.app, name="assets")
 app.add_typer(experts_cli.app, name="experts")
 app.add_typer(sim_cli.app, name="sim")
 app.command("new-task")(authoring_cli.new_task)
 app.command("collect")(collect_cli.collect)
 app.add_typer(data_cli.app, name="data")
+app.command("convert")(convert_cli.convert)
 
 
 def _version(value: bool) -> None:

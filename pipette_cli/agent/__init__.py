@@ -1,0 +1,1 @@
+"""``pipette agent``: natural-language requests -> exact ``pipette`` commands (paper appendix B)."""
