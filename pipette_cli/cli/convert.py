@@ -1,0 +1,121 @@
+"""``pipette convert`` (HDF5 episodes -> LeRobot dataset) and ``pipette data stats`` (its summary)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.data import app as data_app
+from pipette_cli.lerobot.frames import FrameFilter
+
+
+def convert(
+    inputs: Annotated[list[Path], typer.Argument(help="HDF5 files written by `pipette collect` (or augmentation).")],
+    repo_id: Annotated[str | None, typer.Option("--repo-id", help="LeRobot repo id OWNER/NAME (default local/<task>_<version>); never pushed.")] = None,
+    root: Annotated[Path | None, typer.Option("--root", help="Dataset folder to create (default datasets/<task>/<version>).")] = None,
+    fps: Annotated[int, typer.Option("--fps", min=1, help="Dataset frame rate.")] = 10,
+    frame_filter: Annotated[FrameFilter, typer.Option("--frame-filter", help="fresh: steps with a new camera frame; stride: every k-th step.")] = FrameFilter.fresh,
+    video: Annotated[bool, typer.Option("--video/--images", help="Cameras as MP4 video (lossy, small) or PNG images (exact).")] = True,
+    dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented; the two go to separate datasets.")] = "raw",
+    include_failed: Annotated[bool, typer.Option("--include-failed", help="Keep failed episodes too.")] = False,
+    allow_mixed: Annotated[bool, typer.Option("--allow-mixed", help="Allow several tasks or embodiments in one dataset.")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing dataset at --root.")] = False,
+    vcodec: Annotated[str, typer.Option("--vcodec", help="Video codec: libsvtav1 (LeRobot default) or h264 (faster).")] = "libsvtav1",
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable result.")] = False,
+) -> None:
+    """Convert recorded episodes into a LeRobot dataset (written with LeRobot's own API, offline).
+
+    Keeps successful episodes, one frame per fresh camera frame (10 Hz), with the three camera
+    views, the state, the action and the instruction. The dataset is built beside --root and
+    renamed into place only when complete.
+
+    Example: pipette convert tube.h5 --repo-id local/tube_raw --root datasets/tube/raw
+    """
+    from pipette_cli.demos.store import scan
+    from pipette_cli.errors import DatasetError
+    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert as run_convert, default_root, slug
+
+    try:
+        version = DatasetVersion(dataset_version)
+    except ValueError:
+        raise DatasetError(f"--dataset-version must be raw or augmented, not {dataset_version!r}") from None
+    if repo_id is None or root is None:
+        first = scan(inputs[0]).info
+        if first is None:
+            raise DatasetError(f"{inputs[0]}: no such file")
+        repo_id = repo_id or f"local/{slug(first.task_id).replace('/', '_')}_{version.value}"
+        root = root or default_root(first.task_id, version)
+    options = ConvertOptions(
+        repo_id=repo_id, root=root, fps=fps, frame_filter=frame_filter, video=video, dataset_version=version,
+        include_failed=include_failed, allow_mixed=allow_mixed, overwrite=overwrite, vcodec=vcodec,
+    )
+    with Progress(
+        TextColumn("converting"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+        console=err_console, disable=STATE.verbosity < 0 or as_json, transient=True,
+    ) as progress:
+        bar = progress.add_task("episodes", total=None)
+
+        def planned(plan) -> None:
+            progress.update(bar, total=len(plan.episodes))
+            if plan.skipped:
+                err_console.print(f"skipping {len(plan.skipped)} failed episodes (--include-failed keeps them)")
+
+        result = run_convert(
+            inputs, options, on_plan=planned, on_episode=lambda done, total: progress.update(bar, completed=done)
+        )
+    report = {
+        "root": str(result.root), "repo_id": result.repo_id, "dataset_version": version.value,
+        "episodes": result.episodes, "frames": result.frames, "skipped_failed": result.skipped,
+        "seconds": round(result.seconds, 3), "frames_per_s": round(result.frames_per_s, 2),
+    }
+    if as_json:
+        print_json(report)
+        return
+    out_console.print(
+        f"{result.root}: {result.episodes} episodes, {result.frames} frames at {fps} Hz "
+        f"({result.skipped} failed episodes skipped), {result.frames_per_s:.1f} frames/s"
+    )
+
+
+@data_app.command("stats")
+def stats(
+    root: Annotated[Path, typer.Argument(help="LeRobot dataset folder (the --root of `pipette convert`).")],
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """Show a LeRobot dataset's episodes, frames, per-feature ranges and success provenance.
+
+    Example: pipette data stats datasets/tube/raw --json
+    """
+    from pipette_cli.lerobot.stats import dataset_stats
+
+    report = dataset_stats(root)
+    if as_json:
+        print_json(report)
+        return
+    out_console.print(
+        f"{root}: {report['episodes']} episodes, {report['frames']} frames at {report['fps']} Hz "
+        f"(episode length {report['episode_length']['min']}..{report['episode_length']['max']}), "
+        f"{'video' if report['video'] else 'images'}, robot {report['robot_type']}"
+    )
+    table = Table(title="features")
+    for column in ("feature", "dtype", "shape", "min", "max"):
+        table.add_column(column)
+    for name, f in report["features"].items():
+        fmt = lambda v: "-" if v is None else " ".join(f"{x:.3g}" for x in v)  # noqa: E731
+        table.add_row(name, f["dtype"], "x".join(map(str, f["shape"])), fmt(f.get("min")), fmt(f.get("max")))
+    out_console.print(table)
+    prov = report.get("provenance")
+    if prov:
+        reasons = ", ".join(f"{k} {v}" for k, v in prov["failure_reasons"].items())
+        out_console.print(
+            f"{prov['dataset_version']} dataset: {prov['successful']} successful, {prov['failed']} failed"
+            f"{f' ({reasons})' if reasons else ''}; {prov['skipped_failed']} failed episodes left out; "
+            f"sources {prov['sources']}; {prov['perturbed']} perturbed; from {len(prov['files'])} files"
+        )
+    else:
+        err_console.print("no meta/pipette.json: not converted by Pipette, success provenance unknown")
