@@ -23,6 +23,7 @@ from pipette_cli.cli import collect as collect_cli, data as data_cli
 from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
+from pipette_cli.cli import augment as augment_cli
 from pipette_cli.cli.common import STATE, err_console
 from pipette_cli.errors import PipetteError
 
@@ -41,6 +42,7 @@ app.add_typer(sim_cli.app, name="sim")
 app.command("new-task")(authoring_cli.new_task)
 app.command("collect")(collect_cli.collect)
 app.add_typer(data_cli.app, name="data")
+app.command("augment")(augment_cli.augment)
 app.command("convert")(convert_cli.convert)
 
 

@@ -1,0 +1,1 @@
+"""Success-verified simulation augmentation (paper A.7): perturb, re-simulate, judge, render, write."""

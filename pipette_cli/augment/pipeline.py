@@ -1,0 +1,197 @@
+"""One demo through every variant: check the original, simulate, judge, render the kept ones, write.
+
+:class:`DemoAugmenter` owns one :class:`~pipette_cli.sim.world.World` (and, once something must
+be rendered, one :class:`~pipette_cli.sim.render.CameraRig`); an executor gives each worker
+one. For each demo:
+
+1. the original is replayed without rendering; a demo that does not reproduce its recorded
+   states bit for bit, or does not succeed, is reported and skipped;
+2. each variant is planned (:func:`~.perturb.plan_variant`); physics variants (speed, joint
+   noise, object pose) are simulated without rendering and judged by the task's evaluator;
+   light/camera-only variants reuse the original's verified physics as is;
+3. only passing variants are rendered, from their recorded states, and written with the
+   recorder's schema; failures are counted with their reasons (and optionally written too).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pipette_cli.augment.objectcentric import adapt_actions
+from pipette_cli.augment.perturb import VariantPlan, plan_variant
+from pipette_cli.augment.render import fresh_steps, render_rollout
+from pipette_cli.augment.simulate import Rollout, replay_check, settle_steps, simulate
+from pipette_cli.augment.specs import AugmentSpec
+from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
+from pipette_cli.demos.store import EpisodeRef, read_episode
+from pipette_cli.sim.env import Observation
+from pipette_cli.sim.render import CameraRig
+from pipette_cli.sim.world import World
+from pipette_cli.specs.task import TaskSpec
+
+log = logging.getLogger(__name__)
+
+REPLAY_FAILED = "replay_failed"
+NOT_SUCCESSFUL = "source_failed"
+
+
+@dataclass(frozen=True)
+class DemoJob:
+    """One source demo to augment."""
+
+    position: int
+    ref: EpisodeRef
+    kept_dir: Path
+    rejected_dir: Path | None = None
+
+
+@dataclass
+class VariantOutcome:
+    variant: str
+    magnitude: str
+    kept: bool
+    reason: str
+    steps: int
+    simulated: bool
+    params: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class DemoResult:
+    """What a worker did with one demo; ``kept``/``rejected`` are closed, uncommitted part files."""
+
+    position: int
+    uid: str
+    seed: int
+    status: str
+    """``ok``, ``replay_failed`` or ``source_failed``."""
+    detail: str = ""
+    outcomes: list[VariantOutcome] = field(default_factory=list)
+    kept: list[Path] = field(default_factory=list)
+    rejected: list[Path] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=lambda: {"physics": 0.0, "render": 0.0, "write": 0.0})
+
+
+def write_rollout(
+    path: Path, info: DatasetInfo, rollout: Rollout, frames: list[dict[str, np.ndarray]], *, index: int, seed: int,
+    vision_every: int, attrs: dict[str, Any],
+) -> Path:
+    """Write a rendered rollout with :class:`EpisodeWriter`; returns the closed ``.tmp`` file."""
+    fresh = fresh_steps(rollout.num_steps, vision_every)
+    last = 0
+    writer = EpisodeWriter(path, info, index=index, seed=seed, source="augmented", attrs=attrs)
+    with writer:
+        for t in range(rollout.num_steps):
+            last = t if fresh[t] else last
+            obs = Observation(
+                images=frames[t] if frames else {}, state=rollout.obs_state[t], fresh=bool(fresh[t]),
+                frame_age=t - last, sim_time=float(rollout.sim_time[t]), wall_time=float(rollout.wall_time[t]),
+                step=t + 1, instruction=info.instruction,
+            )
+            writer.add(obs, rollout.actions[t], rollout.states[t])
+        writer.close(rollout.verdict, rollout.final_state, rollout.final_sim_state)
+    return writer.tmp
+
+
+class DemoAugmenter:
+    """Augments demos of one task with one spec (one per worker process)."""
+
+    def __init__(self, task: TaskSpec, spec: AugmentSpec, info: DatasetInfo, *, render: bool = True, attrs: dict[str, Any] | None = None) -> None:
+        self.task, self.spec, self.info = task, spec, info
+        self.world = World(task)
+        self.render = render
+        self.rig: CameraRig | None = None
+        self.attrs = dict(attrs or {})
+        self.settle = settle_steps(self.world, spec.settle_s)
+
+    def _rig(self) -> CameraRig:
+        if self.rig is None:
+            self.rig = CameraRig(self.world.model, self.info.image_width, self.info.image_height)
+        return self.rig
+
+    def close(self) -> None:
+        if self.rig is not None:
+            self.rig.close()
+            self.rig = None
+
+    def run(self, job: DemoJob) -> DemoResult:
+        record = read_episode(job.ref)
+        s = record.summary
+        result = DemoResult(job.position, s.uid, s.seed, "ok")
+        original = Rollout.from_record(record)
+        t0 = time.perf_counter()
+        if not s.success:
+            result.status, result.detail = NOT_SUCCESSFUL, f"the demo failed when recorded ({s.reason})"
+            return result
+        why = replay_check(self.world, s.seed, original)
+        result.seconds["physics"] += time.perf_counter() - t0
+        if why is not None:
+            result.status, result.detail = REPLAY_FAILED, why
+            return result
+        target = self.task.targets[0] if self.task.targets else None
+        for v, variant in enumerate(self.spec.variants):
+            t0 = time.perf_counter()
+            plan = plan_variant(variant, original.actions, seed=self.spec.seed, demo_seed=s.seed, default_object=target)
+            if plan.offset is not None and plan.actions is not None:
+                plan.actions = adapt_actions(self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp)
+            if plan.physics:
+                assert plan.actions is not None
+                rollout = simulate(
+                    self.world, s.seed, original.states[0], plan.actions, settle_steps=self.settle, offset=plan.offset
+                )
+            else:
+                rollout = original  # lights and cameras do not change the physics: verified above
+            result.seconds["physics"] += time.perf_counter() - t0
+            kept = bool(rollout.verdict.success)
+            reason = "" if kept else (rollout.verdict.reason or "undecided")
+            result.outcomes.append(
+                VariantOutcome(plan.variant, plan.magnitude, kept, reason, rollout.num_steps, plan.physics, plan.params)
+            )
+            folder = job.kept_dir if kept else job.rejected_dir
+            if folder is None:
+                continue
+            path = folder / f"aug_{s.uid}_{v:03d}.h5"
+            tmp = self._write(path, rollout, plan, s.seed, job, record.attrs, result)
+            (result.kept if kept else result.rejected).append(tmp)
+        return result
+
+    def _write(
+        self, path: Path, rollout: Rollout, plan: VariantPlan, seed: int, job: DemoJob, source: dict[str, object],
+        result: DemoResult,
+    ) -> Path:
+        t0 = time.perf_counter()
+        frames = (
+            render_rollout(self.world, self._rig(), seed, rollout, plan, vision_every=self.task.timing.vision_every)
+            if self.render else []
+        )
+        t1 = time.perf_counter()
+        attrs = {
+            **self.attrs,
+            "augment_variant": plan.variant,
+            "augment_magnitude": plan.magnitude,
+            "augment_params": json.dumps(plan.params, sort_keys=True),
+            "augment_seed": self.spec.seed,
+            "augment_simulated": plan.physics,
+            "augment_source_file": str(job.ref.file),
+            "augment_source_index": job.ref.index,
+            "augment_source_uid": str(source.get("uid", "")),
+            "augment_source_expert": str(source.get("expert", "")),
+            "augment_source_kind": str(source.get("source", "")),
+            "augment_object_offset": json.dumps(plan.offset.as_dict() if plan.offset else {}),
+        }
+        if "expert" in source:
+            attrs["expert"] = str(source["expert"])
+        tmp = write_rollout(
+            path, self.info, rollout, frames, index=job.position, seed=seed,
+            vision_every=self.task.timing.vision_every, attrs=attrs,
+        )
+        result.seconds["render"] += t1 - t0
+        result.seconds["write"] += time.perf_counter() - t1
+        return tmp

@@ -1,0 +1,82 @@
+"""Render kept rollouts from their recorded states, with perturbed lights and cameras.
+
+Frames equal those rendered during simulation, bit for bit. After ``mj_step`` MuJoCo's
+kinematics (``xpos``, ``cam_xpos``, ...) belong to the state *before* the last substep's
+integration, and :class:`~pipette_cli.sim.env.PipetteEnv` renders that data. So the frame of
+control step ``t > 0`` is reproduced by restoring ``sim_state[t - 1]`` and re-running action
+``t - 1`` (``substeps`` calls of ``mj_step``, bit-exact); step 0 is the restored start after
+``mj_forward``. Only fresh steps (10 Hz) are rendered; stale ones reuse the frame.
+
+Lighting and camera pose do not touch the physics: lights are scaled in ``model.light_*``
+(and the headlight), cameras moved in ``model.cam_pos``; both are restored afterwards.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import mujoco
+import numpy as np
+
+from pipette_cli.augment.perturb import VariantPlan
+from pipette_cli.augment.simulate import Rollout, restore
+from pipette_cli.demos.recorder import SIM_STATE
+from pipette_cli.sim.render import CameraRig
+from pipette_cli.sim.world import World
+
+_LIGHT_FIELDS = ("light_ambient", "light_diffuse", "light_specular", "light_intensity")
+_HEADLIGHT_FIELDS = ("ambient", "diffuse", "specular")
+
+
+@contextmanager
+def visual_perturbation(model: mujoco.MjModel, plan: VariantPlan, camera_ids: dict[str, int]) -> Iterator[None]:
+    """Scale every light by ``plan.light_scale`` and move cameras by ``plan.camera_offsets`` for the block."""
+    saved = {name: getattr(model, name).copy() for name in _LIGHT_FIELDS}
+    saved_head = {name: np.array(getattr(model.vis.headlight, name)) for name in _HEADLIGHT_FIELDS}
+    saved_cam = model.cam_pos.copy()
+    try:
+        if plan.light_scale != 1.0:
+            for name in _LIGHT_FIELDS:
+                getattr(model, name)[:] = saved[name] * plan.light_scale
+            if plan.headlight:
+                for name in _HEADLIGHT_FIELDS:
+                    setattr(model.vis.headlight, name, saved_head[name] * plan.light_scale)
+        for camera, delta in plan.camera_offsets.items():
+            model.cam_pos[camera_ids[camera]] = saved_cam[camera_ids[camera]] + delta
+        yield
+    finally:
+        for name in _LIGHT_FIELDS:
+            getattr(model, name)[:] = saved[name]
+        for name in _HEADLIGHT_FIELDS:
+            setattr(model.vis.headlight, name, saved_head[name])
+        model.cam_pos[:] = saved_cam
+
+
+def fresh_steps(num_steps: int, vision_every: int) -> np.ndarray:
+    """Rows whose frame is new: control step ``k = t + 1`` with ``(k - 1) mod d_v == 0``."""
+    return np.arange(num_steps) % vision_every == 0
+
+
+def render_rollout(
+    world: World, rig: CameraRig, seed: int, rollout: Rollout, plan: VariantPlan, *, vision_every: int
+) -> list[dict[str, np.ndarray]]:
+    """One dict of camera frames per row; stale rows share the previous row's arrays."""
+    m, d = world.model, world.data
+    fresh = fresh_steps(rollout.num_steps, vision_every)
+    frames: list[dict[str, np.ndarray]] = []
+    with visual_perturbation(m, plan, rig.ids):
+        restore(world, seed, rollout.states[0], plan.offset)
+        for t in range(rollout.num_steps):
+            if not fresh[t]:
+                frames.append(frames[-1])
+                continue
+            if t > 0:
+                mujoco.mj_setState(m, d, rollout.states[t - 1], SIM_STATE)
+                world.apply_action(rollout.actions[t - 1])
+                for _ in range(world.substeps):
+                    mujoco.mj_step(m, d)
+            else:
+                mujoco.mj_forward(m, d)  # camera poses follow the moved cameras
+            frames.append(rig.render_all(d))
+    return frames

@@ -1,0 +1,123 @@
+"""``pipette augment``: success-verified simulation augmentation of recorded demos (paper A.7)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import PipetteError
+from pipette_cli.registry import load_registry
+
+
+def _table(report: dict) -> Table:
+    table = Table(title=f"yield: {report['kept']}/{report['attempts']} kept ({report['yield']:.0%})")
+    for col in ("variant", "magnitude", "attempts", "kept", "yield", "failures"):
+        table.add_column(col, justify="right" if col in ("attempts", "kept", "yield") else "left")
+    for row in report["variants"]:
+        failures = ", ".join(f"{k} {v}" for k, v in row["failures"].items())
+        table.add_row(row["variant"], row["magnitude"], str(row["attempts"]), str(row["kept"]), f"{row['yield']:.0%}", failures)
+    return table
+
+
+def augment(
+    task_id: Annotated[str, typer.Argument(help="Task id, e.g. PickUpTestTube.")],
+    input: Annotated[Path, typer.Option("--input", "-i", help="Raw demos (HDF5 from `pipette collect`).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Augmented file to create or resume.")],
+    variants: Annotated[str, typer.Option("--variants", help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object.")] = "paper",
+    light_scale: Annotated[float, typer.Option("--light-scale", help="s_I: every light's intensity factor.")] = 0.8,
+    speed: Annotated[float, typer.Option("--speed", help="s_v: speed factor of the resampling.")] = 1.2,
+    rho: Annotated[float, typer.Option("--rho", help="Strength of the local speed noise.")] = 0.10,
+    interpolation: Annotated[str, typer.Option("--interpolation", help="catmull_rom or linear.")] = "catmull_rom",
+    noise_sigma: Annotated[float, typer.Option("--noise-sigma", help="Joint-target noise std (rad).")] = 0.005,
+    noise_clip: Annotated[float, typer.Option("--noise-clip", help="Joint-target noise bound (rad).")] = 0.02,
+    camera: Annotated[str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")] = "random",
+    camera_radius: Annotated[float, typer.Option("--camera-radius", help="Ball radius (m) for top/main.")] = 0.2,
+    wrist_radius: Annotated[float, typer.Option("--wrist-radius", help="Ball radius (m) for the wrist camera.")] = 0.002,
+    object_xy: Annotated[float, typer.Option("--object-xy", help="Object shift range (m) for the object variant.")] = 0.02,
+    object_yaw: Annotated[float, typer.Option("--object-yaw", help="Object yaw range (deg) for the object variant.")] = 0.0,
+    seed: Annotated[int, typer.Option("--seed", help="Base seed of the perturbations.")] = 0,
+    image_size: Annotated[int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")] = 0,
+    rejected: Annotated[Path | None, typer.Option("--rejected", help="Also keep failed variants in this file.")] = None,
+    workers: Annotated[int | None, typer.Option("--workers", "-w", min=1, help="Worker processes (default: all cores).")] = None,
+    executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
+    address: Annotated[str | None, typer.Option("--address", help="Ray cluster address (--executor ray).")] = None,
+    report: Annotated[Path | None, typer.Option("--report", help="Write the yield report JSON here.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the yield report as JSON.")] = False,
+) -> None:
+    """Replay every demo under perturbations (lighting, speed, joint noise, camera pose, object
+    pose), re-simulate without rendering, keep only variants the task's evaluator passes, then
+    render the kept ones from their recorded states. Resumable; Ctrl-C safe (docs/augmentation.md).
+
+    Example: pipette augment PickUpTestTube --input raw.h5 --output aug.h5 --workers 4
+    """
+    from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
+    from pipette_cli.errors import SpecError
+
+    if executor not in ("local", "ray"):
+        raise PipetteError(f"--executor must be local or ray, not {executor!r}")
+    atoms = default_atoms(
+        light={"scale": light_scale},
+        speed={"factor": speed, "rho": rho, "interpolation": interpolation},
+        noise={"sigma": noise_sigma, "bound": noise_clip},
+        cam={"camera": camera, "radius": camera_radius, "wrist_radius": wrist_radius},
+        object={"xy": object_xy, "yaw_deg": object_yaw},
+    )
+    names = [n.strip() for n in variants.split(",") if n.strip()]
+    if not names:
+        raise SpecError("--variants is empty")
+    spec = AugmentSpec(variants=make_variants(names, atoms), seed=seed, image_size=image_size)
+    task = load_registry(STATE.registry_dirs).get(task_id)
+    from pipette_cli.augment.run import augment as run_augment
+    from pipette_cli.augment.run import check_inputs
+    from pipette_cli.demos.collect import deferred_sigint
+
+    check_inputs(task, input, output, rejected)
+    progress = Progress(
+        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
+        console=err_console, disable=STATE.verbosity < 0,
+    )
+    bar = progress.add_task(f"{task.short_name}", total=None)
+    kept = tried = 0
+
+    def started(skipped: int, todo: int) -> None:
+        if skipped:
+            err_console.print(f"{output}: {skipped} demos already augmented; {todo} to go", soft_wrap=True)
+        progress.update(bar, total=todo)
+        progress.start()
+
+    def finished(result) -> None:  # noqa: ANN001
+        nonlocal kept, tried
+        kept += sum(o.kept for o in result.outcomes)
+        tried += len(result.outcomes)
+        if result.status != "ok":
+            err_console.print(f"demo {result.position} skipped: {result.detail}", soft_wrap=True)
+        progress.update(bar, advance=1, description=f"{task.short_name} [green]{kept} kept[/green] of {tried}")
+
+    try:
+        with deferred_sigint() as interrupted:
+            result = run_augment(
+                task, input, output, spec, rejected=rejected, workers=workers, executor=executor,  # type: ignore[arg-type]
+                address=address, on_start=started, on_demo=finished, stop=interrupted,
+            )
+    finally:
+        progress.stop()
+    data = {**result.report, "output": str(output), "seconds": round(result.seconds, 2)}
+    if report is not None:
+        report.write_text(json.dumps(data, indent=2))
+    if as_json:
+        print_json(data)
+    else:
+        out_console.print(_table(result.report))
+        skipped = result.report["demos_skipped"]
+        if skipped:
+            out_console.print(f"demos skipped: {', '.join(f'{k} {v}' for k, v in skipped.items())}")
+        out_console.print(f"{output}: {result.report['kept']} episodes kept ({result.new_demos} demos augmented now)")
+    if result.interrupted:
+        err_console.print("interrupted; run the same command again to resume", soft_wrap=True)
+        raise typer.Exit(130)

@@ -1,0 +1,55 @@
+"""`pipette augment`: bad input refused before any work; a small run prints and writes the yield report."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "augment"))
+from raw_demo import raw_demo  # noqa: E402
+
+pytestmark = pytest.mark.render
+HOLD_REGISTRY = Path(__file__).resolve().parents[1] / "fixtures" / "demos" / "registry"
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["--camera-radius", "-0.5"], "radius"),
+        (["--speed", "0"], "factor"),
+        (["--wrist-radius", "-1"], "wrist_radius"),
+        (["--variants", "light,sped"], "did you mean 'speed'"),
+    ],
+)
+def test_impossible_parameters_fail_before_any_work(run_cli, tmp_path_factory, tmp_path: Path, args, needle) -> None:
+    raw = raw_demo(tmp_path_factory)
+    out = tmp_path / "aug.h5"
+    result = run_cli("augment", "PickUpTestTube", "--input", raw, "--output", out, *args)
+    assert result.exit_code == 1 and needle in result.stderr
+    assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_raw_file_of_another_task_is_refused(run_cli, tmp_path_factory, tmp_path: Path) -> None:
+    raw = raw_demo(tmp_path_factory)
+    result = run_cli("--registry-dir", HOLD_REGISTRY, "augment", "testlab/HoldTube", "-i", raw, "-o", tmp_path / "a.h5")
+    assert result.exit_code == 1 and "not testlab/HoldTube-v1" in result.stderr
+    assert not list(tmp_path.iterdir())
+
+
+def test_small_run_reports_yield_as_json(run_cli, tmp_path_factory, tmp_path: Path) -> None:
+    raw = raw_demo(tmp_path_factory)
+    out, report = tmp_path / "aug.h5", tmp_path / "yield.json"
+    result = run_cli(
+        "augment", "PickUpTestTube", "-i", raw, "-o", out, "--variants", "light,speed", "--speed", "6",
+        "--workers", "1", "--json", "--report", report,
+    )
+    assert result.exit_code == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data == json.loads(report.read_text())
+    rows = {r["variant"]: r for r in data["variants"]}
+    assert rows["light"]["kept"] == 1 and rows["light"]["magnitude"] == "s_I=0.8"
+    assert rows["speed"]["magnitude"].startswith("s_v=6") and rows["speed"]["kept"] == 0  # 6x too fast to lift
+    assert data["kept"] == 1 and out.exists()

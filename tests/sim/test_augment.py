@@ -1,0 +1,115 @@
+"""Physics-first augmentation on a real PickUpTestTube demo: filtering, frames, re-verification, resume."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipette_cli.augment.run import augment, ledger_path
+from pipette_cli.augment.specs import AugmentSpec, CameraPoseSpec, JointNoiseSpec, LightingSpec, SpeedSpec, VariantSpec
+from pipette_cli.augment.verify import verify_file
+from pipette_cli.demos.store import read_episode, scan
+from pipette_cli.registry import load_registry
+from pipette_cli.sim.env import PipetteEnv
+
+pytestmark = pytest.mark.render
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "augment"))
+from raw_demo import TASK, raw_demo  # noqa: E402
+
+SPEC = AugmentSpec(
+    variants=[
+        VariantSpec(name="original"),
+        VariantSpec(name="light+cam", perturbations=[LightingSpec(scale=0.5), CameraPoseSpec(camera="top", radius=0.2)]),
+        VariantSpec(name="speed", perturbations=[SpeedSpec()]),
+        VariantSpec(name="destroy", perturbations=[JointNoiseSpec(sigma=0.5, bound=0.5)]),  # deliberately destructive
+    ]
+)
+
+
+@pytest.fixture(scope="module")
+def task():
+    return load_registry([]).get(TASK)
+
+
+@pytest.fixture(scope="module")
+def run(task, tmp_path_factory):
+    raw = raw_demo(tmp_path_factory)
+    folder = tmp_path_factory.mktemp("aug")
+    out, rejected = folder / "aug.h5", folder / "rejected.h5"
+    result = augment(task, raw, out, SPEC, rejected=rejected, workers=1)
+    return raw, out, rejected, result
+
+
+def test_destructive_variant_is_filtered_and_counted(run) -> None:
+    _, out, rejected, result = run
+    rows = {r["variant"]: r for r in result.report["variants"]}
+    assert {k: v["kept"] for k, v in rows.items()} == {"original": 1, "light+cam": 1, "speed": 1, "destroy": 0}
+    assert sum(rows["destroy"]["failures"].values()) == 1
+    kept = [read_episode(ref).attrs["augment_variant"] for ref in scan(out).episodes]
+    assert kept == ["original", "light+cam", "speed"]
+    failed = read_episode(scan(rejected).episodes[0])
+    assert failed.attrs["augment_variant"] == "destroy" and not failed.summary.success
+    assert failed.summary.reason == next(iter(rows["destroy"]["failures"]))
+
+
+def test_every_kept_episode_reverifies(run, task) -> None:
+    _, out, rejected, _ = run
+    checks = verify_file(task, out)
+    assert len(checks) == 3 and all(c.ok for c in checks), checks
+    assert not any(c.ok for c in verify_file(task, rejected))
+
+
+def test_frames_from_recorded_states_equal_frames_rendered_during_simulation(run, task) -> None:
+    raw, out, _, _ = run
+    original = read_episode(scan(raw).episodes[0], images=True)  # rendered by `collect` while simulating
+    episodes = [read_episode(ref, images=True) for ref in scan(out).episodes]
+    same = episodes[0]
+    for cam in ("top", "main", "wrist"):
+        assert same.images[cam].tobytes() == original.images[cam].tobytes(), cam
+    assert same.arrays["sim_state"].tobytes() == original.arrays["sim_state"].tobytes()
+    # light/camera only: same physics, other pixels
+    visual = episodes[1]
+    assert visual.arrays["sim_state"].tobytes() == original.arrays["sim_state"].tobytes()
+    assert not np.array_equal(visual.images["top"], original.images["top"])
+    assert visual.images["wrist"].mean() < original.images["wrist"].mean()  # darker at s_I = 0.5
+    # a re-simulated variant rendered by PipetteEnv while stepping equals our render from its states
+    speed = episodes[2]
+    env = PipetteEnv(task, image_size=16)
+    try:
+        obs = env.reset(speed.summary.seed)
+        frames = [obs.images]
+        for action in speed.arrays["action"][:-1]:
+            obs, _ = env.step(action)
+            frames.append(obs.images)
+    finally:
+        env.close()
+    for cam in ("top", "main", "wrist"):
+        assert np.stack([f[cam] for f in frames]).tobytes() == speed.images[cam].tobytes(), cam
+
+
+def test_provenance_and_speed_resampling_in_attributes(run) -> None:
+    raw, out, _, _ = run
+    src = read_episode(scan(raw).episodes[0])
+    speed = read_episode(scan(out).episodes[2])
+    params = json.loads(speed.attrs["augment_params"])
+    assert params["speed"]["factor"] == 1.2 and params["speed"]["source_steps"] == src.summary.num_steps
+    assert speed.summary.num_steps < src.summary.num_steps  # 1.2x faster
+    assert speed.attrs["augment_source_uid"] == src.summary.uid and speed.attrs["source"] == "augmented"
+    assert speed.summary.seed == src.summary.seed and speed.attrs["git_commit"]
+
+
+def test_rerun_skips_finished_demos_and_other_parameters_are_refused(run, task) -> None:
+    raw, out, rejected, _ = run
+    before = out.read_bytes()
+    again = augment(task, raw, out, SPEC, rejected=rejected, workers=1)
+    assert again.new_demos == 0 and again.skipped_demos == 1
+    assert out.read_bytes() == before
+    assert json.loads(ledger_path(out).read_text())["demos"]
+    from pipette_cli.errors import DatasetError
+
+    with pytest.raises(DatasetError, match="other parameters"):
+        augment(task, raw, out, SPEC.model_copy(update={"seed": 9}), workers=1)
