@@ -48,7 +48,8 @@ class DemoJob:
 
     position: int
     ref: EpisodeRef
-    kept_dir: Path
+    kept_dir: Path | None
+    """Where kept variants are written; None writes nothing (calibration)."""
     rejected_dir: Path | None = None
 
 

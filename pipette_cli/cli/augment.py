@@ -48,6 +48,7 @@ def augment(
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
     address: Annotated[str | None, typer.Option("--address", help="Ray cluster address (--executor ray).")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write the yield report JSON here.")] = None,
+    target_yield: Annotated[float | None, typer.Option("--target-yield", help="Shrink all magnitudes (x0.7 per round, physics only, first 3 demos) until this fraction of variants passes.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the yield report as JSON.")] = False,
 ) -> None:
     """Replay every demo under perturbations (lighting, speed, joint noise, camera pose, object
@@ -78,6 +79,13 @@ def augment(
     from pipette_cli.demos.collect import deferred_sigint
 
     check_inputs(task, input, output, rejected)
+    if target_yield is not None:
+        from pipette_cli.augment.calibrate import calibrate
+
+        found = calibrate(task, input, spec, target_yield)
+        for row in found.rounds:
+            err_console.print(f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})")
+        spec = found.spec
     progress = Progress(
         TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
         console=err_console, disable=STATE.verbosity < 0,

@@ -113,3 +113,23 @@ def test_rerun_skips_finished_demos_and_other_parameters_are_refused(run, task) 
 
     with pytest.raises(DatasetError, match="other parameters"):
         augment(task, raw, out, SPEC.model_copy(update={"seed": 9}), workers=1)
+
+
+def test_target_yield_shrinks_magnitudes_until_enough_variants_pass(task, tmp_path_factory) -> None:
+    from pipette_cli.augment.calibrate import calibrate
+
+    raw = raw_demo(tmp_path_factory)
+    spec = AugmentSpec(variants=[VariantSpec(name="noise", perturbations=[JointNoiseSpec(sigma=0.5, bound=0.5)])])
+    found = calibrate(task, raw, spec, target=1.0, demos=1, shrink=0.3)
+    assert found.rounds[0]["factor"] == 1.0 and found.rounds[0]["yield"] == 0.0  # full magnitude destroys the demo
+    assert found.factor < 1.0 and found.rounds[-1]["yield"] == 1.0
+    noise = found.spec.variants[0].perturbations[0]
+    assert noise.sigma == pytest.approx(0.5 * found.factor) and noise.bound == pytest.approx(0.5 * found.factor)
+
+
+def test_target_yield_out_of_range_is_refused(task, tmp_path_factory) -> None:
+    from pipette_cli.augment.calibrate import calibrate
+    from pipette_cli.errors import PipetteError
+
+    with pytest.raises(PipetteError, match=r"--target-yield must be in \(0, 1\]"):
+        calibrate(task, raw_demo(tmp_path_factory), SPEC, target=1.5)
