@@ -163,3 +163,20 @@ def test_llm_agent_output_is_checked_against_the_cli_and_re_asked() -> None:
     assert plan.command == "collect" and plan.missing == ["out"]
     assert len(seen) == 2 and "no command 'pipette shell'" in json.dumps(seen[1]["messages"])
     assert seen[0]["response_format"]["type"] == "json_schema"
+
+
+def test_interactive_session_keeps_context() -> None:
+    """`pipette agent --interactive` in a real process: the second request says "it"."""
+    import os
+    import subprocess
+    import sys
+
+    lines = "collect 10 demos of the test tube task\nn\nnow render it with seed 3\nn\nquit\n"
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"],
+        input=lines, capture_output=True, text=True, timeout=120, env={**os.environ},
+    )
+    assert result.returncode == 0, result.stderr
+    out = [line.replace("agent>", "").strip() for line in result.stdout.splitlines()]  # prompts share the lines
+    assert "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 10" in out
+    assert "pipette sim render pipette/PickUpTestTube-v1 --seed 3" in out
