@@ -10,7 +10,6 @@ handing out work and yields ``(job, None)``.
 from __future__ import annotations
 
 import logging
-import multiprocessing
 import os
 import signal
 from collections.abc import Callable, Iterator
@@ -18,6 +17,7 @@ from typing import Any, Literal
 
 from pipette_cli.augment.pipeline import DemoAugmenter, DemoJob, DemoResult
 from pipette_cli.errors import PipetteError
+from pipette_cli.demos.pool import ordered_pool
 
 log = logging.getLogger(__name__)
 
@@ -61,25 +61,7 @@ def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], b
 
 
 def in_pool(kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]) -> Iterator[Outcome]:
-    context = multiprocessing.get_context("spawn")
-    pool = context.Pool(min(workers, len(jobs)), initializer=_init_worker, initargs=(kwargs,))
-    try:
-        results = pool.imap(_run_job, jobs)
-        for job in jobs:
-            while True:
-                if stop():
-                    yield job, None
-                    return
-                try:
-                    outcome = results.next(timeout=0.2)
-                    break
-                except multiprocessing.TimeoutError:
-                    continue
-            yield job, outcome
-        pool.close()
-    finally:
-        pool.terminate()
-        pool.join()
+    return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
 
 
 def in_ray(

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 import math
-import multiprocessing
 import pickle
 import signal
 import threading
@@ -38,6 +37,7 @@ from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.specs.task import TaskSpec
+from pipette_cli.demos.pool import ordered_pool
 
 log = logging.getLogger(__name__)
 
@@ -293,25 +293,7 @@ def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool
 
 
 def _in_pool(kwargs: dict[str, Any], jobs: list[Job], workers: int, stop: Callable[[], bool]) -> Iterator[tuple[Job, Outcome]]:
-    context = multiprocessing.get_context("spawn")
-    pool = context.Pool(min(workers, len(jobs)), initializer=_init_worker, initargs=(kwargs,))
-    try:
-        results = pool.imap(_run_job, jobs)  # in order: part k is committed only after part k-1
-        for job in jobs:
-            while True:
-                if stop():
-                    yield job, None
-                    return
-                try:
-                    outcome = results.next(timeout=0.2)
-                    break
-                except multiprocessing.TimeoutError:
-                    continue
-            yield job, outcome
-        pool.close()
-    finally:
-        pool.terminate()
-        pool.join()
+    return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
 
 
 @contextmanager
