@@ -355,7 +355,6 @@ class Composer(HatchFamilies):
             else:
                 open_joints = self.opened_states(dest, dest_geom0, site)
                 placed_dest, dest_geom = self.place_static(dest, (ws.center_x + 0.05, ws.lane_y), site, open_joints)
-            dest_name = placed_dest.name
         name = self.object_name(item)
         if source is not None:
             self.put_on_source(item, item_geom, name, source)

@@ -55,7 +55,6 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         h = image_size or self.spec_task.cameras.height
         w = image_size or self.spec_task.cameras.width
         image = spaces.Box(0, 255, shape=(h, w, 3), dtype=np.uint8)
-        dof = world.robot.arm_dof
         self.observation_space = spaces.Dict(
             {
                 "pixels": spaces.Dict({"top": image, "main": image, "wrist": image}),
