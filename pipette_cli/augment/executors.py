@@ -75,7 +75,10 @@ def in_ray(
         raise PipetteError("--executor ray needs Ray: pip install 'pipette[ray]' (or pip install ray)") from None
     started = not ray.is_initialized()
     if started:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
+        options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "ignore_reinit_error": True}
+        if address is None:  # a local cluster: keep every Ray service on loopback
+            options["_node_ip_address"] = "127.0.0.1"
+        ray.init(address=address, **options)
     actor_cls = ray.remote(_RayWorker)
     actors = [actor_cls.remote(kwargs) for _ in range(min(workers, len(jobs)))]
     try:
