@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from pipette_cli.augment.batch import can_batch, screen
 from pipette_cli.augment.objectcentric import adapt_actions
 from pipette_cli.augment.perturb import VariantPlan, plan_variant
 from pipette_cli.augment.render import fresh_steps, render_rollout
@@ -31,6 +32,7 @@ from pipette_cli.augment.simulate import Rollout, replay_check, settle_steps, si
 from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
 from pipette_cli.demos.store import EpisodeRef, read_episode
+from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import Observation
 from pipette_cli.sim.render import CameraRig
 from pipette_cli.sim.world import World
@@ -137,11 +139,24 @@ class DemoAugmenter:
             result.status, result.detail = REPLAY_FAILED, why
             return result
         target = self.task.targets[0] if self.task.targets else None
-        for v, variant in enumerate(self.spec.variants):
-            t0 = time.perf_counter()
+        t0 = time.perf_counter()
+        plans = []
+        for variant in self.spec.variants:
             plan = plan_variant(variant, original.actions, seed=self.spec.seed, demo_seed=s.seed, default_object=target)
             if plan.offset is not None and plan.actions is not None:
                 plan.actions = adapt_actions(self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp)
+            plans.append(plan)
+        screened = self._screen(s.seed, original.states[0], plans)
+        result.seconds["physics"] += time.perf_counter() - t0
+        for v, plan in enumerate(plans):
+            t0 = time.perf_counter()
+            early = screened.get(v)
+            if early is not None and not early.success and job.rejected_dir is None:
+                # rejected by the batch rollout and nobody keeps rejects: no step-by-step re-run
+                result.seconds["physics"] += time.perf_counter() - t0
+                result.outcomes.append(VariantOutcome(plan.variant, plan.magnitude, False, early.reason or "undecided",
+                                                      0, True, plan.params))
+                continue
             if plan.physics:
                 assert plan.actions is not None
                 rollout = simulate(
@@ -162,6 +177,17 @@ class DemoAugmenter:
             tmp = self._write(path, rollout, plan, s.seed, job, record.attrs, result)
             (result.kept if kept else result.rejected).append(tmp)
         return result
+
+    def _screen(self, seed: int, state0: np.ndarray, plans: list[VariantPlan]) -> dict[int, Verdict]:
+        """Verdicts from one multithreaded ``mujoco.rollout`` for the physics variants without an
+        object offset, when the task has no scripted mechanism (:mod:`.batch`)."""
+        if not self.spec.batch or not can_batch(self.world):
+            return {}
+        index = [v for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None]
+        if len(index) < 2:
+            return {}
+        verdicts = screen(self.world, seed, state0, [plans[v].actions for v in index], settle_steps=self.settle)
+        return dict(zip(index, verdicts, strict=True))
 
     def _write(
         self, path: Path, rollout: Rollout, plan: VariantPlan, seed: int, job: DemoJob, source: dict[str, object],
