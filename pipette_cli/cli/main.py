@@ -21,6 +21,7 @@ from pipette_cli.cli import experts as experts_cli
 from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
 from pipette_cli.cli import collect as collect_cli, data as data_cli
 from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
+from pipette_cli.cli import serve as serve_cli
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
 from pipette_cli.cli import augment as augment_cli
@@ -44,6 +45,7 @@ app.command("collect")(collect_cli.collect)
 app.add_typer(data_cli.app, name="data")
 app.command("augment")(augment_cli.augment)
 app.command("convert")(convert_cli.convert)
+app.command("serve")(serve_cli.serve)
 
 
 def _version(value: bool) -> None:

@@ -131,7 +131,7 @@ def unpack(buf: bytes | memoryview, *, max_bytes: int = DEFAULT_MAX_REQUEST_BYTE
     if len(buf) > max_bytes:
         raise ProtocolError(ErrorType.TOO_LARGE, f"request of {len(buf)} bytes is over the limit of {max_bytes}")
     try:
-        return msgpack.unpackb(buf, raw=False, object_hook=_decode_array, strict_map_key=True, max_buffer_size=max_bytes)
+        return msgpack.unpackb(buf, raw=False, object_hook=_decode_array, strict_map_key=True)
     except ProtocolError:
         raise
     except Exception as exc:  # msgpack raises several unrelated types for garbage input

@@ -100,8 +100,8 @@ def test_ambiguous_task_lists_the_candidates() -> None:
 
 
 def test_commands_the_cli_does_not_define_are_refused() -> None:
-    with pytest.raises(AgentError, match="'pipette serve' is not available in this version"):
-        AGENT.plan("serve the policy in outputs/act")
+    with pytest.raises(AgentError, match="'pipette train' is not available in this version"):
+        AGENT.plan("train ACT on the test tube task with the raw data")
     with pytest.raises(AgentError, match="cannot tell what to run"):
         AGENT.plan("rm -rf /")
 
