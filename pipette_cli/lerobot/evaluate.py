@@ -1,0 +1,221 @@
+"""Online evaluation of a policy in a task (paper A.4, A.6): 30 Hz control, 10 Hz queries.
+
+ACT: joint targets are interpolated linearly between two queries,
+``q_cmd = (1 - a) q_prev + a q_curr`` with ``a = min(m / d_pi, 1)``. SmolVLA / pi0: the returned
+action chunk is executed step by step until the next query replaces it. The gripper is open when
+``u >= 0.5`` (pi0: hysteresis, open at ``u >= 0.55`` from closed, stays open while ``u > 0.45``).
+After 6 (pi0: 20) consecutive failed queries the robot holds ``[q_now, open]`` for the rest of
+the episode. Each episode is logged as JSON; the success rate is ``N_success / N_episodes``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from pipette_cli.errors import PipetteError
+from pipette_cli.sim.env import Observation, PipetteEnv
+from pipette_cli.specs.task import TaskSpec
+
+POLICY_TYPES = ("act", "smolvla", "pi0")
+
+
+@dataclass(frozen=True)
+class DecodeConfig:
+    """How a policy's answers become robot commands (paper A.4 / A.6 defaults per policy)."""
+
+    policy_type: str = "act"
+    open_threshold: float = 0.5
+    stay_open_threshold: float = 0.5
+    timeout_ms: int = 65_000
+    max_consecutive_failures: int = 6
+    float_images: bool = True
+    """ACT's client sends float32 CHW images in [0, 1]; SmolVLA and pi0 send uint8."""
+
+    @classmethod
+    def for_policy(cls, policy_type: str) -> DecodeConfig:
+        if policy_type not in POLICY_TYPES:
+            raise PipetteError(f"unknown policy type {policy_type!r}; expected one of {', '.join(POLICY_TYPES)}")
+        if policy_type == "act":
+            return cls("act")
+        if policy_type == "smolvla":
+            return cls("smolvla", float_images=False)
+        return cls("pi0", 0.55, 0.45, 300_000, 20, float_images=False)
+
+    @property
+    def chunked(self) -> bool:
+        return self.policy_type != "act"
+
+
+class ActionSource(Protocol):
+    """A policy: an in-process runner or a :class:`~pipette_cli.lerobot.client.PolicyClient`."""
+
+    def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray: ...
+
+
+class InProcessSource:
+    """A LeRobot policy loaded in this process (no server)."""
+
+    def __init__(self, path: Path, device: str = "auto") -> None:
+        from pipette_cli.lerobot.server import LeRobotRunner
+
+        self.runner = LeRobotRunner(Path(path), device=device)
+
+    def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:
+        if reset:
+            self.runner.reset()
+        return self.runner.act(observation, task, chunk=chunk)
+
+
+def policy_observation(obs: Observation, float_images: bool) -> dict[str, np.ndarray]:
+    """LeRobot keys, CHW images (uint8, or float32 in [0, 1]) and the state."""
+    out: dict[str, np.ndarray] = {}
+    for name, image in obs.images.items():
+        chw = np.ascontiguousarray(image.transpose(2, 0, 1))
+        out[f"observation.images.{name}"] = (chw.astype(np.float32) / 255.0) if float_images else chw
+    out["observation.state"] = np.asarray(obs.state, dtype=np.float32)
+    return out
+
+
+@dataclass
+class EpisodeLog:
+    """What paper A.4 asks to be written per episode."""
+
+    task: str
+    episode: int
+    seed: int
+    success: bool
+    failure_reason: str | None
+    runtime_s: float
+    sim_time_s: float
+    control_steps: int
+    control_hz: float
+    policy_queries: int
+    policy_hz: float
+    failed_queries: int
+    safe_hold: bool
+    policy_type: str
+    gripper_thresholds: dict[str, float]
+    metrics: dict[str, float] = field(default_factory=dict)
+
+
+class Gripper:
+    """Binary gripper decision with optional hysteresis."""
+
+    def __init__(self, config: DecodeConfig) -> None:
+        self.config = config
+        self.open = True
+
+    def __call__(self, value: float) -> float:
+        c = self.config
+        if c.open_threshold == c.stay_open_threshold:  # plain threshold: open when u >= 0.5
+            self.open = value >= c.open_threshold
+        elif self.open:  # hysteresis: stay open while u > 0.45 ...
+            self.open = value > c.stay_open_threshold
+        else:  # ... and open again only at u >= 0.55
+            self.open = value >= c.open_threshold
+        return 1.0 if self.open else 0.0
+
+
+def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, episode: int, seed: int) -> EpisodeLog:
+    """One closed-loop episode; ends when the task's evaluator decides."""
+    task = env.task
+    obs = env.reset(seed)
+    world = env.world
+    d_pi = max(1, round(task.timing.control_hz / task.timing.vision_hz))
+    gripper = Gripper(config)
+    q_prev = q_curr = world.arm_qpos()
+    raw_gripper = 1.0
+    chunk: np.ndarray | None = None
+    chunk_i = steps_since = 0
+    queries = failures = consecutive = 0
+    hold: np.ndarray | None = None
+    verdict = world.verdict
+    wall0 = time.perf_counter()
+    while not verdict.done:
+        k = world.step_count
+        if hold is None and k % d_pi == 0:
+            try:
+                answer = source.act(policy_observation(obs, config.float_images), task=task.instruction,
+                                    reset=(k == 0), chunk=config.chunked)
+                queries += 1
+                consecutive = 0
+                if config.chunked:
+                    chunk, chunk_i = np.atleast_2d(answer), 0
+                else:
+                    q_prev, q_curr, raw_gripper, steps_since = _commanded(q_prev, q_curr, steps_since, d_pi), answer[:-1], float(answer[-1]), 0
+            except PipetteError:
+                failures += 1
+                consecutive += 1
+                if consecutive >= config.max_consecutive_failures:
+                    hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open]
+        if hold is not None:
+            action = hold
+        elif config.chunked and chunk is not None:
+            row = chunk[min(chunk_i, len(chunk) - 1)]
+            chunk_i += 1
+            action = np.append(row[:-1], gripper(float(row[-1])))
+        else:
+            steps_since += 1
+            target = _commanded(q_prev, q_curr, steps_since, d_pi)
+            action = np.append(target, gripper(raw_gripper))
+        obs, verdict = env.step(action)
+    sim_time = world.time
+    steps = world.step_count
+    return EpisodeLog(
+        task=task.id, episode=episode, seed=seed, success=verdict.success,
+        failure_reason=None if verdict.success else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
+        runtime_s=time.perf_counter() - wall0, sim_time_s=sim_time, control_steps=steps,
+        control_hz=steps / sim_time if sim_time else 0.0, policy_queries=queries,
+        policy_hz=queries / sim_time if sim_time else 0.0, failed_queries=failures, safe_hold=hold is not None,
+        policy_type=config.policy_type,
+        gripper_thresholds={"open": config.open_threshold, "stay_open": config.stay_open_threshold},
+        metrics={k: float(v) for k, v in verdict.metrics.items()},
+    )
+
+
+def _commanded(q_prev: np.ndarray, q_curr: np.ndarray, m: int, d_pi: int) -> np.ndarray:
+    """Paper A.6: ``(1 - a) q_prev + a q_curr``, ``a = min(m / d_pi, 1)``, with ``m`` counting the
+    control steps under the current goal including this one, so the goal is reached by the next query."""
+    alpha = min(m / d_pi, 1.0)
+    return (1.0 - alpha) * np.asarray(q_prev) + alpha * np.asarray(q_curr)
+
+
+def evaluate(
+    task: TaskSpec, source: ActionSource, config: DecodeConfig, *, episodes: int, seed: int = 0, out: Path | None = None,
+    image_size: int | None = None, on_episode: Any = None,
+) -> dict[str, Any]:
+    """Run ``episodes`` episodes (seeds ``seed + i``); write ``episode_XXXX.json`` and
+    ``summary.json`` to ``out``. Returns the summary."""
+    env = PipetteEnv(task, image_size=image_size)
+    logs: list[EpisodeLog] = []
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    try:
+        for i in range(episodes):
+            log = run_episode(env, source, config, episode=i, seed=seed + i)
+            logs.append(log)
+            if out is not None:
+                (out / f"episode_{i:04d}.json").write_text(json.dumps(asdict(log), indent=2))
+            if on_episode is not None:
+                on_episode(log)
+    finally:
+        env.close()
+    n_success = sum(log.success for log in logs)
+    failures: dict[str, int] = {}
+    for log in logs:
+        if not log.success:
+            failures[log.failure_reason or "unknown"] = failures.get(log.failure_reason or "unknown", 0) + 1
+    summary = {
+        "task": task.id, "policy_type": config.policy_type, "episodes": len(logs), "successes": n_success,
+        "success_rate": n_success / len(logs) if logs else 0.0, "failures": failures,
+        "mean_runtime_s": float(np.mean([log.runtime_s for log in logs])) if logs else 0.0,
+    }
+    if out is not None:
+        (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
