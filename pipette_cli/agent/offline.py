@@ -238,6 +238,10 @@ class OfflineAgent:
                 params["dataset_version"] = "augmented"
             elif re.search(r"\braw\b|original|unaugmented|un-augmented", lowered):
                 params["dataset_version"] = "raw"
+        if want("endpoint"):
+            m = re.search(r"tcp://[\w.*-]+:\d+", text)
+            if m:
+                params["endpoint"] = m.group(0)
         if want("device"):
             if re.search(r"\b(gpu|cuda)\b", lowered):
                 params["device"] = "cuda"

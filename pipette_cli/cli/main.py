@@ -25,6 +25,7 @@ from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
 from pipette_cli.cli import serve as serve_cli
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
+from pipette_cli.cli import train as train_cli
 from pipette_cli.cli import augment as augment_cli
 from pipette_cli.cli.common import STATE, err_console
 from pipette_cli.errors import PipetteError
@@ -48,6 +49,7 @@ app.add_typer(data_cli.app, name="data")
 app.command("augment")(augment_cli.augment)
 app.command("convert")(convert_cli.convert)
 app.command("serve")(serve_cli.serve)
+app.command("train")(train_cli.train)
 
 
 def _version(value: bool) -> None:

@@ -59,6 +59,12 @@ COMMANDS = {
         "pipette new-task 'the robot puts the 15 mL conical tube into the tube rack'",
     "new task: \"Close the lid of the thermal cycler\"": "pipette new-task 'Close the lid of the thermal cycler'",
     "make an asset: 'a 300 mL Erlenmeyer flask'": "pipette assets new 'a 300 mL Erlenmeyer flask'",
+    "train SmolVLA on the close centrifuge lid task with the augmented data":
+        "pipette train --tasks pipette/CloseCentrifugeLid-v1 --policy smolvla --dataset-version augmented",
+    "train act for 2k steps on the test tube task with the raw demos on the gpu":
+        "pipette train --tasks pipette/PickUpTestTube-v1 --policy act --dataset-version raw --steps 2000 --device cuda",
+    "evaluate the policy at tcp://127.0.0.1:5555 on the water bath task for 50 episodes":
+        "pipette eval pipette/OpenWaterBathLid-v1 --endpoint tcp://127.0.0.1:5555 --episodes 50",
 }
 
 # request -> (command, missing fields)
@@ -100,8 +106,8 @@ def test_ambiguous_task_lists_the_candidates() -> None:
 
 
 def test_commands_the_cli_does_not_define_are_refused() -> None:
-    with pytest.raises(AgentError, match="'pipette train' is not available in this version"):
-        AGENT.plan("train ACT on the test tube task with the raw data")
+    with pytest.raises(AgentError, match="no command 'pipette shell' in this version"):
+        load_catalog().get("shell")
     with pytest.raises(AgentError, match="cannot tell what to run"):
         AGENT.plan("rm -rf /")
 

@@ -1,0 +1,104 @@
+"""``pipette train``: LeRobot training (``lerobot-train``) per task with the paper's defaults."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.lerobot.train import IfExists, Policy
+
+
+def train(
+    tasks: Annotated[str, typer.Option("--tasks", help="Comma-separated task ids, or `all` (every registered task with a dataset).")],
+    policy: Annotated[Policy, typer.Option("--policy", help="act, smolvla or pi0.")],
+    dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented.")] = "raw",
+    steps: Annotated[int | None, typer.Option("--steps", min=1, help="Training steps (default: act 15000, smolvla/pi0 20000).")] = None,
+    batch_size: Annotated[int | None, typer.Option("--batch-size", min=1, help="Batch size (default: act 32, smolvla 8, pi0 4).")] = None,
+    device: Annotated[str | None, typer.Option("--device", help="cpu, cuda, cuda:1, mps (default: LeRobot picks).")] = None,
+    datasets_root: Annotated[Path, typer.Option("--datasets-root", help="Folder of <task>/<version> datasets (pipette convert's layout).")] = Path("datasets"),
+    output_root: Annotated[Path, typer.Option("--output-root", help="Runs go to <root>/<policy>/<task>_<version>, logs beside as .log.")] = Path("outputs/train"),
+    if_exists: Annotated[IfExists, typer.Option("--if-exists", help="Existing output: skip the task, overwrite it, or continue from its last checkpoint.")] = IfExists.skip,
+    pretrained_path: Annotated[str | None, typer.Option("--pretrained-path", help="Checkpoint to fine-tune (--policy.path; hub id or local folder). pi0 default: lerobot/pi0_base.")] = None,
+    vlm_path: Annotated[str | None, typer.Option("--vlm-path", help="SmolVLA backbone (--policy.vlm_model_name): hub id or local folder with config and tokenizer.")] = None,
+    act_backbone_weights: Annotated[str | None, typer.Option("--act-backbone-weights", help="torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init).")] = None,
+    offline: Annotated[bool, typer.Option("--offline", help="Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache.")] = False,
+    extra: Annotated[list[str] | None, typer.Option("--extra", help="One more lerobot-train flag, e.g. --extra=--policy.dim_model=64 (repeatable; wins over the defaults).")] = None,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="Print each task's full command and exit.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable plan/result.")] = False,
+) -> None:
+    """Train a policy on each task's LeRobot dataset with `lerobot-train`, one run after another.
+
+    Datasets come from datasets/<task>/<version> (as written by `pipette convert`); a missing one
+    stops everything before any run. Each run writes outputs/train/<policy>/<task>_<version>/ and
+    tees its output to outputs/train/<policy>/<task>_<version>.log. Nothing is pushed to the Hub.
+
+    Example: pipette train --tasks PickUpTestTube,OpenCentrifugeLid --policy act --dataset-version raw --dry-run
+    """
+    from pipette_cli.errors import DatasetError
+    from pipette_cli.lerobot.convert import DatasetVersion
+    from pipette_cli.lerobot.train import (
+        TrainError, TrainOptions, lerobot_train_executable, plan, resolve_tasks, run_job,
+    )
+    from pipette_cli.registry import load_registry
+
+    try:
+        version = DatasetVersion(dataset_version)
+    except ValueError:
+        raise DatasetError(f"--dataset-version must be raw or augmented, not {dataset_version!r}") from None
+    requested = [t.strip() for t in tasks.split(",") if t.strip()]
+    if not requested:
+        raise TrainError("--tasks is empty: give task ids separated by commas, or all")
+    registry = load_registry(STATE.registry_dirs)
+    task_ids = resolve_tasks(
+        requested, registry.ids(), lambda t: registry.entry(t).spec.id, version, datasets_root
+    )
+    options = TrainOptions(
+        policy=policy, dataset_version=version, steps=steps, batch_size=batch_size, device=device,
+        datasets_root=datasets_root, output_root=output_root, if_exists=if_exists,
+        pretrained_path=pretrained_path, vlm_path=vlm_path, act_backbone_weights=act_backbone_weights,
+        offline=offline, extra=tuple(extra or ()),
+    )
+    executable = "lerobot-train" if dry_run else lerobot_train_executable()
+    jobs = plan(task_ids, options, executable=executable)
+    if dry_run:
+        if as_json:
+            print_json([{"task": j.task_id, "action": j.action, "argv": list(j.argv), "env": j.env,
+                         "output_dir": str(j.output_dir), "log": str(j.log_file)} for j in jobs])
+            return
+        for job in jobs:
+            if job.action == "skip":
+                out_console.print(f"# {job.task_id}: skip ({job.output_dir} exists; --if-exists overwrite|continue)")
+                continue
+            env = " ".join(f"{k}={v}" for k, v in job.env.items())
+            note = " (delete it first)" if job.action == "overwrite" else ""
+            out_console.print(f"# {job.task_id}: {job.action}{note} -> {job.output_dir}, log {job.log_file}")
+            out_console.print((env + " " if env else "") + shlex.join(job.argv), markup=False)
+        return
+    results = []
+    echo = None if STATE.verbosity < 0 or as_json else sys.stderr
+    for i, job in enumerate(jobs, 1):
+        if job.action == "skip":
+            err_console.print(f"[{i}/{len(jobs)}] {job.task_id}: skipped, {job.output_dir} exists (--if-exists overwrite|continue)",
+                              markup=False)
+        else:
+            err_console.print(f"[{i}/{len(jobs)}] {job.task_id}: {job.action} -> {job.output_dir} (log {job.log_file})",
+                              markup=False)
+        results.append(run_job(job, echo=echo))
+    report = [{"task": r.task_id, "action": r.action, "returncode": r.returncode, "seconds": round(r.seconds, 1),
+               "checkpoint": str(r.checkpoint) if r.checkpoint else None} for r in results]
+    if as_json:
+        print_json(report)
+    else:
+        for r in results:
+            state = "skipped" if r.action == "skip" else "ok" if r.returncode == 0 else f"failed (exit {r.returncode})"
+            out_console.print(f"{r.task_id}: {state}, {r.seconds:.1f} s" + (f", {r.checkpoint}" if r.checkpoint else ""),
+                              markup=False)
+    failed = [r for r in results if r.returncode != 0]
+    if failed:
+        logs = ", ".join(str(j.log_file) for j in jobs if j.task_id in {r.task_id for r in failed})
+        raise TrainError(f"{len(failed)} of {len(results)} training runs failed; see {logs}")

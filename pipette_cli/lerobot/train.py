@@ -1,0 +1,341 @@
+"""Training launcher: one ``lerobot-train`` run per task with the paper's defaults (appendix D.1).
+
+Builds the argument list of LeRobot's ``lerobot-train`` console script for each task's dataset
+(the ``pipette convert`` layout, ``datasets/<task>/<version>``), plans what to do with existing
+output folders (skip, overwrite, continue from the last checkpoint) and runs the commands one
+after the other as subprocesses (an argv list, never a shell), their output tee'd to a log file.
+
+Defaults (paper, training-parameter table): ACT batch 32, 15000 steps; SmolVLA batch 8, 20000
+steps; pi0 batch 4, 20000 steps, fine-tuned from ``lerobot/pi0_base`` in bfloat16 with gradient
+checkpointing, a frozen vision encoder and only the action expert trained. Nothing is pushed to
+the Hub (``--policy.push_to_hub=false``).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import IO, Any
+
+from pipette_cli.errors import DatasetError, PipetteError
+from pipette_cli.lerobot.convert import DatasetVersion, slug
+
+logger = logging.getLogger(__name__)
+
+PI0_BASE = "lerobot/pi0_base"
+DEFAULT_DATASETS_ROOT = Path("datasets")
+DEFAULT_OUTPUT_ROOT = Path("outputs/train")
+LAST_CHECKPOINT = Path("checkpoints/last/pretrained_model")
+
+
+class TrainError(PipetteError):
+    """A training run cannot be planned or failed."""
+
+
+class Policy(str, Enum):
+    act = "act"
+    smolvla = "smolvla"
+    pi0 = "pi0"
+
+
+class IfExists(str, Enum):
+    """What to do when a task's output folder exists already."""
+
+    skip = "skip"
+    overwrite = "overwrite"
+    continue_ = "continue"
+
+
+@dataclass(frozen=True)
+class PolicyDefaults:
+    batch_size: int
+    steps: int
+
+
+PAPER_DEFAULTS: dict[Policy, PolicyDefaults] = {
+    Policy.act: PolicyDefaults(batch_size=32, steps=15_000),
+    Policy.smolvla: PolicyDefaults(batch_size=8, steps=20_000),
+    Policy.pi0: PolicyDefaults(batch_size=4, steps=20_000),
+}
+
+
+@dataclass(frozen=True)
+class TrainOptions:
+    """How every task of one ``pipette train`` call is trained.
+
+    Attributes:
+        policy: act, smolvla or pi0.
+        dataset_version: raw or augmented (separate datasets).
+        steps / batch_size: None = the paper's default for the policy.
+        device: cpu, cuda, ... (None: LeRobot picks the best available).
+        datasets_root: Folder holding ``<task>/<version>`` datasets.
+        output_root: Runs go to ``<output_root>/<policy>/<task>_<version>``.
+        if_exists: skip, overwrite, or continue (resume from the last checkpoint).
+        pretrained_path: Policy checkpoint to fine-tune (``--policy.path``); pi0 defaults to
+            ``lerobot/pi0_base``. A local folder works offline.
+        vlm_path: SmolVLA backbone (``--policy.vlm_model_name``): hub id or local folder with the
+            VLM config and tokenizer/processor files.
+        act_backbone_weights: torchvision weights of ACT's ResNet (None: random init, no download).
+        offline: Set ``HF_HUB_OFFLINE=1`` for the run (only local files / the HF cache are used).
+        extra: More ``lerobot-train`` flags, appended last (they win).
+    """
+
+    policy: Policy
+    dataset_version: DatasetVersion = DatasetVersion.raw
+    steps: int | None = None
+    batch_size: int | None = None
+    device: str | None = None
+    datasets_root: Path = DEFAULT_DATASETS_ROOT
+    output_root: Path = DEFAULT_OUTPUT_ROOT
+    if_exists: IfExists = IfExists.skip
+    pretrained_path: str | None = None
+    vlm_path: str | None = None
+    act_backbone_weights: str | None = None
+    offline: bool = False
+    extra: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class TrainJob:
+    """One task's run: what to execute and where it writes.
+
+    Attributes:
+        action: ``train``, ``continue`` (resume), ``overwrite`` (delete, then train) or ``skip``.
+    """
+
+    task_id: str
+    dataset: Path
+    repo_id: str
+    output_dir: Path
+    log_file: Path
+    action: str
+    argv: tuple[str, ...] = ()
+    env: dict[str, str] = field(default_factory=dict)
+
+
+def dataset_root(task_id: str, version: DatasetVersion, base: Path = DEFAULT_DATASETS_ROOT) -> Path:
+    """``<base>/<task>/<version>``, as written by ``pipette convert``."""
+    return base / slug(task_id) / version.value
+
+
+def has_dataset(root: Path) -> bool:
+    return (root / "meta" / "info.json").is_file()
+
+
+def lerobot_train_executable() -> str:
+    """The ``lerobot-train`` script of this Python environment (else the one on PATH)."""
+    beside = Path(sys.executable).parent / "lerobot-train"
+    if beside.is_file():
+        return str(beside)
+    found = shutil.which("lerobot-train")
+    if found is None:
+        raise TrainError("lerobot-train not found: install lerobot in this environment (pip install lerobot)")
+    return found
+
+
+def policy_flags(options: TrainOptions) -> list[str]:
+    """The ``--policy.*`` flags for the chosen policy (paper defaults and offline settings)."""
+    p = options.policy
+    flags: list[str] = []
+    if p is Policy.pi0:
+        flags += [
+            f"--policy.path={options.pretrained_path or PI0_BASE}",
+            "--policy.dtype=bfloat16",
+            "--policy.gradient_checkpointing=true",
+            "--policy.freeze_vision_encoder=true",
+            "--policy.train_expert_only=true",
+        ]
+    elif options.pretrained_path:
+        flags.append(f"--policy.path={options.pretrained_path}")
+    else:
+        flags.append(f"--policy.type={p.value}")
+    if p is Policy.act and not options.pretrained_path:
+        flags.append(f"--policy.pretrained_backbone_weights={options.act_backbone_weights or 'null'}")
+    if p is Policy.smolvla and options.vlm_path:
+        flags.append(f"--policy.vlm_model_name={options.vlm_path}")
+    if options.device:
+        flags.append(f"--policy.device={options.device}")
+    flags.append("--policy.push_to_hub=false")
+    return flags
+
+
+def train_argv(task_id: str, options: TrainOptions, *, resume: bool = False, executable: str = "lerobot-train") -> list[str]:
+    """The full ``lerobot-train`` argument list for one task."""
+    name = f"{slug(task_id)}_{options.dataset_version.value}"
+    output_dir = options.output_root / options.policy.value / name
+    if resume:
+        config = output_dir / LAST_CHECKPOINT / "train_config.json"
+        more = [f"--steps={options.steps}"] if options.steps else []
+        more += [f"--policy.device={options.device}"] if options.device else []
+        return [executable, f"--config_path={config}", "--resume=true", *more, *options.extra]
+    defaults = PAPER_DEFAULTS[options.policy]
+    return [
+        executable,
+        f"--dataset.repo_id=local/{name}",
+        f"--dataset.root={dataset_root(task_id, options.dataset_version, options.datasets_root)}",
+        *policy_flags(options),
+        f"--policy.repo_id=local/{options.policy.value}_{name}",
+        f"--output_dir={output_dir}",
+        f"--job_name={options.policy.value}_{name}",
+        f"--batch_size={options.batch_size or defaults.batch_size}",
+        f"--steps={options.steps or defaults.steps}",
+        "--wandb.enable=false",
+        *options.extra,
+    ]
+
+
+def resolve_tasks(requested: Sequence[str], registry_ids: Sequence[str], resolve: Callable[[str], str],
+                  version: DatasetVersion, datasets_root: Path) -> list[str]:
+    """Task ids to train: ``all`` = every registered task with a dataset of ``version``.
+
+    Raises:
+        TaskNotFound: an unknown task (from ``resolve``).
+        DatasetError: a named task has no dataset, or ``all`` finds none.
+    """
+    if "all" in requested and len(requested) > 1:
+        raise TrainError("--tasks all cannot be combined with task ids")
+    if list(requested) == ["all"]:
+        ids = [t for t in registry_ids if has_dataset(dataset_root(t, version, datasets_root))]
+        if not ids:
+            raise DatasetError(
+                f"no {version.value} datasets under {datasets_root}/<task>/{version.value} for any registered task; "
+                "make them with `pipette convert`"
+            )
+        return ids
+    ids = list(dict.fromkeys(resolve(t) for t in requested))
+    missing = [str(dataset_root(t, version, datasets_root)) for t in ids
+               if not has_dataset(dataset_root(t, version, datasets_root))]
+    if missing:
+        raise DatasetError(
+            f"no LeRobot dataset (meta/info.json) at {', '.join(missing)}; "
+            f"make it with `pipette convert ... --dataset-version {version.value}` or give --datasets-root"
+        )
+    return ids
+
+
+def _removable(path: Path) -> bool:
+    """Only a LeRobot training output (or an empty folder) is deleted by --if-exists overwrite."""
+    return not any(path.iterdir()) or (path / "checkpoints").is_dir() or (path / "train_config.json").is_file()
+
+
+def plan(task_ids: Sequence[str], options: TrainOptions, *, executable: str = "lerobot-train") -> list[TrainJob]:
+    """One job per task, deciding from the existing output folders; all checked before any run.
+
+    Raises:
+        TrainError: ``continue`` without a checkpoint, or ``overwrite`` of a folder that is not a
+            training output.
+    """
+    env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1"} if options.offline else {}
+    jobs: list[TrainJob] = []
+    problems: list[str] = []
+    for task_id in task_ids:
+        name = f"{slug(task_id)}_{options.dataset_version.value}"
+        output_dir = options.output_root / options.policy.value / name
+        action = "train"
+        if output_dir.exists():
+            if options.if_exists is IfExists.skip:
+                action = "skip"
+            elif options.if_exists is IfExists.overwrite:
+                action = "overwrite"
+                if not output_dir.is_dir() or not _removable(output_dir):
+                    problems.append(f"{output_dir} is not a lerobot-train output; not overwriting it")
+            else:
+                action = "continue"
+                if not (output_dir / LAST_CHECKPOINT / "train_config.json").is_file():
+                    problems.append(f"{output_dir}: no checkpoint to continue from ({LAST_CHECKPOINT}/train_config.json)")
+        argv = () if action == "skip" else tuple(
+            train_argv(task_id, options, resume=action == "continue", executable=executable)
+        )
+        jobs.append(TrainJob(
+            task_id=task_id, dataset=dataset_root(task_id, options.dataset_version, options.datasets_root),
+            repo_id=f"local/{name}", output_dir=output_dir,
+            log_file=options.output_root / options.policy.value / f"{name}.log",
+            action=action, argv=argv, env=env,
+        ))
+    if problems:
+        raise TrainError("; ".join(problems) + " (use another --if-exists or --output-root)")
+    return jobs
+
+
+@dataclass(frozen=True)
+class JobResult:
+    task_id: str
+    action: str
+    returncode: int
+    seconds: float
+    checkpoint: Path | None
+
+
+def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
+    """Run one job, its stdout+stderr appended to ``job.log_file`` and copied to ``echo``.
+
+    Ctrl-C stops the child process (SIGINT, then kill after 30 s) and re-raises.
+    """
+    if job.action == "skip":
+        return JobResult(job.task_id, "skip", 0, 0.0, None)
+    if job.action == "overwrite":
+        shutil.rmtree(job.output_dir)
+        job.log_file.unlink(missing_ok=True)
+    job.log_file.parent.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    env = {**os.environ, **job.env, "PYTHONUNBUFFERED": "1"}
+    with job.log_file.open("a", encoding="utf-8") as log:
+        log.write(f"# pipette train {job.task_id}: {' '.join(job.argv)}\n")
+        log.flush()
+        proc = subprocess.Popen(  # noqa: S603 - argv list, no shell
+            list(job.argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True, bufsize=1,
+        )
+        try:
+            assert proc.stdout is not None
+            for line in proc.stdout:
+                log.write(line)
+                if echo is not None:
+                    echo.write(line)
+                    echo.flush()
+            code = proc.wait()
+        except KeyboardInterrupt:
+            proc.send_signal(2)
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+            raise
+    checkpoint = job.output_dir / LAST_CHECKPOINT
+    return JobResult(job.task_id, job.action, code, time.perf_counter() - start,
+                     checkpoint if (checkpoint / "config.json").is_file() else None)
+
+
+@contextmanager
+def _argv(argv: Sequence[str]) -> Iterator[None]:
+    saved = sys.argv
+    sys.argv = list(argv)
+    try:
+        yield
+    finally:
+        sys.argv = saved
+
+
+def parse_train_config(argv: Sequence[str]) -> Any:
+    """Build and validate LeRobot's ``TrainPipelineConfig`` from a ``lerobot-train`` argv, as
+    ``lerobot-train`` does, without training (no dataset or weights are loaded; a ``--policy.path``
+    must hold a ``config.json``). Returns the config; raises what LeRobot raises on a bad flag.
+    """
+    from lerobot.configs import parser
+    from lerobot.configs.train import TrainPipelineConfig
+
+    def build(cfg: TrainPipelineConfig) -> TrainPipelineConfig:
+        cfg.validate()
+        return cfg
+
+    build.__annotations__["cfg"] = TrainPipelineConfig
+    with _argv(argv):
+        return parser.wrap()(build)()
