@@ -1,5 +1,6 @@
-"""`pipette train` end to end: a tiny ACT trained for 2 steps on a tiny recorded dataset, offline,
-through the real `lerobot-train`; a checkpoint LeRobot can load must appear."""
+"""`pipette train` -> `pipette serve` -> `pipette eval`, offline on CPU: a tiny ACT trained for 2 steps
+on a tiny converted dataset through the real `lerobot-train`, its checkpoint served over ZeroMQ
+and evaluated for 2 episodes with JSON logs (issue 8)."""
 
 from __future__ import annotations
 
@@ -58,3 +59,27 @@ def test_tiny_act_trains_offline_and_writes_a_checkpoint(tmp_path: Path, run_cli
     again = run_cli(*args)  # default --if-exists skip: nothing runs, the checkpoint is kept
     assert again.exit_code == 0 and json.loads(again.stdout)[0]["action"] == "skip"
     assert log.read_text() == text
+
+    # issue 8's chain: the trained checkpoint is served and evaluated for 2 episodes over ZeroMQ
+    import threading
+
+    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer
+
+    server = PolicyServer(LeRobotRunner(checkpoint, device="cpu"), "tcp://127.0.0.1:0")
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        evaluation = run_cli("--registry-dir", str(FIXTURES / "registry"), "eval", "HoldTube", "--endpoint", server.endpoint,
+                             "--episodes", "2", "--image-size", "32", "--out", "evals/act_raw", "--json")
+    finally:
+        server.stop()
+        thread.join(timeout=5)
+        server.close()
+    assert evaluation.exit_code == 0, evaluation.stderr
+    summary = json.loads(evaluation.stdout)
+    assert summary["episodes"] == 2 and summary["task"] == TASK and summary["dataset_version"] == "raw"
+    logs = sorted(Path("evals/act_raw").glob("episode_*.json"))
+    assert len(logs) == 2
+    for path in logs:
+        log = json.loads(path.read_text())
+        assert log["policy_queries"] >= 5 and log["failed_queries"] == 0 and log["control_steps"] == 15
