@@ -17,6 +17,7 @@ from rich.logging import RichHandler
 from pipette_cli import __version__
 from pipette_cli.cli import agent as agent_cli
 from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli import demo as demo_cli
 from pipette_cli.cli import evaluate as evaluate_cli
 from pipette_cli.cli import experts as experts_cli
 from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
@@ -42,6 +43,7 @@ app.command("agent")(agent_cli.agent)
 app.add_typer(assets_cli.app, name="assets")
 app.add_typer(experts_cli.app, name="experts")
 app.command("eval")(evaluate_cli.eval_command)
+app.command("demo")(demo_cli.demo)
 app.add_typer(sim_cli.app, name="sim")
 app.command("new-task")(authoring_cli.new_task)
 app.command("collect")(collect_cli.collect)
