@@ -15,7 +15,6 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -33,6 +32,7 @@ from pipette_cli.demos.store import part_path, read_episode, scan
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import PipetteEnv
+from pipette_cli.demos.provenance import git_state
 
 
 def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, float]:
@@ -100,7 +100,7 @@ def main() -> None:
         mine = ours(task, args.input, work / "ours.h5", spec)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    sha = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip() or "unknown"
+    sha = git_state()[0]
     ratio = mine["kept_per_hour"] / base["kept_per_hour"] if base["kept_per_hour"] else float("inf")
     print(f"{'pipeline':<10} {'attempts':>8} {'kept':>5} {'seconds':>8} {'kept/hour':>10}")
     for name, row in (("baseline", base), ("ours", mine)):

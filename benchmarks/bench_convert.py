@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -32,13 +31,7 @@ import demo_experts  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, convert  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
-
-
-def git_sha() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
+from pipette_cli.demos.provenance import git_state  # noqa: E402
 
 
 def main() -> None:
@@ -67,7 +60,7 @@ def main() -> None:
     print(f"{'mode':<18}{'frames':>8}{'seconds':>10}{'frames/s':>10}{'MB':>9}")
     for r in rows:
         print(f"{r['mode']:<18}{r['frames']:>8}{r['seconds']:>10.2f}{r['frames_per_s']:>10.1f}{r['dataset_mb']:>9.2f}")
-    args.out.write_text(json.dumps({"git_sha": git_sha(), "episodes": args.episodes, "image_size": args.image_size,
+    args.out.write_text(json.dumps({"git_sha": git_state()[0], "episodes": args.episodes, "image_size": args.image_size,
                                     "cpus": os.cpu_count(), "results": rows}, indent=2) + "\n")
 
 

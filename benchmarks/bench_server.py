@@ -17,7 +17,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
@@ -32,14 +31,8 @@ import numpy as np  # noqa: E402
 from pipette_cli.lerobot.client import PolicyClient  # noqa: E402
 from pipette_cli.lerobot.protocol import check_observation, pack, parse_request, unpack  # noqa: E402
 from pipette_cli.lerobot.server import PolicyServer  # noqa: E402
+from pipette_cli.demos.provenance import git_state  # noqa: E402
 from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
-
-
-def git_sha() -> str:
-    try:
-        return subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def _ms(samples: list[float]) -> dict[str, float]:
@@ -117,7 +110,7 @@ def main() -> None:
     for r in rows:
         print(f"{r['policy']:<18}{r['image_dtype']:>8}{r['request_bytes'] / 1e6:>7.2f}{r['inference']['median_ms']:>11.2f}"
               f"{r['round_trip']['median_ms']:>12.2f}{r['overhead_median_ms']:>10.2f}{r['overhead_of_pairs']['p95_ms']:>9.2f}")
-    args.out.write_text(json.dumps({"git_sha": git_sha(), "image_size": args.size, "cpus": os.cpu_count(),
+    args.out.write_text(json.dumps({"git_sha": git_state()[0], "image_size": args.size, "cpus": os.cpu_count(),
                                     "codec": codecs, "results": rows}, indent=2) + "\n")
 
 
