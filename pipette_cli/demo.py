@@ -75,7 +75,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     from pipette_cli.demos.collect import collect
     from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
     from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate
-    from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, plan, run_job
+    from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, lerobot_train_executable, plan, run_job
 
     if out.exists() and any(out.iterdir()):
         raise PipetteError(f"{out} is not empty; give another --out or remove it")
@@ -106,7 +106,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     options = TrainOptions(policy=Policy.act, dataset_version=DatasetVersion.augmented, steps=size.train_steps,
                            batch_size=4, device="cpu", datasets_root=datasets, output_root=out / "train",
                            if_exists=IfExists.overwrite, offline=True, extra=TINY_ACT)
-    [job] = plan([task.id], options)
+    [job] = plan([task.id], options, executable=lerobot_train_executable())
     result = run_job(job)
     timings["train"] = time.perf_counter() - t
     if result.returncode != 0 or result.checkpoint is None:

@@ -14,6 +14,12 @@ _shared = Path(__file__).resolve().parents[2] / "shared" / "menagerie"
 if "MENAGERIE_ROOT" not in os.environ and _shared.is_dir():
     os.environ["MENAGERIE_ROOT"] = str(_shared)  # offline checkout beside the repo (CI layout)
 
+# CI runs ``.venv/bin/python -m pytest`` without activating the environment, so its scripts
+# (lerobot-train, lerobot-eval) are not on PATH there; drop them here too so code that relies on
+# PATH fails in every run, not only in CI.
+_scripts = str(Path(sys.executable).parent)
+os.environ["PATH"] = os.pathsep.join(d for d in os.environ.get("PATH", "").split(os.pathsep) if d != _scripts)
+
 FIXTURES = Path(__file__).parent / "fixtures"
 
 
