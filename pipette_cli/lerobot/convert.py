@@ -303,9 +303,11 @@ def _read_images(planned: PlannedEpisode) -> dict[str, np.ndarray]:
 
 
 def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None) -> None:
+    import datasets
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
+    datasets.disable_progress_bars()  # one "Map" bar per episode otherwise; pipette reports progress itself
     dataset = LeRobotDataset.create(
         repo_id=options.repo_id, fps=options.fps, root=tmp, robot_type=",".join(plan.embodiments),
         features=make_features(plan.info, video=options.video), use_videos=options.video,
