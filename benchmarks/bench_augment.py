@@ -90,7 +90,7 @@ def main() -> None:
     parser.add_argument("--input", type=Path, required=True)
     parser.add_argument("--variants", default="paper")
     parser.add_argument("--speed", type=float, default=1.2)
-    parser.add_argument("--json", type=Path, default=Path("benchmarks/bench_augment.json"))
+    parser.add_argument("--out", "--json", dest="out", type=Path, default=Path("bench_augment.json"))
     args = parser.parse_args()
     task = load_registry([]).get(args.task)
     spec = AugmentSpec(variants=make_variants(args.variants.split(","), default_atoms(speed={"factor": args.speed})))
@@ -106,7 +106,7 @@ def main() -> None:
     for name, row in (("baseline", base), ("ours", mine)):
         print(f"{name:<10} {row['attempts']:>8} {row['kept']:>5} {row['seconds']:>8.1f} {row['kept_per_hour']:>10.0f}")
     print(f"ratio ours/baseline: {ratio:.2f}x")
-    args.json.write_text(json.dumps({"git_sha": sha, "task": task.id, "input": str(args.input), "variants": args.variants,
+    args.out.write_text(json.dumps({"git_sha": sha, "task": task.id, "input": str(args.input), "variants": args.variants,
                                      "baseline": base, "ours": mine, "ratio": ratio}, indent=2, default=str))
 
 

@@ -44,9 +44,10 @@ def folder_size(path: Path) -> int:
     return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
 
 
-def contact_sheet(aug: Path, out_png: Path, out_gif: Path) -> None:
-    """The main camera's middle frame of every kept augmented episode, and one episode as a GIF."""
-    from PIL import Image
+def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -> None:
+    """The main camera at 2/3 of every kept augmented episode, labelled with its variant, and
+    the first episode's three views side by side as a GIF; small images are scaled up."""
+    from PIL import Image, ImageDraw
 
     from pipette_cli.demos.store import read_episode, scan
 
@@ -55,15 +56,25 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path) -> None:
         return
     tiles, frames = [], []
     for i, ref in enumerate(refs):
-        images = read_episode(ref, images=True).images["main"]
-        tiles.append(Image.fromarray(images[len(images) // 2]))
+        record = read_episode(ref, images=True)
+        main = record.images["main"]
+        image = Image.fromarray(main[2 * len(main) // 3])
+        scale = max(1, tile // image.width)
+        image = image.resize((image.width * scale, image.height * scale), Image.NEAREST)
+        ImageDraw.Draw(image).text((3, 2), str(record.attrs.get("augment_variant", "")), fill="yellow")
+        tiles.append(image)
         if i == 0:
-            frames = [Image.fromarray(im) for im in images[::3]]
+            for k in range(0, len(main), 3):
+                views = [Image.fromarray(record.images[cam][k]) for cam in ("top", "main", "wrist")]
+                strip = Image.new("RGB", (3 * image.width, image.height))
+                for j, view in enumerate(views):
+                    strip.paste(view.resize(image.size, Image.NEAREST), (j * image.width, 0))
+                frames.append(strip)
     w, h = tiles[0].size
     cols = min(6, len(tiles))
     sheet = Image.new("RGB", (cols * w, ((len(tiles) + cols - 1) // cols) * h), "white")
-    for i, tile in enumerate(tiles):
-        sheet.paste(tile, ((i % cols) * w, (i // cols) * h))
+    for i, image in enumerate(tiles):
+        sheet.paste(image, ((i % cols) * w, (i // cols) * h))
     sheet.save(out_png)
     frames[0].save(out_gif, save_all=True, append_images=frames[1:], duration=100, loop=0)
 

@@ -7,9 +7,15 @@ traceback only with ``--debug``), 2 usage errors (typer/click).
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from pathlib import Path
 from typing import Annotated
+
+# Offscreen rendering on a headless Linux machine needs EGL (MuJoCo's default, GLFW, needs a
+# display); MuJoCo reads this when it is first imported, so it is set before anything imports it.
+if sys.platform.startswith("linux") and not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
 
 import typer
 from rich.logging import RichHandler
