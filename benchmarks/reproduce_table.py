@@ -9,7 +9,7 @@ and finished stages are reused.
 
 Presets (each setting can be overridden by its flag):
 
-  cpu    this machine's scale: 64 px images, a small ACT, 800 steps of batch 8 (lr 1e-4),
+  cpu    this machine's scale: 64 px images, a small ACT, 500 steps of batch 8 (lr 1e-4),
          10 evaluation episodes; about 30 minutes per task on 2 CPU cores.
   paper  the paper's settings (appendix D.1, table 6): 400 px images, LeRobot's default ACT,
          15000 steps of batch 32, 100 evaluation episodes, on CUDA.
@@ -73,7 +73,7 @@ class Preset:
 
 
 PRESETS = {
-    "cpu": Preset(demos=30, image_size=64, variants="original,light,speed,light+speed", steps=800, batch_size=8,
+    "cpu": Preset(demos=30, image_size=64, variants="original,light,speed,light+speed", steps=500, batch_size=8,
                   eval_episodes=10, device="cpu", act_flags=SMALL_ACT),
     "paper": Preset(demos=30, image_size=400, variants="original,paper", steps=15000, batch_size=32,
                     eval_episodes=100, device="cuda", act_flags=("--num_workers=4",)),
