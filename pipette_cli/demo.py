@@ -126,6 +126,8 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     t = time.perf_counter()
     summary = evaluate(task, InProcessSource(result.checkpoint, device="cpu"), DecodeConfig.for_policy("act"),
                        episodes=size.eval_episodes, seed=1000, out=out / "eval", image_size=size.image_size)
+    summary["dataset_version"] = "augmented"  # what `pipette eval report` groups by
+    (out / "eval" / "summary.json").write_text(json.dumps(summary, indent=2))
     timings["eval"] = time.perf_counter() - t
     contact_sheet(aug, out / "augmented_sheet.png", out / "augmented.gif")
     report = {

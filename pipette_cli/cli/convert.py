@@ -34,7 +34,7 @@ def convert(
     views, the state, the action and the instruction. The dataset is built beside --root and
     renamed into place only when complete.
 
-    Example: pipette convert tube.h5 --repo-id local/tube_raw --root datasets/tube/raw
+    Example: pipette convert tube.h5   (-> datasets/pipette_PickUpTestTube-v1/raw, where `pipette train` looks)
     """
     from pipette_cli.demos.store import scan
     from pipette_cli.errors import DatasetError
@@ -89,7 +89,7 @@ def stats(
 ) -> None:
     """Show a LeRobot dataset's episodes, frames, per-feature ranges and success provenance.
 
-    Example: pipette data stats datasets/tube/raw --json
+    Example: pipette data stats datasets/pipette_PickUpTestTube-v1/raw --json
     """
     from pipette_cli.lerobot.stats import dataset_stats
 

@@ -28,7 +28,7 @@ def serve(
     typed error (bad_request, bad_shape, bad_dtype, nan, out_of_range, too_large, internal)
     after which the server keeps serving. Stop it with Ctrl-C.
 
-    Example: pipette serve --policy outputs/train/act_tube/checkpoints/last/pretrained_model
+    Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model
     """
     from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, check_endpoint
 

@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.errors import PipetteError, SpecError
+from pipette_cli.errors import PipetteError, SpecError, suggest
 from pipette_cli.registry import (
     YAML_SUFFIXES,
     Registry,
@@ -97,6 +97,7 @@ def validate_tasks(
         registry = _registry()
         err_console.print(f"{len(registry.tasks)} tasks valid in {len(registry_dirs(STATE.registry_dirs))} folder(s)")
         return
+    registry_dirs(STATE.registry_dirs)  # imports the task packs, which may register evaluator types
     files: list[Path] = []
     for path in paths:
         if path.is_dir():
@@ -162,10 +163,15 @@ def new_task(
             context["asset"] = asset
         text = render_task_template(template, **context)
     else:
+        if template not in registry.tasks and "/" not in template and not re.search(r"[A-Z]", template):
+            raise PipetteError(f"unknown template {template!r}; {suggest(template, task_template_names())} "
+                               "(or give a registered task id to copy)")
         source = registry.entry(template)
         doc = read_yaml(source.path)
         doc["id"] = task_id
         doc["name"] = name
+        if "tags" in doc:  # a copy is not one of the paper's twelve benchmark tasks
+            doc["tags"] = [t for t in doc["tags"] if t != "paper-benchmark"]
         if instruction:
             doc["instruction"] = instruction
         text = dump_yaml(doc)

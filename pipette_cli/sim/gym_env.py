@@ -103,7 +103,11 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
 
 def register_envs() -> None:
-    """Register every task of the registry with gymnasium (the ``gymnasium.envs`` entry point)."""
+    """Register every task of the registry with gymnasium.
+
+    Gymnasium 1.x has no plugin entry points: importing :mod:`pipette_cli.envs` calls this, and
+    ``gym.make("pipette_cli.envs:pipette/PickUpTestTube-v1")`` imports that module itself.
+    """
     from pipette_cli.registry import load_registry
 
     registry = load_registry()

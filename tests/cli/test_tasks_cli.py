@@ -97,6 +97,7 @@ def test_new_by_copying_keeps_comments_and_refuses_overwrite(run_cli, tmp_path: 
     assert run_cli(*args).exit_code == 0
     assert load_task_file(out).success.min_height_gain == 0.02
     assert "# paper A.8: z_t > z_0 + 0.02 m" in out.read_text()
+    assert "paper-benchmark" not in load_task_file(out).tags  # a copy is not one of the twelve
     again = run_cli(*args)
     assert again.exit_code == 1 and "exists; pass --force" in again.stderr
 
@@ -111,6 +112,9 @@ def test_new_rejects_bad_ids_and_taken_ids(run_cli, tmp_path: Path) -> None:
     assert "must look like namespace/Name-v1" in run_cli("tasks", "new", "bad id", "--from", "pick").stderr
     taken = run_cli("tasks", "new", "pipette/PickUpTestTube-v1", "--from", "pick", "--out", tmp_path)
     assert taken.exit_code == 1 and "already registered" in taken.stderr
+    typo = run_cli("tasks", "new", "mylab/PickUpCryovial-v1", "--from", "pik", "--out", tmp_path)
+    assert typo.exit_code == 1 and "unknown template 'pik'" in typo.stderr and "'pick'" in typo.stderr
+    assert not list(tmp_path.iterdir())
 
 
 def test_registry_dir_option_adds_tasks(run_cli) -> None:

@@ -141,3 +141,45 @@ def test_task_pack_entry_point(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     registry = load_registry()
     assert registry.entry("testlab/PickUpMicrotube-v1").path == tasks / "pick.yaml"
     sys.modules.pop("mylab_pack", None)
+
+
+PACK_WITH_EVALUATOR = """
+from pathlib import Path
+from typing import Literal
+
+from pipette_cli.specs.evaluators import EvaluatorSpec, register_evaluator
+
+
+@register_evaluator
+class TouchSpec(EvaluatorSpec):
+    type: Literal["mylab_touch"] = "mylab_touch"
+    object: str
+
+
+TASKS = Path(__file__).parent / "mylab_tasks"
+"""
+
+
+def test_validating_one_file_knows_the_evaluator_types_of_task_packs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, run_cli) -> None:
+    """A pack that registers its own evaluator type: `tasks validate FILE` imports it first."""
+    from pipette_cli.specs.evaluators import EVALUATORS
+
+    (tmp_path / "mylab_tasks").mkdir()
+    (tmp_path / "mylab_evalpack.py").write_text(PACK_WITH_EVALUATOR)
+    dist = tmp_path / "mylab_evalpack-0.1.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: mylab-evalpack\nVersion: 0.1\n")
+    (dist / "entry_points.txt").write_text(f"[{ENTRY_POINT_GROUP}]\nmylab = mylab_evalpack:TASKS\n")
+    doc = read_yaml(FIXTURES / "valid_pick.yaml")
+    doc["success"] = {"type": "mylab_touch", "object": "tube"}
+    task_file = tmp_path / "touch.yaml"
+    task_file.write_text(dump_yaml(doc))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    try:
+        result = run_cli("tasks", "validate", task_file)
+        assert result.exit_code == 0, result.stderr
+        assert "mylab_touch" in EVALUATORS
+    finally:
+        EVALUATORS._types.pop("mylab_touch", None)
+        sys.modules.pop("mylab_evalpack", None)
+    assert run_cli("tasks", "validate", tmp_path / "missing.yaml").exit_code == 1
