@@ -7,7 +7,7 @@ the backend re-asks with the errors (bounded attempts). Nothing it says is execu
 
 from __future__ import annotations
 
-from pipette_cli.agent.catalog import AgentError, CommandCatalog
+from pipette_cli.agent.catalog import ONE_OF, AgentError, CommandCatalog
 from pipette_cli.agent.plan import CommandPlanSpec
 from pipette_cli.authoring.backends import make_backend
 from pipette_cli.registry import Registry
@@ -21,7 +21,8 @@ def catalog_prompt(catalog: CommandCatalog, registry: Registry) -> str:
     ]
     for name, info in sorted(catalog.commands.items()):
         params = ", ".join(f"{p.name}{'*' if p.required else ''}" for p in info.params.values())
-        lines.append(f"- {name}: {info.help} [{params}]")
+        choice = f" (needs one of {', '.join(ONE_OF[name])})" if name in ONE_OF else ""
+        lines.append(f"- {name}: {info.help} [{params}]{choice}")
     lines.append("Task ids: " + ", ".join(registry.ids()))
     return "\n".join(lines)
 
@@ -42,8 +43,11 @@ class LLMAgent:
             raise AgentError(f"'pipette {plan.command}' has no parameter(s) {', '.join(unknown)}")
         for key in ("task_id", "tasks"):
             value = plan.params.get(key)
-            for task in value if isinstance(value, list) else [value] if value else []:
-                self.registry.get(str(task))  # TaskNotFound with suggestions -> re-asked
+            for task in value if isinstance(value, list) else str(value).split(",") if value else []:
+                task = str(task).strip()
+                if task == "all" and "`all`" in info.params[key].help:
+                    continue  # train --tasks all
+                self.registry.get(task)  # TaskNotFound with suggestions -> re-asked
         missing = self.catalog.missing(plan.command, plan.params)
         return plan.model_copy(update={"missing": missing})
 

@@ -1,9 +1,11 @@
 """The offline agent: a deterministic parser from a request to a command of the CLI.
 
-It recognises the intent from verbs and nouns, pulls out parameters (task ids matched against
-the registry, policy, dataset version, steps, episodes, seeds, sizes, paths), fills defaults
-from the registry and from the command's own defaults, and lists what is still missing. It
-knows only commands the CLI defines (see :mod:`.catalog`).
+Paths and addresses are taken out first (:mod:`.mentions`) and fill the command's path options;
+the remaining words give the intent (verbs and nouns) and the parameters (task ids matched
+against the registry or "all tasks", policy, dataset version, steps, episodes, seeds, sizes).
+Defaults come from the registry and from the command's own defaults, and what is still missing
+(a required value, or a required choice such as eval's endpoint or policy) is listed. It knows
+only commands the CLI defines (see :mod:`.catalog`).
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import re
 from dataclasses import dataclass, field
 from typing import Any
 
-from pipette_cli.agent.catalog import AgentError, CommandCatalog
+from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo
+from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
 from pipette_cli.agent.plan import CommandPlanSpec
 from pipette_cli.errors import suggest
 from pipette_cli.registry import Registry
@@ -135,9 +138,22 @@ def match_task(text: str, registry: Registry) -> tuple[str | None, list[str]]:
     return None, top
 
 
-def _path(text: str, *suffixes: str) -> str | None:
-    m = re.search(r"([\w./~-]+(?:" + "|".join(re.escape(s) for s in suffixes) + r"))\b", text)
-    return m.group(1) if m else None
+ALL_TASKS = re.compile(
+    r"\b(?:all|every|each)\b(?:\s+(?:of|the|\d+|registered|benchmark|paper|pipette|available|known))*\s+tasks?\b")
+"""'all tasks', 'every task', 'all benchmark tasks', 'all 12 tasks'."""
+NOT_TASK_WORDS = {
+    "the", "a", "an", "it", "my", "our", "this", "that", "same", "policy", "policies", "model", "checkpoint", "raw",
+    "augmented", "original", "unaugmented", "data", "dataset", "datasets", "demos", "demonstrations", "episodes",
+    "gpu", "cpu", "cuda", *POLICIES,
+}
+"""Words a request uses around a task that never name one ("train act on the augmented data")."""
+
+
+def _category(words: str) -> str | None:
+    """The asset category a request names ("the instruments", "consumable assets")."""
+    from pipette_cli.assets.library import CATEGORIES
+
+    return next((c for c in CATEGORIES if re.search(rf"\b{c.removesuffix('s')}s?\b", words)), None)
 
 
 class OfflineAgent:
@@ -150,25 +166,62 @@ class OfflineAgent:
         self.registry = registry
 
     def intent(self, text: str) -> tuple[str, str]:
-        lowered = f" {text.lower()} "
+        """(intent, command) from the words of ``text``; paths and addresses do not count."""
+        lowered = f" {find_mentions(text, self.registry.ids()).words.lower()} "
         for intent, command, cues in INTENTS:
             if any(re.search(rf"(?<![a-z]){re.escape(cue.strip())}", lowered) for cue in cues):
                 return intent, command
+        if _category(lowered):  # "which tools are there"
+            return "assets", "assets list"
         raise AgentError(
             "cannot tell what to run from this request; say e.g. 'list the tasks', 'collect 20 demos of "
             "PickUpTestTube', 'inspect data/x.h5'"
         )
 
+    def _task(self, words: str, info: CommandInfo, param: str, context: Context, notes: list[str]) -> str | None:
+        """The task value for ``param`` of ``info``: a registered id, ``all``, or None (missing).
+
+        Raises:
+            AgentError: an unknown or ambiguous task, or "all tasks" for a command that runs one.
+        """
+        lowered = words.lower()
+        option = info.params[param]
+        if ALL_TASKS.search(lowered):
+            if "`all`" in option.help:
+                return "all"
+            if option.required:
+                raise AgentError(f"'pipette {info.name}' runs one task at a time; name the task")
+            return None  # the command's default covers every task
+        task, candidates = match_task(words, self.registry)
+        if task is None and re.search(r"\b(it|that task|the same task|this task)\b", lowered) and context.task:
+            notes.append(f"task from context: {context.task}")
+            return context.task
+        if candidates:
+            raise AgentError(f"the request could mean several tasks: {', '.join(candidates)}; name one")
+        if task is None and option.required:
+            named = re.search(
+                r"(?:task|on|of|for)\s+(?:the\s+)?([A-Za-z][\w-]+(?:\s+[a-z]+){0,3}?)(?:\s+task|$|\s+with|\s+for)", words)
+            if named and set(named.group(1).lower().split()) - NOT_TASK_WORDS:
+                names = [t.split("/", 1)[1].rsplit("-v", 1)[0] for t in self.registry.ids()]
+                raise AgentError(f"unknown task {named.group(1)!r}; {suggest(named.group(1).replace(' ', ''), names)}")
+        return task
+
     def plan(self, text: str, context: Context | None = None) -> CommandPlanSpec:
         """The command for ``text``; required values the request lacks are listed in ``missing``."""
         context = context or Context()
-        intent, command = self.intent(text)
+        mentions = find_mentions(text, self.registry.ids())
+        words = mentions.words  # what is read as words: paths and addresses are values, not words
+        lowered = words.lower()
+        intent, command = self.intent(words)
         if command not in self.catalog:
             available = ", ".join(sorted({c.split()[0] for c in self.catalog.commands}))
             raise AgentError(f"'pipette {command}' is not available in this version (commands: {available})")
-        lowered = text.lower()
-        if "asset" in lowered and command in ("tasks list", "tasks show"):
-            command = command.replace("tasks", "assets")
+        category = _category(lowered)
+        if command in ("tasks list", "tasks show") and (
+            "asset" in lowered or (category and not re.search(r"\btasks?\b", lowered))
+        ):
+            # "list the instruments", "show the consumables": a category, no single asset -> the list
+            command = "assets show" if command == "tasks show" and self._asset_id(lowered) else "assets list"
         params: dict[str, Any] = {}
         notes: list[str] = []
         info = self.catalog.get(command)
@@ -179,29 +232,24 @@ class OfflineAgent:
         # new-task's --id names the task to create: never filled from the registry
         task_param = None if command == "new-task" else next((p for p in ("task_id", "tasks", "task") if want(p)), None)
         if task_param:
-            task, candidates = match_task(text, self.registry)
-            if task is None and re.search(r"\b(it|that task|the same task|this task)\b", lowered) and context.task:
-                task = context.task
-                notes.append(f"task from context: {task}")
+            task = self._task(words, info, task_param, context, notes)
             if task is not None:
                 params[task_param] = [task] if info.params[task_param].multiple else task
-                context.task = task
-            elif candidates:
-                raise AgentError(f"the request could mean several tasks: {', '.join(candidates)}; name one")
-            else:
-                named = re.search(r"(?:task|on|of|for)\s+(?:the\s+)?([A-Za-z][\w-]+(?:\s+[a-z]+){0,3}?)(?:\s+task|$|\s+with|\s+for)", text)
-                if named and not info.params[task_param].required:
-                    pass
-                elif named and named.group(1).lower() not in ("the", "a", "it"):
-                    names = [t.split("/", 1)[1].rsplit("-v", 1)[0] for t in self.registry.ids()]
-                    raise AgentError(f"unknown task {named.group(1)!r}; {suggest(named.group(1).replace(' ', ''), names)}")
-        file_param = next((p for p in ("file", "input", "input_file", "inputs") if want(p)), None)
-        path = _path(text, ".h5", ".hdf5")
-        if file_param and (path or context.file):
-            chosen = path or context.file
-            params[file_param] = [chosen] if info.params[file_param].multiple else chosen
-            if not path:
-                notes.append(f"file from context: {chosen}")
+                if task != "all":
+                    context.task = task
+        for address in mentions.addresses:
+            key = next((k for k in ("endpoint", "bind") if want(k)), None)
+            if key is None:
+                raise AgentError(f"'pipette {command}' takes no address like {address!r}")
+            params[key] = address
+        paths = mentions.paths
+        if want("description"):  # free text: only "save it to PATH" is a path, the rest describes
+            paths = [m for m in paths if SAVE.search(m.before)]
+        assign_paths(info, paths, params)
+        file_param = next((p for p in ("file", "input", "inputs") if want(p) and info.params[p].required), None)
+        if file_param and not params.get(file_param) and context.file:
+            params[file_param] = [context.file] if info.params[file_param].multiple else context.file
+            notes.append(f"file from context: {context.file}")
         if want("episodes"):
             n = _number(lowered, "episodes?", "demos?", "demonstrations?", "rollouts?", "trials?", "runs?", "seeds?")
             if n is not None:
@@ -228,20 +276,19 @@ class OfflineAgent:
         if want("source"):
             if re.search(r"\b(teleop|keyboard|by hand|manually|myself)\b", lowered):
                 params["source"] = "teleop"
-        if want("policy"):
+        # a policy *name* (act, smolvla, pi0) goes to the option that takes one: train's --policy,
+        # eval's --policy-type; eval's and serve's --policy take a folder
+        policy_key = next((k for k in ("policy", "policy_type") if want(k) and not info.params[k].path), None)
+        if policy_key:
             for word, policy in POLICIES.items():
                 if re.search(rf"(?<![a-z]){re.escape(word)}(?![a-z])", lowered):
-                    params["policy"] = policy
+                    params[policy_key] = policy
                     break
         if want("dataset_version"):
             if "augment" in lowered:
                 params["dataset_version"] = "augmented"
             elif re.search(r"\braw\b|original|unaugmented|un-augmented", lowered):
                 params["dataset_version"] = "raw"
-        if want("endpoint"):
-            m = re.search(r"tcp://[\w.*-]+:\d+", text)
-            if m:
-                params["endpoint"] = m.group(0)
         if want("device"):
             if re.search(r"\b(gpu|cuda)\b", lowered):
                 params["device"] = "cuda"
@@ -257,30 +304,29 @@ class OfflineAgent:
                     break
             if "lid" in lowered or "hatch" in lowered:
                 params["tag"] = "hatch_control"
-        if want("category"):
-            for category in ("tools", "equipment", "consumables", "instruments"):
-                if category.rstrip("s") in lowered:
-                    params["category"] = category
+        if want("category") and category:
+            params["category"] = category
         if want("description"):
-            quoted = re.search(r"[\"“'](.+?)[\"”']", text)
-            rest = re.sub(r"^.*?\b(?:where|in which|that|:|for|to)\s+", "", text, count=1) if not quoted else quoted.group(1)
+            said = text
+            for m in paths:  # "... and save it to x.yaml" is not part of the description
+                said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(m.path)}\S*", "", said)
+            quoted = re.search(r"[\"“'](.+?)[\"”']", said)
+            rest = re.sub(r"^.*?\b(?:where|in which|that|:|for|to)\s+", "", said, count=1)
             params["description"] = quoted.group(1) if quoted else rest.strip()
-        if want("asset_id") and command == "assets show":
-            from pipette_cli.assets.library import load_asset_library
-
-            ids = load_asset_library().ids()
-            hit = next((a for a in ids if a in lowered.replace(" ", "_")), None)
-            params["asset_id"] = hit
-        if want("out"):
-            out = _path(text, ".h5", ".png", ".yaml") if command != "collect" or path else None
-            if out and out != params.get(file_param or ""):
-                params["out"] = out
-            elif command == "collect" and params.get("task_id"):
-                short = str(params["task_id"]).split("/", 1)[1].rsplit("-v", 1)[0]
-                params["out"] = f"data/{short}.h5"
-                notes.append(f"default output data/{short}.h5")
+        if want("asset_id") and command == "assets show" and not params.get("asset_id"):
+            params["asset_id"] = self._asset_id(lowered)
+        if command == "collect" and not params.get("out") and params.get("task_id"):
+            short = str(params["task_id"]).split("/", 1)[1].rsplit("-v", 1)[0]
+            params["out"] = f"data/{short}.h5"
+            notes.append(f"default output data/{short}.h5")
         if command == "collect" and params.get("out"):
             context.file = str(params["out"])
-        missing = [m for m in self.catalog.missing(command, params)]
+        missing = self.catalog.missing(command, params)
         return CommandPlanSpec(command=command, params={k: v for k, v in params.items() if v is not None},
                                missing=missing, notes=notes)
+
+    @staticmethod
+    def _asset_id(lowered: str) -> str | None:
+        from pipette_cli.assets.library import load_asset_library
+
+        return next((a for a in load_asset_library().ids() if a in lowered.replace(" ", "_")), None)

@@ -10,31 +10,17 @@
 
 from __future__ import annotations
 
-import logging
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipette_cli.authoring.draft import INTENTS
+from pipette_cli.demos.experts.base import FAMILY_EXPERTS, find_expert, task_family
 from pipette_cli.errors import PipetteError
 from pipette_cli.specs.task import TaskSpec
 
-log = logging.getLogger(__name__)
-
 MAX_DRIFT_M = 0.05
 """Free objects may drift this much while the robot stands still (lying tubes and pipettes rock by a few cm in the registry too)."""
-FAMILY_EXPERTS: dict[str, tuple[str, ...]] = {
-    # draft family -> expert names tried in order (``register_expert(name)`` in pipette_cli.demos.experts)
-    "pick": ("pick",),
-    "place": ("place",),
-    "insert": ("insert", "place"),
-    "transfer": ("transfer", "place"),
-    "open": ("open_lid", "lid"),
-    "close": ("close_lid", "lid"),
-    "press": ("press_button", "press"),
-    "position": ("position",),
-}
 
 
 @dataclass
@@ -77,11 +63,6 @@ class CheckReport:
                 "solve": {"status": self.solve.status, "expert": self.solve.expert, "successes": self.solve.successes,
                           "episodes": self.solve.episodes, "detail": self.solve.summary()},
                 "seconds": round(self.seconds, 2)}
-
-
-def family_of(task: TaskSpec) -> str | None:
-    """The draft family recorded in the task's tags (``generated, place, ...``)."""
-    return next((t for t in task.tags if t in INTENTS), None)
 
 
 def _idle_action(world) -> np.ndarray:
@@ -137,21 +118,6 @@ def check_task(task: TaskSpec, episodes: int = 2, *, solve: bool = True) -> Chec
     return report
 
 
-def _find_expert(task: TaskSpec):
-    from pipette_cli.demos.experts.base import make_expert
-
-    family = family_of(task)
-    names = [task.id, *FAMILY_EXPERTS.get(family or "", ())]
-    for name in names:
-        try:
-            return name, make_expert(name)
-        except PipetteError:
-            continue
-        except Exception as exc:  # an expert module that fails to import must not hide the others
-            log.warning("expert %s unavailable: %s", name, exc)
-    return None, None
-
-
 def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
     """Run the scripted expert of ``task_spec`` (its own, or its family's) for ``episodes`` seeds.
 
@@ -159,9 +125,10 @@ def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
     """
     from pipette_cli.sim.world import World
 
-    family = family_of(task_spec)
-    name, expert = _find_expert(task_spec)
-    if expert is None:
+    family = task_family(task_spec)
+    try:
+        name, expert = find_expert(task_spec)
+    except PipetteError:
         tried = ", ".join(FAMILY_EXPERTS.get(family or "", ())) or "none"
         return SolveReport("not_checked", detail=f"no scripted expert for this task or its family "
                                                  f"'{family}' (tried: {tried})")

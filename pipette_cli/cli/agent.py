@@ -8,8 +8,9 @@ import sys
 from typing import Annotated, Any
 
 import typer
+from rich.markup import escape
 
-from pipette_cli.agent.catalog import AgentError, load_catalog
+from pipette_cli.agent.catalog import AgentError, load_catalog, say_missing
 from pipette_cli.agent.offline import Context, OfflineAgent
 from pipette_cli.agent.plan import CommandPlanSpec
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
@@ -30,8 +31,12 @@ def command_line(plan: CommandPlanSpec) -> list[str]:
 
 
 def _ask_missing(plan: CommandPlanSpec) -> CommandPlanSpec:
+    """Prompt for each missing value; a missing choice ("endpoint|policy") first asks which one."""
     params: dict[str, Any] = dict(plan.params)
     for name in plan.missing:
+        options = name.split("|")
+        while name not in options:
+            name = typer.prompt(f"'pipette {plan.command}' needs one of {', '.join(options)}; which").strip()
         params[name] = typer.prompt(f"{name.replace('_', ' ')}")
     return plan.model_copy(update={"params": params, "missing": []})
 
@@ -43,7 +48,7 @@ def _handle(agent, request: str, context: Context, *, as_json: bool, yes: bool, 
         return 0
     if plan.missing:
         if not sys.stdin.isatty() and not interactive:
-            raise AgentError(f"'pipette {plan.command}' needs {', '.join(plan.missing)}; add them to the request")
+            raise AgentError(f"'pipette {plan.command}' needs {say_missing(plan.missing)}; add them to the request")
         plan = _ask_missing(plan)
     argv = command_line(plan)
     context.history.append(plan)
@@ -51,7 +56,7 @@ def _handle(agent, request: str, context: Context, *, as_json: bool, yes: bool, 
         print_json({"command": shlex.join(argv), "argv": argv, "params": plan.params, "missing": [], "notes": plan.notes})
     else:
         for note in plan.notes:
-            err_console.print(f"[dim]{note}[/dim]")
+            err_console.print(f"[dim]{escape(note)}[/dim]")
         out_console.print(shlex.join(argv), markup=False, highlight=False)
     if not yes and (as_json or not typer.confirm("Run it?", default=False, err=True)):
         return 0
@@ -92,4 +97,4 @@ def agent(
         try:
             _handle(agent_impl, line, context, as_json=as_json, yes=yes, interactive=True)
         except AgentError as exc:
-            err_console.print(f"[red]error:[/red] {exc}")
+            err_console.print(f"[red]error:[/red] {escape(str(exc))}")

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.progress import Progress
 from rich.table import Table
 
@@ -110,7 +111,7 @@ def validate(
     else:
         for r in failed:
             for problem in r.problems:
-                out_console.print(f"[red]FAIL[/red] {r.asset_id}: {problem}")
+                out_console.print(f"[red]FAIL[/red] {r.asset_id}: {escape(problem)}")
         err_console.print(f"{len(reports) - len(failed)}/{len(reports)} assets valid in {time.perf_counter() - t0:.1f} s")
     if failed:
         raise typer.Exit(1)
@@ -182,6 +183,6 @@ def repair_paths(
     )
     for f in result["files"]:
         if f["error"]:
-            err_console.print(f"[red]error:[/red] {f['file']}: {f['error']} (not modified)")
+            err_console.print(f"[red]error:[/red] {escape(str(f['file']))}: {escape(str(f['error']))} (not modified)")
     if s["unparseable"] or (fix and s["unresolved_absolute"]):
         raise typer.Exit(1)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
@@ -25,9 +26,10 @@ def _confirm(question: str, yes: bool) -> bool:
         except (OSError, ValueError):
             answer = ""
         if not answer:
-            err_console.print(f"{question} [y/N] no answer (stdin is not a terminal); pass --yes to write")
+            err_console.print(f"{question} [y/N] no answer (stdin is not a terminal); pass --yes to write",
+                              markup=False, soft_wrap=True)
             return False
-        err_console.print(f"{question} [y/N] {answer.strip()}")
+        err_console.print(f"{question} [y/N] {answer.strip()}", markup=False, soft_wrap=True)
         return answer.strip().lower() in ("y", "yes")
     return typer.confirm(question, default=False, err=True)
 
@@ -79,7 +81,7 @@ def new_task(
                           f"with the {engine.name} backend")
     if report is not None:
         for problem in report.problems:
-            err_console.print(f"[red]check:[/red] {problem}")
+            err_console.print(f"[red]check:[/red] {escape(problem)}")
         err_console.print(f"check: {'ok' if report.ok else 'FAILED'}; idle rollout {report.idle_steps} steps, "
                           f"objects moved at most {report.max_drift_m * 1000:.1f} mm; {report.solve.summary()} "
                           f"({report.seconds:.1f} s)")

@@ -19,6 +19,7 @@ if sys.platform.startswith("linux") and not os.environ.get("DISPLAY") and not os
 
 import typer
 from rich.logging import RichHandler
+from rich.markup import escape
 
 from pipette_cli import __version__
 from pipette_cli.cli import agent as agent_cli
@@ -48,7 +49,7 @@ app.add_typer(tasks_cli.app, name="tasks")
 app.command("agent")(agent_cli.agent)
 app.add_typer(assets_cli.app, name="assets")
 app.add_typer(experts_cli.app, name="experts")
-app.command("eval")(evaluate_cli.eval_command)
+app.command("eval", cls=evaluate_cli.EvalCommand)(evaluate_cli.eval_command)
 app.command("demo")(demo_cli.demo)
 app.add_typer(sim_cli.app, name="sim")
 app.command("new-task")(authoring_cli.new_task)
@@ -98,7 +99,7 @@ def run() -> None:
             err_console.print_exception()
         problems = getattr(exc, "problems", None) or [str(exc)]
         for line in problems:
-            err_console.print(f"[red]error:[/red] {line}", markup=True, highlight=False, soft_wrap=True)
+            err_console.print(f"[red]error:[/red] {escape(str(line))}", markup=True, highlight=False, soft_wrap=True)
         sys.exit(1)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.lerobot.train import IfExists, Policy
@@ -34,15 +35,16 @@ def train(
     """Train a policy on each task's LeRobot dataset with `lerobot-train`, one run after another.
 
     Datasets come from datasets/<task>/<version> (as written by `pipette convert`); a missing one
-    stops everything before any run. Each run writes outputs/train/<policy>/<task>_<version>/ and
-    tees its output to outputs/train/<policy>/<task>_<version>.log. Nothing is pushed to the Hub.
+    stops everything before any run (with --dry-run it is only a warning). Each run writes
+    outputs/train/<policy>/<task>_<version>/ and tees its output to
+    outputs/train/<policy>/<task>_<version>.log. Nothing is pushed to the Hub.
 
     Example: pipette train --tasks PickUpTestTube,OpenCentrifugeLid --policy act --dataset-version raw --dry-run
     """
     from pipette_cli.errors import DatasetError
     from pipette_cli.lerobot.convert import DatasetVersion
     from pipette_cli.lerobot.train import (
-        TrainError, TrainOptions, lerobot_train_executable, plan, resolve_tasks, run_job,
+        TrainError, TrainOptions, lerobot_train_executable, missing_datasets, plan, resolve_tasks, run_job,
     )
     from pipette_cli.registry import load_registry
 
@@ -55,7 +57,7 @@ def train(
         raise TrainError("--tasks is empty: give task ids separated by commas, or all")
     registry = load_registry(STATE.registry_dirs)
     task_ids = resolve_tasks(
-        requested, registry.ids(), lambda t: registry.entry(t).spec.id, version, datasets_root
+        requested, registry.ids(), lambda t: registry.entry(t).spec.id, version, datasets_root, allow_missing=dry_run
     )
     options = TrainOptions(
         policy=policy, dataset_version=version, steps=steps, batch_size=batch_size, device=device,
@@ -66,6 +68,10 @@ def train(
     executable = "lerobot-train" if dry_run else lerobot_train_executable()
     jobs = plan(task_ids, options, executable=executable)
     if dry_run:
+        for root in missing_datasets(task_ids, version, datasets_root):
+            err_console.print(f"[yellow]warning:[/yellow] no LeRobot dataset (meta/info.json) at {escape(str(root))} "
+                              f"yet; make it with `pipette convert ... --dataset-version {version.value}` before training",
+                              soft_wrap=True)
         if as_json:
             print_json([{"task": j.task_id, "action": j.action, "argv": list(j.argv), "env": j.env,
                          "output_dir": str(j.output_dir), "log": str(j.log_file)} for j in jobs])

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipette_cli.demos.experts.base import make_expert
+from pipette_cli.demos.experts.base import find_expert, make_expert
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
 
@@ -30,10 +30,14 @@ class ExpertReport:
         return self.successes / self.episodes if self.episodes else 0.0
 
 
-def run_expert_episode(world: World, task_id: str, seed: int, max_steps: int | None = None):
-    """Reset ``world`` to ``seed`` and let the expert act until the evaluator decides."""
+def run_expert_episode(world: World, task_id: str | None, seed: int, max_steps: int | None = None):
+    """Reset ``world`` to ``seed`` and let the expert act until the evaluator decides.
+
+    ``task_id`` names the expert; ``None`` picks the world's task's own or family expert
+    (:func:`~pipette_cli.demos.experts.base.find_expert`).
+    """
     world.reset(seed)
-    expert = make_expert(task_id)
+    expert = make_expert(task_id) if task_id is not None else find_expert(world.task)[1]
     expert.reset(world, np.random.default_rng(seed))
     verdict = world.verdict
     limit = max_steps or int(1e6)
@@ -49,7 +53,7 @@ def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
     start = time.perf_counter()
     steps = 0
     for k in range(episodes):
-        verdict = run_expert_episode(world, task.id, seed + k)
+        verdict = run_expert_episode(world, None, seed + k)
         report.episodes += 1
         steps += world.step_count
         if verdict.success:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.demos.experts.base import Expert, make_expert
+from pipette_cli.demos.experts.base import Expert, find_expert
 from pipette_cli.demos.provenance import model_sha256, provenance
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeSummary, EpisodeWriter, commit_tmp, sim_state
 from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan
@@ -112,7 +112,7 @@ class EpisodeRunner:
         max_steps: int,
         source: str = "scripted",
     ) -> None:
-        self.expert = expert_factory() if expert_factory is not None else make_expert(task.id)
+        self.expert = expert_factory() if expert_factory is not None else find_expert(task)[1]
         self.env = PipetteEnv(task, image_size=image_size, render_profile=render_profile)  # type: ignore[arg-type]
         self.info = DatasetInfo.from_env(self.env)
         expert_name = f"{type(self.expert).__module__}.{type(self.expert).__qualname__}"
@@ -218,7 +218,8 @@ def collect(
         seed: Seed of episode 0; episode ``i`` uses ``seed + i``.
         image_size: Square image side (default: the task's cameras).
         workers: Processes recording episodes in parallel.
-        expert_factory: Builds the expert (default: ``make_expert(task.id)``); must be
+        expert_factory: Builds the expert (default: the task's own or family expert,
+            :func:`~pipette_cli.demos.experts.base.find_expert`); must be
             picklable when ``workers > 1``.
         max_steps: Control-step cap per episode (default: :func:`step_cap`).
         render_profile: ``fast`` or ``full``.
@@ -241,7 +242,7 @@ def collect(
     jobs = [Job(have + i, s, part_path(out, have + i)) for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))]
     result = CollectResult(out, total=have)
     if expert_factory is None and jobs:
-        make_expert(task.id)  # fail fast, before building anything
+        find_expert(task)  # fail fast, before building anything
     if workers > 1 and expert_factory is not None:
         _check_picklable(expert_factory)
     clean(status)

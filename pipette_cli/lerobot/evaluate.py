@@ -52,6 +52,43 @@ class DecodeConfig:
         return self.policy_type != "act"
 
 
+def checkpoint_policy_type(path: Path) -> str:
+    """The policy ``type`` LeRobot wrote into ``path/config.json`` (``act``, ``smolvla``, ``pi0``).
+
+    Raises:
+        PipetteError: ``path`` holds no readable ``config.json`` with a ``type``.
+    """
+    config = Path(path) / "config.json"
+    if not config.is_file():
+        raise PipetteError(f"{path}: not a LeRobot policy folder (no config.json); pass the pretrained_model folder")
+    try:
+        policy_type = json.loads(config.read_text(encoding="utf-8")).get("type")
+    except (OSError, ValueError, AttributeError) as exc:
+        raise PipetteError(f"{config}: not a readable LeRobot policy config: {exc}") from exc
+    if not isinstance(policy_type, str):
+        raise PipetteError(f"{config}: no policy 'type' field; pass --policy-type ({', '.join(POLICY_TYPES)})")
+    return policy_type
+
+
+def resolve_policy_type(given: str | None, checkpoint: Path | None) -> str:
+    """The policy type to decode with: the checkpoint's ``config.json`` ``type``, which an explicit
+    ``given`` must agree with; ``given`` (default ``act``) when there is no checkpoint (a server).
+
+    Raises:
+        PipetteError: ``given`` contradicts the checkpoint, or the checkpoint's type is unknown.
+    """
+    if checkpoint is None:
+        return given or "act"
+    found = checkpoint_policy_type(checkpoint)
+    if given is not None and given != found:
+        raise PipetteError(f"--policy-type {given} contradicts {Path(checkpoint) / 'config.json'}, which says type "
+                           f"{found!r}; drop --policy-type or pass the right checkpoint")
+    if found not in POLICY_TYPES:
+        raise PipetteError(f"{Path(checkpoint) / 'config.json'}: policy type {found!r} cannot be evaluated; "
+                           f"expected one of {', '.join(POLICY_TYPES)}")
+    return found
+
+
 class ActionSource(Protocol):
     """A policy: an in-process runner or a :class:`~pipette_cli.lerobot.client.PolicyClient`."""
 

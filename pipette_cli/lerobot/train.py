@@ -193,13 +193,21 @@ def train_argv(task_id: str, options: TrainOptions, *, resume: bool = False, exe
     ]
 
 
+def missing_datasets(task_ids: Sequence[str], version: DatasetVersion, datasets_root: Path) -> list[Path]:
+    """The dataset folders of ``task_ids`` that hold no LeRobot dataset (yet)."""
+    return [root for root in (dataset_root(t, version, datasets_root) for t in task_ids) if not has_dataset(root)]
+
+
 def resolve_tasks(requested: Sequence[str], registry_ids: Sequence[str], resolve: Callable[[str], str],
-                  version: DatasetVersion, datasets_root: Path) -> list[str]:
+                  version: DatasetVersion, datasets_root: Path, *, allow_missing: bool = False) -> list[str]:
     """Task ids to train: ``all`` = every registered task with a dataset of ``version``.
+
+    ``allow_missing`` keeps named tasks whose dataset does not exist yet (``--dry-run``: the
+    commands can be previewed before ``pipette convert``; :func:`missing_datasets` lists them).
 
     Raises:
         TaskNotFound: an unknown task (from ``resolve``).
-        DatasetError: a named task has no dataset, or ``all`` finds none.
+        DatasetError: a named task has no dataset (unless ``allow_missing``), or ``all`` finds none.
     """
     if "all" in requested and len(requested) > 1:
         raise TrainError("--tasks all cannot be combined with task ids")
@@ -212,11 +220,10 @@ def resolve_tasks(requested: Sequence[str], registry_ids: Sequence[str], resolve
             )
         return ids
     ids = list(dict.fromkeys(resolve(t) for t in requested))
-    missing = [str(dataset_root(t, version, datasets_root)) for t in ids
-               if not has_dataset(dataset_root(t, version, datasets_root))]
-    if missing:
+    missing = missing_datasets(ids, version, datasets_root)
+    if missing and not allow_missing:
         raise DatasetError(
-            f"no LeRobot dataset (meta/info.json) at {', '.join(missing)}; "
+            f"no LeRobot dataset (meta/info.json) at {', '.join(map(str, missing))}; "
             f"make it with `pipette convert ... --dataset-version {version.value}` or give --datasets-root"
         )
     return ids

@@ -37,6 +37,16 @@ def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path) -> No
     assert "Traceback" not in result.stderr and not out.exists()
 
 
+def test_a_generated_task_is_collected_with_its_family_expert(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "g.h5"
+    result = run_cli("collect", "generated/PickUpConicalTube50mlSkirted-v1", "--out", out, "--episodes", "1", "--image-size", "16")
+    assert result.exit_code == 0, result.stderr
+    assert "1 episode (1 new, 1 successful" in result.stdout
+    report = json.loads(run_cli("data", "inspect", out, "--json").stdout)
+    assert report["task_id"] == "generated/PickUpConicalTube50mlSkirted-v1"
+    assert [e["success"] for e in report["episodes"]] == [True]
+
+
 def test_collect_then_resume_to_more_episodes(run_cli, wiggle, tmp_path: Path) -> None:
     out = tmp_path / "x.h5"
     first = _collect(run_cli, out, "--episodes", "2", "--seed", "3")

@@ -57,6 +57,10 @@ def test_answering_no_writes_nothing(run_cli, tmp_path, monkeypatch) -> None:
     monkeypatch.setattr(sys, "stdin", io.StringIO("n\n"))
     result = run_cli("new-task", TEXT, "--out", tmp_path)
     assert result.exit_code == 1 and "not written" in result.stderr and not list(tmp_path.iterdir())
+    assert f"write {tmp_path}" in result.stderr and "? [y/N] n\n" in result.stderr  # the prompt, not rich markup
+    monkeypatch.setattr(sys, "stdin", io.StringIO(""))
+    silent = run_cli("new-task", TEXT, "--out", tmp_path)
+    assert silent.exit_code == 1 and "[y/N] no answer (stdin is not a terminal)" in " ".join(silent.stderr.split())
     monkeypatch.setattr(sys, "stdin", io.StringIO("y\n"))
     assert run_cli("new-task", TEXT, "--out", tmp_path).exit_code == 0 and len(list(tmp_path.iterdir())) == 1
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from pipette_cli.demos.check import check_expert, run_expert_episode
-from pipette_cli.demos.experts.base import expert_names, make_expert
+from pipette_cli.demos.experts import base as experts
+from pipette_cli.demos.experts.base import expert_names, find_expert, make_expert
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.world import World
@@ -53,6 +54,28 @@ def test_a_generated_task_never_gets_a_benchmark_expert_by_name() -> None:
     with pytest.raises(PipetteError, match="no scripted expert for task 'generated/CloseSpectrophotometerLid-v1'"):
         make_expert("generated/CloseSpectrophotometerLid-v1")
     assert make_expert("close_lid") is not None  # the family expert it should use instead
+
+
+def test_a_generated_task_gets_its_family_expert(monkeypatch: pytest.MonkeyPatch) -> None:
+    close = REGISTRY.get("generated/CloseMicrocentrifugeLid-v1")
+    assert find_expert(close)[0] == "close_lid"
+    assert find_expert(REGISTRY.get("PickUpTestTube"))[0] == "pipette/PickUpTestTube-v1"  # its own expert first
+    with pytest.raises(PipetteError, match="^no scripted expert for task 'generated/CloseMicrocentrifugeLid-v1'; "):
+        find_expert(close.model_copy(update={"tags": ["generated"]}))  # no family tag: no fallback
+    for name in ("close_lid", "lid"):
+        monkeypatch.delitem(experts._EXPERTS, name, raising=False)
+    with pytest.raises(PipetteError, match=r"or its family 'close' \(tried: close_lid, lid\)"):
+        find_expert(close)
+    opening = close.model_copy(update={"tags": ["generated", "open"]})
+    with pytest.raises(PipetteError, match=r"family 'open' \(tried: open_lid\)"):  # never the closing plan
+        find_expert(opening)
+
+
+def test_experts_check_cli_runs_a_generated_task(run_cli) -> None:
+    result = run_cli("experts", "check", "generated/PickUpConicalTube50mlSkirted-v1", "--episodes", "1", "--json")
+    assert result.exit_code == 0, result.stderr
+    (row,) = json.loads(result.stdout)
+    assert row["task"] == "generated/PickUpConicalTube50mlSkirted-v1" and row["successes"] == 1
 
 
 def test_a_tube_moved_by_randomisation_is_still_picked_where_it_is() -> None:

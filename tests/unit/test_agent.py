@@ -25,7 +25,7 @@ COMMANDS = {
     "describe PickUpTestTube": "pipette tasks show pipette/PickUpTestTube-v1",
     "explain the pipette rack task": "pipette tasks show pipette/PlacePipetteInRack-v1",
     "details of the flask on shaker task please": "pipette tasks show pipette/PlaceFlaskOnShaker-v1",
-    "validate registry/pick_up_test_tube.yaml": "pipette tasks validate",
+    "validate registry/pick_up_test_tube.yaml": "pipette tasks validate registry/pick_up_test_tube.yaml",
     "collect 20 demos of the test tube task": "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 20",
     "record fifty demonstrations for PlaceTubeOnBalance into runs/balance.h5":
         "pipette collect pipette/PlaceTubeOnBalance-v1 --out runs/balance.h5 --episodes 50",
@@ -65,6 +65,41 @@ COMMANDS = {
         "pipette train --tasks pipette/PickUpTestTube-v1 --policy act --dataset-version raw --steps 2000 --device cuda",
     "evaluate the policy at tcp://127.0.0.1:5555 on the water bath task for 50 episodes":
         "pipette eval pipette/OpenWaterBathLid-v1 --endpoint tcp://127.0.0.1:5555 --episodes 50",
+    # every task: train takes `all`; dataset-version words are never a task
+    "train act on the augmented data for all tasks":
+        "pipette train --tasks all --policy act --dataset-version augmented",
+    "train smolvla on every task with the raw demos":
+        "pipette train --tasks all --policy smolvla --dataset-version raw",
+    "train pi0 on all benchmark tasks for 5k steps": "pipette train --tasks all --policy pi0 --steps 5000",
+    "check the scripted expert on every task": "pipette experts check",
+    # paths fill path options and are not read as words (no `train` intent, no `act` policy, no task)
+    "serve the policy in ckpt/pretrained_model": "pipette serve --policy ckpt/pretrained_model",
+    "serve outputs/train/act/x/checkpoints/last/pretrained_model":
+        "pipette serve --policy outputs/train/act/x/checkpoints/last/pretrained_model",
+    "serve outputs/train/act/x/checkpoints/last/pretrained_model on tcp://0.0.0.0:6000":
+        "pipette serve --policy outputs/train/act/x/checkpoints/last/pretrained_model --bind tcp://0.0.0.0:6000",
+    "evaluate outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model on the water bath task":
+        "pipette eval pipette/OpenWaterBathLid-v1 --policy "
+        "outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model",
+    "evaluate the policy in ckpt/smolvla on the test tube task and save the results to evals/smolvla":
+        "pipette eval pipette/PickUpTestTube-v1 --policy ckpt/smolvla --out evals/smolvla",
+    "evaluate tcp://127.0.0.1:5555 on the test tube task with results in evals/act":  # endpoint given: not --policy
+        "pipette eval pipette/PickUpTestTube-v1 --endpoint tcp://127.0.0.1:5555 --out evals/act",
+    "evaluate the smolvla policy at tcp://127.0.0.1:5555 on the test tube task":
+        "pipette eval pipette/PickUpTestTube-v1 --endpoint tcp://127.0.0.1:5555 --policy-type smolvla",
+    "train act on the test tube task fine-tuning from checkpoint ckpt/act_base":
+        "pipette train --tasks pipette/PickUpTestTube-v1 --policy act --pretrained-path ckpt/act_base",
+    "augment data/raw.h5 into data/aug.h5 for the test tube task":
+        "pipette augment pipette/PickUpTestTube-v1 --input data/raw.h5 --output data/aug.h5",
+    "collect 5 demos of pipette/PickUpTestTube-v1":  # a task id holds a `/` but is no path
+        "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 5",
+    "validate the assets in assets/tools/a.usda and assets/tools/b.usda":
+        "pipette assets validate assets/tools/a.usda assets/tools/b.usda",
+    "show asset assets/tools/a.usda": "pipette assets show assets/tools/a.usda",
+    # asset categories (tools, equipment, consumables, instruments) are assets, not tasks
+    "list the instruments": "pipette assets list --category instruments",
+    "show the consumables": "pipette assets list --category consumables",
+    "which tools are there": "pipette assets list --category tools",
 }
 
 # request -> (command, missing fields)
@@ -75,6 +110,10 @@ MISSING = {
     "replay an episode": ("data replay", ["file"]),
     "render a task": ("sim render", ["task_id"]),
     "delete episode 2": ("data delete-episode", ["file"]),
+    "train act on the augmented data": ("train", ["tasks"]),
+    # eval needs --endpoint or --policy: one missing choice, never a command that cannot run
+    "evaluate the policy for 10 episodes": ("eval", ["task_id", "endpoint|policy"]),
+    "evaluate the policy on the test tube task": ("eval", ["endpoint|policy"]),
 }
 
 
@@ -186,3 +225,83 @@ def test_interactive_session_keeps_context() -> None:
     out = [line.replace("agent>", "").strip() for line in result.stdout.splitlines()]  # prompts share the lines
     assert "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 10" in out
     assert "pipette sim render pipette/PickUpTestTube-v1 --seed 3" in out
+
+
+def test_all_tasks_for_a_command_that_runs_one_is_refused() -> None:
+    with pytest.raises(AgentError, match="'pipette eval' runs one task at a time"):
+        AGENT.plan("evaluate the policy at tcp://127.0.0.1:5555 on all tasks")
+
+
+def test_catalog_refuses_eval_without_endpoint_or_policy() -> None:
+    with pytest.raises(AgentError, match="'pipette eval' needs endpoint or policy"):
+        load_catalog().argv("eval", {"task_id": "pipette/PickUpTestTube-v1", "episodes": 10})
+
+
+def test_a_path_that_fits_no_option_is_refused_not_dropped() -> None:
+    with pytest.raises(AgentError, match="cannot tell what 'ckpt/x' is for in 'pipette train' .*--pretrained-path"):
+        AGENT.plan("train act on the test tube task with ckpt/x")
+    with pytest.raises(AgentError, match="'pipette tasks list' takes no file or folder, but the request names 'x/y'"):
+        AGENT.plan("list the tasks in x/y")
+
+
+def test_names_on_disk_are_paths_plain_words_are_not(tmp_path, monkeypatch) -> None:
+    """A bare name that exists counts as a path when it does not read as a word; `data` stays a
+    word although a data/ folder exists."""
+    (tmp_path / "data").mkdir()
+    (tmp_path / "pretrained_model").mkdir()
+    monkeypatch.chdir(tmp_path)
+    assert shlex.join(command_line(AGENT.plan("serve pretrained_model"))) == "pipette serve --policy pretrained_model"
+    assert shlex.join(command_line(AGENT.plan("evaluate pretrained_model on the test tube task"))) == (
+        "pipette eval pipette/PickUpTestTube-v1 --policy pretrained_model")
+    assert shlex.join(command_line(AGENT.plan("train act on the augmented data for all tasks"))) == (
+        "pipette train --tasks all --policy act --dataset-version augmented")
+    assert AGENT.plan("serve the policy in pretrained-model").missing == ["policy"]  # not on disk: a word
+
+
+def test_cli_json_lists_the_missing_choice(run_cli) -> None:
+    result = run_cli("agent", "evaluate the policy for 10 episodes", "--json")
+    assert result.exit_code == 0, result.stderr
+    assert json.loads(result.stdout) == {"command": "eval", "params": {"episodes": 10},
+                                         "missing": ["task_id", "endpoint|policy"], "notes": []}
+
+
+def test_cli_refuses_eval_without_a_policy_when_it_cannot_ask(run_cli) -> None:
+    result = run_cli("agent", "evaluate the policy on the test tube task for 10 episodes", "--yes")
+    assert result.exit_code == 1
+    assert "'pipette eval' needs endpoint or policy; add them to the request" in result.stderr
+
+
+def test_interactive_session_asks_which_policy_source_and_its_value() -> None:
+    """The missing task is asked for, then which of --endpoint/--policy (a wrong answer is asked
+    again), then its value; the command is built from the answers."""
+    import os
+    import subprocess
+    import sys
+
+    lines = "evaluate the policy for 10 episodes\nPickUpTestTube\nserver\npolicy\nckpt/act\nn\nquit\n"
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"],
+        input=lines, capture_output=True, text=True, timeout=120, env={**os.environ},
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.count("needs one of endpoint, policy; which") == 2  # "server" is asked again
+    assert "pipette eval PickUpTestTube --policy ckpt/act --episodes 10" in result.stdout
+
+
+def test_llm_agent_accepts_train_on_all_tasks() -> None:
+    import httpx
+
+    from pipette_cli.agent.llm import LLMAgent
+
+    answer = {"command": "train", "params": {"tasks": "all", "policy": "act"}, "missing": [], "notes": []}
+    calls: list[int] = []
+
+    def reply(request: httpx.Request) -> httpx.Response:
+        calls.append(1)
+        message = {"role": "assistant", "content": json.dumps(answer)}
+        return httpx.Response(200, json={"choices": [{"message": message}]})
+
+    agent = LLMAgent("openai", load_catalog(), load_registry(), base_url="http://llm.test/v1", model="m",
+                     transport=httpx.MockTransport(reply))
+    plan = agent.plan("train act on every task")
+    assert shlex.join(command_line(plan)) == "pipette train --tasks all --policy act" and len(calls) == 1

@@ -105,7 +105,7 @@ def test_text_dry_run_prints_a_runnable_command(workdir: Path, run_cli) -> None:
 
 
 def test_augmented_version_uses_its_own_dataset(workdir: Path, run_cli) -> None:
-    result = run_cli("train", "--tasks", TASK, "--policy", "act", "--dataset-version", "augmented", "--dry-run")
+    result = run_cli("train", "--tasks", TASK, "--policy", "act", "--dataset-version", "augmented")
     assert result.exit_code == 1 and f"datasets/{NAME}/augmented" in result.stderr
     make_dataset(workdir / "datasets", version="augmented")
     [job] = dry_run(run_cli, "--tasks", TASK, "--policy", "act", "--dataset-version", "augmented")
@@ -119,6 +119,18 @@ def test_missing_dataset_is_one_line_error_before_anything_runs(workdir: Path, r
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "pipette_OpenCentrifugeLid-v1/raw" in lines[0] and "pipette convert" in lines[0]
     assert NAME not in lines[0].split("at ", 1)[1].split(";")[0]  # only the missing one is named
+    assert not (workdir / "outputs").exists()
+
+
+def test_dry_run_previews_commands_before_the_datasets_exist(workdir: Path, run_cli) -> None:
+    result = run_cli("train", "--tasks", f"{TASK},{OTHER}", "--policy", "act", "--dry-run")
+    assert result.exit_code == 0, result.stderr
+    assert len([line for line in result.stdout.splitlines() if "lerobot-train" in line]) == 2
+    [warning] = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    assert "datasets/pipette_OpenCentrifugeLid-v1/raw" in warning and "pipette convert" in warning
+    assert NAME not in result.stderr  # the dataset that exists is not listed
+    jobs = dry_run(run_cli, "--tasks", OTHER, "--policy", "act")
+    assert flags(jobs[0]["argv"])["dataset.root"] == "datasets/pipette_OpenCentrifugeLid-v1/raw"
     assert not (workdir / "outputs").exists()
 
 

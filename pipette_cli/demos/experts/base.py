@@ -7,14 +7,20 @@ policy or a teleoperator produces: arm joint targets plus a gripper command (1 o
 
 from __future__ import annotations
 
+import logging
 import re
 from collections.abc import Callable
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from pipette_cli.errors import PipetteError, suggest
 from pipette_cli.sim.world import World
+
+if TYPE_CHECKING:
+    from pipette_cli.specs.task import TaskSpec
+
+log = logging.getLogger(__name__)
 
 
 class Expert(Protocol):
@@ -31,6 +37,18 @@ class Expert(Protocol):
 
 ExpertFactory = Callable[[], Expert]
 _EXPERTS: dict[str, ExpertFactory] = {}
+
+FAMILY_EXPERTS: dict[str, tuple[str, ...]] = {
+    # task family (a tag written by ``pipette new-task``) -> family expert names tried in order
+    "pick": ("pick",),
+    "place": ("place",),
+    "insert": ("insert", "place"),
+    "transfer": ("transfer", "place"),
+    "open": ("open_lid",),  # none built in yet ("lid" is the closing plan): a clear "no expert" error
+    "close": ("close_lid", "lid"),
+    "press": ("press_button", "press"),
+    "position": ("position",),
+}
 
 
 def register_expert(*names: str) -> Callable[[ExpertFactory], ExpertFactory]:
@@ -59,7 +77,8 @@ def make_expert(task_id: str) -> Expert:
     """The scripted expert for ``task_id`` (any version), or for a family name.
 
     The namespace is part of the key: a generated ``generated/CloseSpectrophotometerLid-v1``
-    does not get the benchmark's expert, whose plan names that task's scene objects.
+    does not get the benchmark's expert, whose plan names that task's scene objects; it gets
+    its family's expert through :func:`find_expert`.
 
     Raises:
         PipetteError: no expert is registered for the task.
@@ -70,6 +89,36 @@ def make_expert(task_id: str) -> Expert:
     if factory is None:
         raise PipetteError(f"no scripted expert for task {task_id!r}; {suggest(key, _EXPERTS)}")
     return factory()
+
+
+def task_family(task: TaskSpec) -> str | None:
+    """The task family recorded in the task's tags (``generated, place, ...``), if any."""
+    return next((t for t in task.tags if t in FAMILY_EXPERTS), None)
+
+
+def find_expert(task: TaskSpec) -> tuple[str, Expert]:
+    """The task's own expert (by id), else the first registered expert of its family.
+
+    This is how ``collect``, ``experts check`` and ``new-task --check`` pick an expert, so a
+    task written by ``pipette new-task`` gets the family expert (``pick``, ``place``, ...).
+
+    Returns:
+        The expert's registered name and a fresh expert.
+
+    Raises:
+        PipetteError: neither the task nor its family has an expert.
+    """
+    family = task_family(task)
+    candidates = FAMILY_EXPERTS.get(family or "", ())
+    for name in (task.id, *candidates):
+        try:
+            return name, make_expert(name)
+        except PipetteError:
+            continue
+        except Exception as exc:  # an expert that fails to build must not hide the others
+            log.warning("expert %s unavailable: %s", name, exc)
+    tried = f" or its family {family!r} (tried: {', '.join(candidates)})" if family else ""
+    raise PipetteError(f"no scripted expert for task {task.id!r}{tried}; {suggest(_key(task.id), _EXPERTS)}")
 
 
 def _load_builtins() -> None:

@@ -1,0 +1,130 @@
+"""Paths and addresses in a request: found before any word is read, then given to path options.
+
+A path is a token with a ``/``, a file name with a known suffix (``x.h5``), or a name that exists
+on disk and does not read as a plain word (it has a dot, underscore, dash or digit, so ``data``
+stays a word where a ``data/`` folder exists). Paths and addresses (``tcp://host:port``) are
+blanked out of the words the parser reads, so ``outputs/train/act/...`` neither asks for
+``pipette train`` nor names the ACT policy.
+
+Each path goes to one path option of the command (:func:`assign_paths`): the option the words
+just before it name ("the policy in ckpt/x", "from checkpoint ckpt/x"); an option the command
+writes when they say where to put something ("to", "into", "save"); else the command's required
+input, its path in a required choice (``eval --policy``), or its only path option.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pipette_cli.agent.catalog import ONE_OF, AgentError, CommandInfo, ParamInfo
+
+FILE_SUFFIXES = ("h5", "hdf5", "png", "jpg", "gif", "mp4", "yaml", "yml", "json", "csv", "md", "usd", "usda", "usdc",
+                 "safetensors")
+_SUFFIX = re.compile(rf"\.(?:{'|'.join(FILE_SUFFIXES)})$", re.IGNORECASE)
+_ADDRESS = re.compile(r"^[a-z][a-z0-9+.-]*://\S+$", re.IGNORECASE)
+_STRIP_LEFT, _STRIP_RIGHT = "([{\"'“‘", ")]}\"'”’.,;:!?"
+SAVE = re.compile(r"\b(?:save|write|store)s?\b(?:\s+(?:it|them|the \w+))?\s+(?:to|in|into|under|at)$")
+"""Words before a path that say the command should write there (present tense: "saved in" does not)."""
+_TO = re.compile(r"\b(?:to|into|as)$")
+_ALIASES = {"checkpoint": "pretrained", "weights": "pretrained", "finetune": "pretrained", "tune": "pretrained",
+            "from": "pretrained", "data": "dataset", "backbone": "vlm", "result": "out", "output": "out"}
+"""Words that name a path option differently from its parameter name (singular, as compared)."""
+
+
+@dataclass(frozen=True)
+class PathMention:
+    path: str
+    before: str
+    """Up to four lowercased words just before the path ("the policy in")."""
+
+
+@dataclass(frozen=True)
+class Mentions:
+    words: str
+    """The request with paths and addresses taken out: what the parser reads as words."""
+    paths: list[PathMention]
+    addresses: list[str]
+
+
+def _is_path(token: str) -> bool:
+    if not re.search(r"[A-Za-z]", token) or not re.fullmatch(r"[\w.~/+-]+", token):
+        return False
+    if "/" in token or _SUFFIX.search(token):
+        return True
+    return bool(re.search(r"[._\-~\d]", token)) and Path(token).expanduser().exists()
+
+
+def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
+    """Split ``text`` into its words, its paths and its addresses; ``names`` (task ids such as
+    ``pipette/PickUpTestTube-v1``, alone or comma-separated) stay words although they hold a ``/``."""
+    known = {n.lower() for n in names}
+    kept: list[str] = []
+    paths: list[PathMention] = []
+    addresses: list[str] = []
+    for token in text.split():
+        core = token.strip(_STRIP_LEFT).rstrip(_STRIP_RIGHT)
+        if core and _ADDRESS.match(core):
+            addresses.append(core)
+        elif core and _is_path(core) and not all(part in known for part in core.lower().split(",")):
+            before = " ".join(re.findall(r"[a-z0-9π-]+", " ".join(kept).lower())[-4:])
+            paths.append(PathMention(core, before))
+        else:
+            kept.append(token)
+    return Mentions(" ".join(kept), paths, addresses)
+
+
+def _named(before: str, params: list[ParamInfo]) -> ParamInfo | None:
+    """The option among ``params`` that the words before a path name ("the policy in")."""
+    def concept(word: str) -> str:
+        singular = word[:-1] if word.endswith("s") else word
+        return _ALIASES.get(singular, singular)
+
+    said = {concept(w) for w in re.split(r"[\s-]+", before)[-3:]}
+    for param in params:
+        if ({concept(w) for w in param.name.split("_")} - {"path", "root", "file"}) & said:
+            return param
+    return None
+
+
+def assign_paths(info: CommandInfo, paths: list[PathMention], params: dict[str, Any]) -> None:
+    """Put each of ``paths`` into the path option of ``info`` it is for (``params`` is updated).
+
+    Raises:
+        AgentError: a path that fits none of the command's free path options.
+    """
+    options = [p for p in info.params.values() if p.path]
+
+    def free(param: ParamInfo) -> bool:
+        return param.multiple or params.get(param.name) in (None, "", [])
+
+    choice = ONE_OF.get(info.name, ())
+    for mention in paths:
+        # of a choice (eval: endpoint or policy), one given bars the others
+        barred = set(choice) if any(not free(info.params[c]) for c in choice) else set()
+        writes = [p for p in options if p.writes and free(p) and p.name not in barred]
+        reads = [p for p in options if not p.writes and free(p) and p.name not in barred]
+        wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
+        candidates = [
+            _named(mention.before, writes + reads),
+            writes[0] if wants_output and writes else None,
+            next((p for p in reads if p.required), None),
+            next((p for p in reads if p.name in choice), None),
+            reads[0] if len(reads) == 1 else None,
+            writes[0] if len(options) == 1 and writes else None,
+        ]
+        target = next((p for p in candidates if p is not None), None)
+        if target is None and not options:
+            raise AgentError(f"'pipette {info.name}' takes no file or folder, but the request names {mention.path!r}")
+        if target is None:
+            flags = ", ".join(p.flag or p.name for p in options)
+            example = f"{options[0].name.split('_')[0]} in {mention.path}"
+            raise AgentError(f"cannot tell what {mention.path!r} is for in 'pipette {info.name}' (its path options: "
+                             f"{flags}); name it before the path, e.g. '{example}'")
+        if target.multiple:
+            params[target.name] = [*params.get(target.name, []), mention.path]
+        else:
+            params[target.name] = mention.path

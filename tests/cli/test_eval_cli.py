@@ -1,0 +1,88 @@
+"""``pipette eval``: `report` as its own command (help included), and the policy type read from
+the checkpoint's config.json. No policy is loaded: the checkpoints hold only a config.json."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from pipette_cli.errors import PipetteError
+from pipette_cli.lerobot import evaluate as lerobot_evaluate
+from pipette_cli.lerobot.evaluate import resolve_policy_type
+
+
+def checkpoint(folder: Path, policy_type: str) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps({"type": policy_type, "chunk_size": 50}))
+    return folder
+
+
+def test_eval_report_help_is_the_report_help(run_cli) -> None:
+    result = run_cli("eval", "report", "--help")
+    assert result.exit_code == 0
+    assert "pipette eval report [OPTIONS]" in result.stdout and "Tabulate evaluation results" in result.stdout
+    assert "--endpoint" not in result.stdout
+    plain = run_cli("eval", "--help")
+    assert plain.exit_code == 0 and "--endpoint" in plain.stdout and "pipette eval [OPTIONS]" in plain.stdout
+
+
+def test_eval_report_tabulates_and_needs_a_folder(run_cli, tmp_path: Path) -> None:
+    (tmp_path / "runs" / "act_raw").mkdir(parents=True)
+    (tmp_path / "runs" / "act_raw" / "summary.json").write_text(json.dumps(
+        {"task": "pipette/PickUpTestTube-v1", "policy_type": "act", "dataset_version": "raw", "episodes": 4, "success_rate": 0.5}))
+    result = run_cli("eval", "report", tmp_path / "runs")
+    assert result.exit_code == 0, result.stderr
+    assert "| pipette/PickUpTestTube-v1 | act | 50 |" in result.stdout
+    assert run_cli("eval", "report").exit_code == 2  # a usage error: no folder
+    odd = tmp_path / "runs[" / "old]"  # brackets in an error message are printed, not read as rich markup
+    odd.mkdir(parents=True)
+    missing = run_cli("eval", "report", odd)
+    assert missing.exit_code == 1 and f"error: {odd}: no summary.json" in " ".join(missing.stderr.split())
+    extra = run_cli("eval", "PickUpTestTube", "leftover", "--endpoint", "tcp://127.0.0.1:1")
+    assert extra.exit_code == 2 and "leftover" in extra.stderr
+
+
+@pytest.fixture
+def captured(monkeypatch: pytest.MonkeyPatch) -> dict:
+    """Replace loading and running the policy: record the decoding config eval chose."""
+    seen: dict = {}
+
+    def fake_evaluate(task, source, config, **kwargs):  # noqa: ANN001, ANN003, ANN202
+        seen["policy_type"] = config.policy_type
+        return {"task": task.id, "policy_type": config.policy_type, "episodes": 1, "successes": 0, "success_rate": 0.0}
+
+    monkeypatch.setattr(lerobot_evaluate, "InProcessSource", lambda path: path)
+    monkeypatch.setattr(lerobot_evaluate, "evaluate", fake_evaluate)
+    return seen
+
+
+def test_eval_reads_the_policy_type_from_the_checkpoint(run_cli, captured, tmp_path: Path) -> None:
+    smolvla = checkpoint(tmp_path / "smolvla", "smolvla")
+    result = run_cli("eval", "PickUpTestTube", "--policy", smolvla, "--episodes", "1", "--json")
+    assert result.exit_code == 0, result.stderr
+    assert captured["policy_type"] == "smolvla" and json.loads(result.stdout)["policy_type"] == "smolvla"
+    agreeing = run_cli("eval", "PickUpTestTube", "--policy", smolvla, "--policy-type", "smolvla", "--episodes", "1")
+    assert agreeing.exit_code == 0, agreeing.stderr
+
+
+def test_eval_refuses_a_policy_type_that_contradicts_the_checkpoint(run_cli, captured, tmp_path: Path) -> None:
+    pi0 = checkpoint(tmp_path / "pi0", "pi0")
+    result = run_cli("eval", "PickUpTestTube", "--policy", pi0, "--policy-type", "act", "--episodes", "1")
+    assert result.exit_code == 1 and "policy_type" not in captured
+    assert "--policy-type act contradicts" in result.stderr and "'pi0'" in result.stderr
+
+
+def test_resolve_policy_type(tmp_path: Path) -> None:
+    assert resolve_policy_type(None, None) == "act"  # a server: nothing to read
+    assert resolve_policy_type("pi0", None) == "pi0"
+    assert resolve_policy_type(None, checkpoint(tmp_path / "p", "pi0")) == "pi0"
+    with pytest.raises(PipetteError, match="policy type 'diffusion' cannot be evaluated; expected one of act, smolvla, pi0"):
+        resolve_policy_type(None, checkpoint(tmp_path / "d", "diffusion"))
+    with pytest.raises(PipetteError, match="not a LeRobot policy folder \\(no config.json\\)"):
+        resolve_policy_type(None, tmp_path)
+    (tmp_path / "broken").mkdir()
+    (tmp_path / "broken" / "config.json").write_text("{}")
+    with pytest.raises(PipetteError, match="no policy 'type' field"):
+        resolve_policy_type(None, tmp_path / "broken")
