@@ -121,6 +121,8 @@ def _walk(command: Any, path: tuple[str, ...] = ()):
             yield from _walk(sub, (*path, name))
     elif path:
         yield path, command
+        for name, sub in getattr(command, "subcommands", {}).items():  # `eval report` (see cli/evaluate.py)
+            yield (*path, name), sub
 
 
 def _mentions_path(annotation: Any) -> bool:

@@ -30,6 +30,7 @@ _STRIP_LEFT, _STRIP_RIGHT = "([{\"'“‘", ")]}\"'”’.,;:!?"
 SAVE = re.compile(r"\b(?:save|write|store)s?\b(?:\s+(?:it|them|the \w+))?\s+(?:to|in|into|under|at)$")
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
 _TO = re.compile(r"\b(?:to|into|as)$")
+_FROM = re.compile(r"\b(?:from|of)$")
 _ALIASES = {"checkpoint": "pretrained", "weights": "pretrained", "finetune": "pretrained", "tune": "pretrained",
             "from": "pretrained", "data": "dataset", "backbone": "vlm", "result": "out", "output": "out"}
 """Words that name a path option differently from its parameter name (singular, as compared)."""
@@ -108,8 +109,9 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], params: dict[str, 
         writes = [p for p in options if p.writes and free(p) and p.name not in barred]
         reads = [p for p in options if not p.writes and free(p) and p.name not in barred]
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
+        reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
         candidates = [
-            _named(mention.before, writes + reads),
+            _named(mention.before, reads if reads_from else writes + reads),
             writes[0] if wants_output and writes else None,
             next((p for p in reads if p.required), None),
             next((p for p in reads if p.name in choice), None),

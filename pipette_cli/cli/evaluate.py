@@ -17,14 +17,22 @@ class EvalCommand(TyperCommand):
     """``pipette eval TASK ...``, except that ``pipette eval report ...`` is handed whole to the
     ``report`` command, so that ``pipette eval report --help`` is the report's help."""
 
+    @property
+    def subcommands(self) -> dict[str, click.Command]:
+        """Commands reached through this one's first argument (the agent's catalog lists them)."""
+        return {"report": _report_click()}
+
     def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
                      **extra: Any) -> click.Context:
         if args[:1] == ["report"]:
-            report_app = typer.Typer(add_completion=False)
-            report_app.command("report")(report_command)
-            command = typer.main.get_command(report_app)
-            return command.make_context(f"{info_name} report", args[1:], parent=parent, **extra)
+            return _report_click().make_context(f"{info_name} report", args[1:], parent=parent, **extra)
         return super().make_context(info_name, args, parent=parent, **extra)
+
+
+def _report_click() -> click.Command:
+    report_app = typer.Typer(add_completion=False)
+    report_app.command("report")(report_command)
+    return typer.main.get_command(report_app)
 
 
 def eval_command(

@@ -100,6 +100,9 @@ COMMANDS = {
     "list the instruments": "pipette assets list --category instruments",
     "show the consumables": "pipette assets list --category consumables",
     "which tools are there": "pipette assets list --category tools",
+    # `eval report` is reached through `eval`'s first argument; "from" names its input, not --out
+    "make a results table from evals/raw": "pipette eval report evals/raw",
+    "make a results table from evals/raw and save it to tables/act": "pipette eval report evals/raw --out tables/act",
 }
 
 # request -> (command, missing fields)
@@ -110,6 +113,7 @@ MISSING = {
     "replay an episode": ("data replay", ["file"]),
     "render a task": ("sim render", ["task_id"]),
     "delete episode 2": ("data delete-episode", ["file"]),
+    "make a results table": ("eval report", ["folders"]),
     "train act on the augmented data": ("train", ["tasks"]),
     # eval needs --endpoint or --policy: one missing choice, never a command that cannot run
     "evaluate the policy for 10 episodes": ("eval", ["task_id", "endpoint|policy"]),
