@@ -121,7 +121,7 @@ def _define_material(stage: Usd.Stage, scope: Sdf.Path, mat: Material) -> UsdSha
 
 
 def _set_group(prim: Usd.Prim, api: str, group: int) -> None:
-    prim.ApplyAPI(api)
+    prim.AddAppliedSchema(api)  # MuJoCo's mjcPhysics schemas are not registered in usd-core: no validation
     prim.CreateAttribute("mjc:group", Sdf.ValueTypeNames.Int, custom=False, variability=Sdf.VariabilityUniform).Set(group)
 
 

@@ -58,7 +58,8 @@ def list_assets(
         return
     for e in entries:
         out_console.print(f"{e.category:12s} {e.asset_id}")
-    counts = ", ".join(f"{c} {sum(e.category == c for e in entries)}" for c in CATEGORIES)
+    shown = CATEGORIES if category is None else (category,)
+    counts = ", ".join(f"{c} {sum(e.category == c for e in entries)}" for c in shown)
     err_console.print(f"{len(entries)} assets ({counts})")
 
 

@@ -138,5 +138,5 @@ def new_asset(
     report = write_asset(drafted, root, force=force)
     if as_json:
         print_json({**summary, "path": str(report.path), "validation": report.as_dict()})
-    err_console.print(f"wrote {report.path} (valid: USD, MuJoCo compile, physics; {report.seconds:.1f} s); "
+    err_console.print(f"wrote {report.path} (validated before writing: USD, MuJoCo compile, physics); "
                       f"use it with PIPETTE_ASSET_PATH={root}")

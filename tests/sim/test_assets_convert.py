@@ -82,3 +82,21 @@ def test_two_assets_attach_with_prefixes() -> None:
 def test_unknown_asset_suggests_a_name() -> None:
     with pytest.raises(AssetError, match="did you mean 'beaker_250ml'"):
         load_asset_spec("beaker_250")
+
+
+def test_sites_survive_a_usd_stage_opened_before_mujoco_is_imported() -> None:
+    """pxr reads its schema registry once: MuJoCo's schemas must be registered before the first
+    stage, or MuJoCo's USD import drops every site (a fresh process, pxr first)."""
+    import subprocess
+    import sys
+
+    code = (
+        "from pipette_cli.assets.library import load_asset_library\n"
+        "load_asset_library().get('centrifuge_benchtop').semantics()  # pxr opens a stage first\n"
+        "from pipette_cli.assets.loader import load_asset_spec\n"
+        "m = load_asset_spec('thermal_cycler').compile()\n"
+        "print(sorted(m.site(i).name for i in range(m.nsite)))\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.strip() == "['block_center', 'lid_handle']"
