@@ -104,7 +104,7 @@ def main() -> None:
                 rows.append(measure(f"tiny ACT ({runner.device})", runner, observation(args.size, dtype=dtype), args.act_steps, warmup=3))
     print(f"3 cameras x 3x{args.size}x{args.size} + state(8), loopback tcp, server thread in the same process, "
           f"{os.cpu_count()} CPUs")
-    print(f"codec: " + "; ".join(f"{k} pack {v['pack_ms']:.2f} ms, unpack {v['unpack_ms']:.2f} ms" for k, v in codecs.items()))
+    print("codec: " + "; ".join(f"{k} pack {v['pack_ms']:.2f} ms, unpack {v['unpack_ms']:.2f} ms" for k, v in codecs.items()))
     header = f"{'policy':<18}{'images':>8}{'MB':>7}{'inference':>11}{'round trip':>12}{'overhead':>10}{'p95 ovh':>9}"
     print(header + "   (ms, medians)")
     for r in rows:
