@@ -164,6 +164,21 @@ def run_task(task: TaskSpec, preset: Preset, work: Path) -> dict[str, Any]:
             "seconds": seconds}
 
 
+def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval of a success rate (sound at 0/n and n/n, unlike the normal one)."""
+    if n == 0:
+        return 0.0, 1.0
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * ((p * (1 - p) + z * z / (4 * n)) / n) ** 0.5 / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def rate(v: dict[str, Any]) -> str:
+    low, high = wilson(v["successes"], v["eval_episodes"])
+    return f"{v['successes']}/{v['eval_episodes']} ({100 * v['success_rate']:.0f} %, {100 * low:.0f}-{100 * high:.0f})"
+
+
 def verdict(raw: float, augmented: float) -> str:
     if augmented > raw:
         return "gain"
@@ -178,7 +193,7 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
     report.bar_chart(rows, docs / "success.png")
     lines = [
         "| task | demos (ok) | augmented kept / tried | raw episodes / frames | augmented episodes / frames "
-        "| ACT raw | ACT augmented | change | paper ACT raw -> augmented |",
+        "| ACT raw (95 % CI) | ACT augmented (95 % CI) | change | paper ACT raw -> augmented |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | --- | ---: |",
     ]
     tally: dict[str, list[str]] = {"gain": [], "regression": [], "no change": []}
@@ -190,8 +205,7 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
         lines.append(
             f"| {r['task']} | {r['demos']} ({r['demo_successes']}) | {r['augment_kept']} / {r['augment_tried']} "
             f"| {raw['episodes']} / {raw['frames']} | {aug['episodes']} / {aug['frames']} "
-            f"| {raw['successes']}/{raw['eval_episodes']} ({100 * raw['success_rate']:.0f} %) "
-            f"| {aug['successes']}/{aug['eval_episodes']} ({100 * aug['success_rate']:.0f} %) "
+            f"| {rate(raw)} | {rate(aug)} "
             f"| {change} ({100 * (aug['success_rate'] - raw['success_rate']):+.0f} pt) "
             f"| {f'{paper[0]} -> {paper[1]}' if paper else '-'} |"
         )
@@ -202,6 +216,8 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
         f"Augmented above raw on {len(tally['gain'])} task(s) ({', '.join(tally['gain']) or 'none'}), "
         f"below raw on {len(tally['regression'])} ({', '.join(tally['regression']) or 'none'}), "
         f"equal on {len(tally['no change'])} ({', '.join(tally['no change']) or 'none'}).",
+        "Intervals are 95 % Wilson intervals of each success rate; where they overlap, the change is "
+        "within what the number of evaluation episodes can tell apart.",
     ]
     table = "\n".join(lines) + "\n"
     (docs / "table.md").write_text(table)
