@@ -62,7 +62,7 @@ def bar_chart(rows: list[dict[str, Any]], path: Path) -> None:
     from PIL import Image, ImageDraw
 
     header, body = table(rows)
-    bar, gap, height, left = 18, 14, 220, 40
+    bar, gap, height, left = 30, 52, 220, 40  # a group (2 bars + gap) is wide enough for a 14-char label
     width = left + len(body) * (len(VERSIONS) * bar + gap) + 20
     image = Image.new("RGB", (max(width, 240), height + 90), "white")
     draw = ImageDraw.Draw(image)
@@ -78,6 +78,7 @@ def bar_chart(rows: list[dict[str, Any]], path: Path) -> None:
             if value != "-":
                 top = 10 + height - height * float(value) / 100
                 draw.rectangle([x + j * bar, top, x + (j + 1) * bar - 2, 10 + height], fill=colors[version])
+                draw.text((x + j * bar + 4, max(top - 12, 0)), value, fill="black")  # 0 % is visible too
         label = row[0].split("/")[-1].rsplit("-v", 1)[0][:14]
         draw.text((x, height + 16), label, fill="black")
         draw.text((x, height + 30), row[1], fill="black")
