@@ -80,10 +80,10 @@ def main() -> None:
     rows = [bench_task(task, args.episodes) for task in tasks]
     print(f"mujoco {mujoco.__version__}, {os.cpu_count()} CPUs ({platform.processor() or platform.machine()}), "
           f"{args.episodes} expert episodes per task, physics 600 Hz / control 30 Hz")
-    header = f"{'task':<36}{'robot':<14}{'ngeom':>6}{'nv':>4}{'build s':>9}{'steps':>7}{'ok':>4}{'RTF':>7}{'steps/s':>9}{'RTF+expert':>12}"
+    header = f"{'task':<42}{'robot':<14}{'ngeom':>6}{'nv':>4}{'build s':>9}{'steps':>7}{'ok':>4}{'RTF':>7}{'steps/s':>9}{'RTF+expert':>12}"
     print(header)
     for r in rows:
-        print(f"{r['task']:<36}{r['robot']:<14}{r['ngeom']:>6}{r['nv']:>4}{r['build_s']:>9.2f}{r['control_steps']:>7}"
+        print(f"{r['task']:<42}{r['robot']:<14}{r['ngeom']:>6}{r['nv']:>4}{r['build_s']:>9.2f}{r['control_steps']:>7}"
               f"{r['successes']:>3}/{r['episodes']}{r['real_time_factor']:>6.1f}{r['control_steps_per_s']:>9.0f}"
               f"{r['real_time_factor_with_expert']:>12.1f}")
     commit, dirty = git_state()

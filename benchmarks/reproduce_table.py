@@ -257,7 +257,8 @@ def main() -> None:
         commit, dirty = git_state()
         settings = {"preset": args.preset, **asdict(preset), "git_commit": commit, "git_dirty": dirty,
                     "cpus": os.cpu_count(), "eval_seeds": [EVAL_SEED, EVAL_SEED + preset.eval_episodes - 1],
-                    "wall_minutes": round((time.perf_counter() - started) / 60, 1)}
+                    "wall_minutes_this_run": round((time.perf_counter() - started) / 60, 1),
+                    "stage_minutes": round(sum(sum(r["seconds"].values()) for r in results) / 60, 1)}
         table = write_docs(results, settings, command, args.docs)  # after every task: a partial run still reports
     print(table)
     print(f"wrote {args.docs}/results.json and success.png")
