@@ -46,9 +46,7 @@ from pipette_cli.demos.store import scan  # noqa: E402
 from pipette_cli.lerobot import report  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate  # noqa: E402
-from pipette_cli.lerobot.train import (  # noqa: E402
-    LAST_CHECKPOINT, IfExists, Policy, TrainOptions, lerobot_train_executable, plan, run_job,
-)
+from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.specs.task import TaskSpec  # noqa: E402
 
@@ -113,8 +111,7 @@ def run_task(task: TaskSpec, preset: Preset, work: Path) -> dict[str, Any]:
     spec = AugmentSpec(variants=make_variants(preset.variants.split(","), default_atoms()))
     result = augment(task, raw, aug, spec, workers=1)
     seconds["augment"] = time.perf_counter() - t
-    kept = sum(v["kept"] for v in result.report["variants"])
-    tried = sum(v["attempts"] for v in result.report["variants"])
+    kept, tried = result.report["kept"], result.report["attempts"]
     say(f"{task.id}: augmentation kept {kept}/{tried} replays")
     datasets = folder / "datasets"
     inputs = {DatasetVersion.raw: raw, DatasetVersion.augmented: aug}
@@ -132,14 +129,8 @@ def run_task(task: TaskSpec, preset: Preset, work: Path) -> dict[str, Any]:
         options = TrainOptions(policy=Policy.act, dataset_version=version, steps=preset.steps, batch_size=preset.batch_size,
                                device=preset.device, datasets_root=datasets, output_root=folder / "train",
                                if_exists=IfExists.skip, offline=True, extra=preset.act_flags)
-        [job] = plan([task.id], options, executable=lerobot_train_executable())
-        if job.action == "skip" and not (job.output_dir / LAST_CHECKPOINT / "config.json").is_file():
-            [job] = plan([task.id], replace(options, if_exists=IfExists.overwrite), executable=lerobot_train_executable())
-        if job.action != "skip":  # an interrupted run (no checkpoint yet) is trained again from scratch
-            say(f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)")
-            if run_job(job).returncode != 0:
-                raise SystemExit(f"training failed; see {job.log_file}")
-        checkpoint = job.output_dir / LAST_CHECKPOINT
+        checkpoint = train_checkpoint(task.id, options, on_train=lambda job: say(
+            f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)"))
         seconds[f"train_{name}"] = time.perf_counter() - t
         t = time.perf_counter()
         out = folder / "eval" / name

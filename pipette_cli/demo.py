@@ -86,7 +86,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     from pipette_cli.demos.collect import collect
     from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
     from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate
-    from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, lerobot_train_executable, plan, run_job
+    from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 
     if out.exists() and any(out.iterdir()):
         raise PipetteError(f"{out} is not empty; give another --out or remove it")
@@ -102,8 +102,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     spec = AugmentSpec(variants=make_variants(size.variants.split(","), default_atoms()))
     augmented = augment(task, raw, aug, spec, workers=1)
     timings["augment"] = time.perf_counter() - t
-    kept = sum(r["kept"] for r in augmented.report["variants"])
-    tried = sum(r["attempts"] for r in augmented.report["variants"])
+    kept, tried = augmented.report["kept"], augmented.report["attempts"]
     say(f"augment: {kept}/{tried} variants kept")
     t = time.perf_counter()
     datasets = out / "datasets"
@@ -117,14 +116,11 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     options = TrainOptions(policy=Policy.act, dataset_version=DatasetVersion.augmented, steps=size.train_steps,
                            batch_size=4, device="cpu", datasets_root=datasets, output_root=out / "train",
                            if_exists=IfExists.overwrite, offline=True, extra=TINY_ACT)
-    [job] = plan([task.id], options, executable=lerobot_train_executable())
-    result = run_job(job)
+    checkpoint = train_checkpoint(task.id, options)
     timings["train"] = time.perf_counter() - t
-    if result.returncode != 0 or result.checkpoint is None:
-        raise PipetteError(f"training failed; see {job.log_file}")
-    say(f"train: tiny ACT, {size.train_steps} steps -> {result.checkpoint}")
+    say(f"train: tiny ACT, {size.train_steps} steps -> {checkpoint}")
     t = time.perf_counter()
-    summary = evaluate(task, InProcessSource(result.checkpoint, device="cpu"), DecodeConfig.for_policy("act"),
+    summary = evaluate(task, InProcessSource(checkpoint, device="cpu"), DecodeConfig.for_policy("act"),
                        episodes=size.eval_episodes, seed=1000, out=out / "eval", image_size=size.image_size)
     summary["dataset_version"] = "augmented"  # what `pipette eval report` groups by
     (out / "eval" / "summary.json").write_text(json.dumps(summary, indent=2))

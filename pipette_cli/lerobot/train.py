@@ -21,7 +21,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 from typing import IO, Any
@@ -319,6 +319,29 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
     checkpoint = job.output_dir / LAST_CHECKPOINT
     return JobResult(job.task_id, job.action, code, time.perf_counter() - start,
                      checkpoint if (checkpoint / "config.json").is_file() else None)
+
+
+def train_checkpoint(task_id: str, options: TrainOptions, *, on_train: Callable[[TrainJob], None] | None = None) -> Path:
+    """Train one task with this environment's ``lerobot-train`` (or reuse its finished run) and
+    return the last checkpoint.
+
+    With ``if_exists=skip``, a run folder without a checkpoint (stopped before its first save) is
+    trained again from scratch. ``on_train`` is called before a run actually starts.
+
+    Raises:
+        TrainError: the run failed (its log says why) or left no checkpoint.
+    """
+    executable = lerobot_train_executable()
+    [job] = plan([task_id], options, executable=executable)
+    if job.action == "skip" and not (job.output_dir / LAST_CHECKPOINT / "config.json").is_file():
+        [job] = plan([task_id], replace(options, if_exists=IfExists.overwrite), executable=executable)
+    if job.action != "skip":
+        if on_train is not None:
+            on_train(job)
+        result = run_job(job)
+        if result.returncode != 0 or result.checkpoint is None:
+            raise TrainError(f"training {task_id} failed; see {job.log_file}")
+    return job.output_dir / LAST_CHECKPOINT
 
 
 @contextmanager
