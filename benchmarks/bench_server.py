@@ -19,7 +19,6 @@ import os
 import statistics
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -30,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from pipette_cli.lerobot.client import PolicyClient  # noqa: E402
 from pipette_cli.lerobot.protocol import check_observation, pack, parse_request, unpack  # noqa: E402
-from pipette_cli.lerobot.server import PolicyServer  # noqa: E402
+from pipette_cli.lerobot.server import PolicyServer, serving_in_thread  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
@@ -44,24 +43,18 @@ def _ms(samples: list[float]) -> dict[str, float]:
 def measure(name: str, runner, obs: dict[str, np.ndarray], steps: int, warmup: int) -> dict:
     """Round trip through the server vs the same runner called directly, interleaved step by step."""
     checked = check_observation(parse_request(unpack(pack(obs))), runner.spec)
-    server = PolicyServer(runner, "tcp://127.0.0.1:0")
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
     direct, round_trip = [], []
-    try:
-        with PolicyClient(server.endpoint, timeout_ms=120_000) as client:
-            for i in range(warmup + steps):
-                t0 = time.perf_counter()
-                runner.act(checked, "", chunk=False)
-                t1 = time.perf_counter()
-                client.act(obs)
-                t2 = time.perf_counter()
-                if i >= warmup:
-                    direct.append(t1 - t0)
-                    round_trip.append(t2 - t1)
-    finally:
-        server.stop()
-        thread.join(10)
+    with serving_in_thread(PolicyServer(runner, "tcp://127.0.0.1:0"), join_s=10) as server, \
+            PolicyClient(server.endpoint, timeout_ms=120_000) as client:
+        for i in range(warmup + steps):
+            t0 = time.perf_counter()
+            runner.act(checked, "", chunk=False)
+            t1 = time.perf_counter()
+            client.act(obs)
+            t2 = time.perf_counter()
+            if i >= warmup:
+                direct.append(t1 - t0)
+                round_trip.append(t2 - t1)
     overhead = [r - d for r, d in zip(round_trip, direct, strict=True)]
     image = obs["observation.images.top"]
     return {"policy": name, "image_dtype": str(image.dtype), "request_bytes": len(pack(obs)), "steps": steps,

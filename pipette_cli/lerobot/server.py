@@ -15,7 +15,7 @@ import ipaddress
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -285,3 +285,22 @@ class PolicyServer:
             raise ProtocolError(ErrorType.INTERNAL, "the policy produced NaN or infinite actions")
         self.stats.actions += 1
         return action_reply(action, step=self.stats.actions, inference_ms=elapsed * 1000)
+
+
+@contextlib.contextmanager
+def serving_in_thread(server: PolicyServer, *, join_s: float = 5.0) -> Iterator[PolicyServer]:
+    """Serve ``server`` from a daemon thread for the duration of the block (tests, benchmarks,
+    notebooks): stopped and joined on exit.
+
+    Raises:
+        RuntimeError: the thread did not stop within ``join_s`` seconds.
+    """
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield server
+    finally:
+        server.stop()
+        thread.join(timeout=join_s)
+    if thread.is_alive():
+        raise RuntimeError(f"policy server on {server.endpoint} did not stop within {join_s} s")

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
@@ -82,18 +81,11 @@ def tiny_act(tmp_path_factory) -> Path:
 
 
 def test_served_policy_two_episodes_with_json_logs(run_cli, tiny_act, tmp_path) -> None:
-    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer
+    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread
 
-    server = PolicyServer(LeRobotRunner(tiny_act, device="cpu"), "tcp://127.0.0.1:0")
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
+    with serving_in_thread(PolicyServer(LeRobotRunner(tiny_act, device="cpu"), "tcp://127.0.0.1:0")) as server:
         result = run_cli("eval", "PickUpTestTube", "--endpoint", server.endpoint, "--episodes", "2", "--image-size", "32",
                          "--out", tmp_path / "act_raw", "--json")
-    finally:
-        server.stop()
-        thread.join(timeout=5)
-        server.close()
     assert result.exit_code == 0, result.stderr
     summary = json.loads(result.stdout)
     assert summary["episodes"] == 2 and summary["success_rate"] == summary["successes"] / 2

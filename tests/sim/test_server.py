@@ -21,7 +21,7 @@ from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
 from pipette_cli.lerobot.client import PolicyClient, PolicyRequestError, PolicyTimeout  # noqa: E402
 from pipette_cli.lerobot.protocol import ErrorType, pack, unpack  # noqa: E402
-from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer  # noqa: E402
+from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread  # noqa: E402
 
 pytestmark = pytest.mark.timeout(60)
 
@@ -29,15 +29,8 @@ pytestmark = pytest.mark.timeout(60)
 @contextmanager
 def serving(runner, **kwargs) -> Iterator[PolicyServer]:
     """A server on an OS-chosen loopback port, in a thread, stopped and joined afterwards."""
-    server = PolicyServer(runner, "tcp://127.0.0.1:0", **kwargs)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
+    with serving_in_thread(PolicyServer(runner, "tcp://127.0.0.1:0", **kwargs)) as server:  # raises if it does not stop
         yield server
-    finally:
-        server.stop()
-        thread.join(timeout=5)
-        assert not thread.is_alive(), "server did not stop"
 
 
 @pytest.fixture(scope="module")

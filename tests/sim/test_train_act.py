@@ -61,20 +61,12 @@ def test_tiny_act_trains_offline_and_writes_a_checkpoint(tmp_path: Path, run_cli
     assert log.read_text() == text
 
     # issue 8's chain: the trained checkpoint is served and evaluated for 2 episodes over ZeroMQ
-    import threading
 
-    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer
+    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread
 
-    server = PolicyServer(LeRobotRunner(checkpoint, device="cpu"), "tcp://127.0.0.1:0")
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
+    with serving_in_thread(PolicyServer(LeRobotRunner(checkpoint, device="cpu"), "tcp://127.0.0.1:0")) as server:
         evaluation = run_cli("--registry-dir", str(FIXTURES / "registry"), "eval", "HoldTube", "--endpoint", server.endpoint,
                              "--episodes", "2", "--image-size", "32", "--out", "evals/act_raw", "--json")
-    finally:
-        server.stop()
-        thread.join(timeout=5)
-        server.close()
     assert evaluation.exit_code == 0, evaluation.stderr
     summary = json.loads(evaluation.stdout)
     assert summary["episodes"] == 2 and summary["task"] == TASK and summary["dataset_version"] == "raw"
