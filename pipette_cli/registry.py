@@ -22,6 +22,7 @@ from pydantic import ValidationError
 from pipette_cli.assets.library import AssetLibrary, load_asset_library
 from pipette_cli.errors import PipetteError, SpecError, TaskNotFound, suggest
 from pipette_cli.resources import data_dir, env_paths
+from pipette_cli.specs.robot import ROBOTS_FOLDER
 from pipette_cli.specs.task import TaskSpec
 from pipette_cli.specs.yaml_io import format_problem, read_yaml, to_plain, validation_problems
 
@@ -30,6 +31,8 @@ log = logging.getLogger(__name__)
 REGISTRY_PATH_ENV = "PIPETTE_REGISTRY_PATH"
 ENTRY_POINT_GROUP = "pipette.tasks"
 YAML_SUFFIXES = (".yaml", ".yml")
+RESERVED_FOLDERS = (ROBOTS_FOLDER,)
+"""Registry sub-folders that hold other data than tasks."""
 
 
 @dataclass(frozen=True)
@@ -68,9 +71,33 @@ def validate_task_document(doc: Any, source: str, assets: AssetLibrary | None = 
     for loc, asset_id in asset_fields:
         if asset_id not in library:
             problems.append(format_problem(source, doc, loc, f"unknown asset {asset_id!r}; {suggest(asset_id, library.ids())}"))
+    if not problems:
+        problems = [format_problem(source, doc, loc, msg) for loc, msg in part_problems(spec, library)]
     if problems:
         raise SpecError(problems)
     return spec
+
+
+PART_KEYS = {"site": ("sites",), "joint": ("joints",), "any": ("sites", "joints", "bodies")}
+
+
+def part_problems(spec: TaskSpec, library: AssetLibrary) -> list[tuple[tuple[Any, ...], str]]:
+    """``(field path, message)`` for every ``object/part`` of the expert program that the object's
+    asset does not have (read from the asset's semantics, without compiling it)."""
+    assets = {o.name: o.asset for o in spec.scene.objects}
+    out: list[tuple[tuple[Any, ...], str]] = []
+    for i, step in enumerate(spec.expert or []):
+        for loc, ref, kind in step.parts():
+            obj, _, part = ref.partition("/")
+            if obj not in assets:
+                continue  # reported by reference_problems
+            semantics = library.get(assets[obj]).semantics()
+            names = [str(n) for key in PART_KEYS[kind] for n in semantics.get(key, [])]
+            if part not in names:
+                what = "site" if kind == "site" else "joint" if kind == "joint" else "site, joint or body"
+                out.append((("expert", i, *loc), f"asset {assets[obj]!r} of {obj!r} has no {what} {part!r}; "
+                                                 f"{suggest(part, names)}"))
+    return out
 
 
 def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:
@@ -93,7 +120,8 @@ def task_files(dirs: Iterable[Path]) -> list[Path]:
     for folder in dirs:
         if not folder.is_dir():
             raise SpecError(f"{folder}: registry folder does not exist")
-        for path in sorted(p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file()):
+        for path in sorted(p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file()
+                           and p.relative_to(folder).parts[0] not in RESERVED_FOLDERS):
             resolved = path.resolve()
             if resolved not in seen:
                 seen.add(resolved)

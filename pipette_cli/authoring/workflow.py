@@ -18,7 +18,8 @@ from pipette_cli.authoring.render import environment, render_plan
 from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
 from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
-from pipette_cli.specs.task import ROBOT_ARM_DOF, TASK_ID_PATTERN, TaskSpec
+from pipette_cli.specs.robot import robot_names
+from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 
 PROMPT_TEMPLATE = "prompts/task_draft.md.j2"
@@ -50,7 +51,7 @@ def task_prompt(vocab: Vocabulary) -> str:
                "joints": i.semantics.get("joints", [])}
               for a, i in sorted(vocab.assets.items()) if a != "lab_bench"]
     return environment().get_template(PROMPT_TEMPLATE).render(
-        intents=INTENTS, roles_by_intent=ROLES_BY_INTENT, robots=sorted(ROBOT_ARM_DOF), default_robot=DEFAULT_ROBOT,
+        intents=INTENTS, roles_by_intent=ROLES_BY_INTENT, robots=robot_names(), default_robot=DEFAULT_ROBOT,
         assets=assets)
 
 

@@ -16,7 +16,8 @@ import mujoco
 import numpy as np
 
 from pipette_cli.errors import AssetError, SimError
-from pipette_cli.sim.robots import RobotConfig, make_robot_spec
+from pipette_cli.sim.robots import make_robot_spec, wrist_camera_pose
+from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.base import PoseSpec
 from pipette_cli.specs.task import CameraSpec, TaskSpec
 
@@ -114,13 +115,14 @@ def _add_room(spec: mujoco.MjSpec) -> None:
     world.add_light(name="ceiling", pos=[0.5, 0.0, 2.6], dir=[0.0, 0.0, -1.0], diffuse=[0.3, 0.3, 0.3], castshadow=False)
 
 
-def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotConfig:
+def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotSpec:
     robot_spec, config = make_robot_spec(task.embodiment.robot)
     _match_options(robot_spec, spec)
     wrist = task.cameras.wrist
     if wrist.mount == "end_effector":
-        body = robot_spec.body(config.wrist_camera_body)
-        body.add_camera(name="wrist", pos=list(wrist.pos), quat=list(_camera_quat(wrist)), fovy=wrist.fovy_deg)
+        body = robot_spec.body(config.end_effector.wrist_camera_body)
+        pos, quat = wrist_camera_pose(config, wrist.pos, _camera_quat(wrist))
+        body.add_camera(name="wrist", pos=pos, quat=quat, fovy=wrist.fovy_deg)
     base = task.embodiment.base
     frame = spec.worldbody.add_frame(pos=list(base.pos), quat=list(pose_quat(base)))
     spec.attach(robot_spec, prefix=ROBOT_PREFIX, frame=frame)
@@ -164,7 +166,7 @@ def _add_cameras(spec: mujoco.MjSpec, task: TaskSpec, objects: dict[str, ObjectI
         parent.add_camera(name=name, pos=list(cam.pos), quat=list(_camera_quat(cam)), fovy=cam.fovy_deg)
 
 
-def make_scene_spec(task: TaskSpec) -> tuple[mujoco.MjSpec, RobotConfig, dict[str, ObjectInfo]]:
+def make_scene_spec(task: TaskSpec) -> tuple[mujoco.MjSpec, RobotSpec, dict[str, ObjectInfo]]:
     """Compose the task's scene as an editable spec (nominal poses, no randomisation)."""
     spec = mujoco.MjSpec()
     _configure(spec, task)

@@ -25,8 +25,6 @@ log = logging.getLogger(__name__)
 
 PENETRATION_TOLERANCE = 0.004
 """Metres of initial interpenetration between scene objects refused at build time."""
-REACH = {"franka_panda": 0.95, "agilex_piper": 0.7, "ur5e_robotiq": 1.0}
-"""Horizontal distance from the robot base beyond which a target object is unreachable."""
 
 
 class World:
@@ -48,8 +46,8 @@ class World:
         self.arm_actuator_ids = np.array(
             [self._id(mujoco.mjtObj.mjOBJ_ACTUATOR, ROBOT_PREFIX + a) for a in self.robot.arm_actuators]
         )
-        self.gripper_actuator_id = self._id(mujoco.mjtObj.mjOBJ_ACTUATOR, ROBOT_PREFIX + self.robot.gripper_actuator)
-        gripper_joint = self._id(mujoco.mjtObj.mjOBJ_JOINT, ROBOT_PREFIX + self.robot.gripper_joint)
+        self.gripper_actuator_id = self._id(mujoco.mjtObj.mjOBJ_ACTUATOR, ROBOT_PREFIX + self.robot.gripper.actuator)
+        gripper_joint = self._id(mujoco.mjtObj.mjOBJ_JOINT, ROBOT_PREFIX + self.robot.gripper.joint)
         self.gripper_qpos_adr = int(m.jnt_qposadr[gripper_joint])
         self.gripper_range = m.jnt_range[gripper_joint].copy()
         self.tcp_site_id = self._id(mujoco.mjtObj.mjOBJ_SITE, ROBOT_PREFIX + "tcp")
@@ -285,7 +283,7 @@ class World:
         for i, obj in enumerate(self.task.scene.objects):
             if obj.name not in self.task.targets:
                 continue
-            reach = REACH[self.robot.name]
+            reach = self.robot.reach
             distance = float(np.linalg.norm(np.asarray(obj.pose.pos[:2]) - base[:2]))
             if distance > reach:
                 raise SimError(

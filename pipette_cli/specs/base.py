@@ -50,10 +50,8 @@ class BoundSpec(Spec):
         return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
 
 
-class TypedSpec(Spec):
-    """Base of pluggable specs selected by their ``type`` field."""
-
-    type: str
+class PluggableSpec(Spec):
+    """Base of specs chosen from a :class:`TypeRegistry` by one key (``type:``, ``skill:``)."""
 
     def refs(self) -> Iterator[tuple[tuple[str | int, ...], str]]:
         """Yield ``(field path, object ref)`` for every scene object this spec names."""
@@ -61,14 +59,20 @@ class TypedSpec(Spec):
             value = getattr(self, name)
             if info.json_schema_extra and info.json_schema_extra.get("ref") and isinstance(value, str):
                 yield (name,), value
-            elif isinstance(value, TypedSpec):
+            elif isinstance(value, PluggableSpec):
                 for loc, ref in value.refs():
                     yield (name, *loc), ref
             elif isinstance(value, tuple | list):
                 for i, item in enumerate(value):
-                    if isinstance(item, TypedSpec):
+                    if isinstance(item, PluggableSpec):
                         for loc, ref in item.refs():
                             yield (name, i, *loc), ref
+
+
+class TypedSpec(PluggableSpec):
+    """Base of pluggable specs selected by their ``type`` field."""
+
+    type: str
 
 
 def ref_field(description: str, default: Any = ...) -> Any:
@@ -76,24 +80,29 @@ def ref_field(description: str, default: Any = ...) -> Any:
     return Field(default, description=description, json_schema_extra={"ref": True})
 
 
-T = TypeVar("T", bound=TypedSpec)
+T = TypeVar("T", bound=PluggableSpec)
 REGISTRIES: list[TypeRegistry[Any]] = []
 
 
 class TypeRegistry(Generic[T]):
-    """Maps ``type`` names to spec classes; adding a type never edits a central list."""
+    """Maps ``type`` names to spec classes; adding a type never edits a central list.
 
-    def __init__(self, kind: str, base: type[T]) -> None:
+    ``key`` is the field that selects the class (``type`` for evaluators and mechanisms, ``skill``
+    for expert program steps).
+    """
+
+    def __init__(self, kind: str, base: type[T], key: str = "type") -> None:
         self.kind = kind
         self.base = base
+        self.key = key
         self._types: dict[str, type[T]] = {}
         REGISTRIES.append(self)
 
     def register(self, cls: type[T]) -> type[T]:
-        """Class decorator: register ``cls`` under the default of its ``type`` field."""
-        name = cls.model_fields["type"].default
+        """Class decorator: register ``cls`` under the default of its key field."""
+        name = cls.model_fields[self.key].default
         if not isinstance(name, str):
-            raise TypeError(f"{cls.__name__} needs a default for its 'type' field")
+            raise TypeError(f"{cls.__name__} needs a default for its {self.key!r} field")
         if name in self._types and self._types[name] is not cls:
             raise ValueError(f"{self.kind} type {name!r} is already registered by {self._types[name].__name__}")
         self._types[name] = cls
@@ -113,17 +122,18 @@ class TypeRegistry(Generic[T]):
             if isinstance(value, self.base):
                 return value  # type: ignore[return-value]
             if not isinstance(value, dict):
-                raise PydanticCustomError("spec_type", "expected a mapping with a 'type' field")
-            name = value.get("type")
+                raise PydanticCustomError("spec_type", "expected a mapping with a '{key}' field", {"key": self.key})
+            name = value.get(self.key)
             if name is None:
                 raise PydanticCustomError(
-                    "spec_type", "missing 'type'; expected one of: {names}", {"names": ", ".join(self.names())}
+                    "spec_type", "missing '{key}'; expected one of: {names}", {"key": self.key, "names": ", ".join(self.names())}
                 )
             if name not in self._types:
                 raise PydanticCustomError(
                     "spec_type",
-                    "unknown {kind} type '{name}'; {hint}",
-                    {"kind": self.kind, "name": str(name), "hint": suggest(str(name), self._types)},
+                    "unknown {kind}{what} '{name}'; {hint}",
+                    {"kind": self.kind, "what": " type" if self.key == "type" else "", "name": str(name),
+                     "hint": suggest(str(name), self._types)},
                 )
             return self._types[name].model_validate(value)
 

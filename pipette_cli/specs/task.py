@@ -10,30 +10,38 @@ from __future__ import annotations
 from collections.abc import Iterator
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, ValidationInfo, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from pipette_cli.errors import suggest
+from pipette_cli.errors import SpecError, suggest
 from pipette_cli.specs.base import Name, PoseSpec, Ref, Spec, Vec3
 from pipette_cli.specs.evaluators import EvaluatorField
+from pipette_cli.specs.expert import StepField
 from pipette_cli.specs.mechanisms import MechanismField
+from pipette_cli.specs.robot import robot_spec
 
 TASK_ID_PATTERN = r"^[a-z][a-z0-9_]*/[A-Z][A-Za-z0-9]*-v[0-9]+$"
-ROBOT_ARM_DOF: dict[str, int] = {"franka_panda": 7, "agilex_piper": 6, "ur5e_robotiq": 6}
-Robot = Literal["franka_panda", "agilex_piper", "ur5e_robotiq"]
 Category = Literal["consumable_handling", "hatch_control", "placement_relocation", "other"]
 
 
 class EmbodimentSpec(Spec):
     """Which robot, where it stands, and its joint state at reset."""
 
-    robot: Robot = "franka_panda"
+    robot: str = Field("franka_panda", description="a robot of registry/robots/ (name or alias)")
     base: PoseSpec = PoseSpec(pos=(0.0, 0.0, 0.55))
     initial_joints: list[float] = Field(description="arm joint positions in radians")
     gripper: Literal["open", "closed"] = "open"
 
+    @field_validator("robot")
+    @classmethod
+    def _known_robot(cls, name: str) -> str:
+        try:
+            return robot_spec(name).name  # aliases (panda, piper, ur5e) become the robot's name
+        except SpecError as exc:
+            raise ValueError(str(exc)) from None
+
     @model_validator(mode="after")
     def _dof(self) -> EmbodimentSpec:
-        dof = ROBOT_ARM_DOF[self.robot]
+        dof = robot_spec(self.robot).arm_dof
         if len(self.initial_joints) != dof:
             raise ValueError(f"{self.robot} has {dof} arm joints; initial_joints has {len(self.initial_joints)}")
         return self
@@ -163,6 +171,8 @@ class TaskSpec(Spec):
     timing: TimingSpec = TimingSpec()
     targets: list[Name] = Field(min_length=1, description="scene objects the task is about")
     success: EvaluatorField  # type: ignore[valid-type]
+    expert: list[StepField] | None = Field(  # type: ignore[valid-type]
+        None, min_length=1, description="the scripted expert: skill steps (default: derived from the success criterion)")
     notes: list[NoteSpec] = []
 
     @model_validator(mode="after")
@@ -193,6 +203,9 @@ class TaskSpec(Spec):
                 yield from check(("scene", "mechanisms", i, *loc), ref)
         for loc, ref in self.success.refs():
             yield from check(("success", *loc), ref)
+        for i, step in enumerate(self.expert or []):
+            for loc, ref in step.refs():
+                yield from check(("expert", i, *loc), ref)
         for loc, mech in _mechanism_refs(self.success, ("success",)):
             if mech not in mechanisms:
                 yield loc, f"mechanism {mech!r} is not defined in scene.mechanisms"

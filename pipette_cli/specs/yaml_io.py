@@ -122,10 +122,10 @@ def _unwrap(annotation: Any) -> type | None:
 
 
 def _dispatch(cls: type | None, node: Any) -> type | None:
-    """Follow ``type:`` to the registered class when ``cls`` is a pluggable base."""
+    """Follow ``type:`` (or the registry's key) to the registered class when ``cls`` is a pluggable base."""
     for registry in REGISTRIES:
-        if cls is registry.base and isinstance(node, dict) and node.get("type") in registry:
-            return registry.get(node["type"])
+        if cls is registry.base and isinstance(node, dict) and node.get(registry.key) in registry:
+            return registry.get(node[registry.key])
     return cls
 
 
@@ -163,8 +163,9 @@ def validation_problems(exc: ValidationError, model: type[BaseModel], raw: Any, 
             message = "required field is missing"
         elif err["type"].startswith("literal_error") or err["type"] == "literal_error":
             message = f"{message} (got {err.get('input')!r})"
-        elif err["type"] == "spec_type" and isinstance(err.get("input"), dict) and "type" in err["input"]:
-            loc = (*loc, "type")
+        elif err["type"] == "spec_type" and isinstance(err.get("input"), dict):
+            key = next((r.key for r in REGISTRIES if r.key in err["input"]), None)
+            loc = (*loc, key) if key else loc
         elif err["type"] == "value_error":
             message = message.removeprefix("Value error, ")
         problems.append(format_problem(source, doc, loc, message))

@@ -1,0 +1,88 @@
+"""Frames for skills: the canonical tool frame, rotations and interpolation.
+
+Every robot's ``tcp`` site has the same frame (:mod:`pipette_cli.specs.robot`): z is the direction
+the fingers point (the approach axis), y the direction they close along. A grasp is therefore
+an approach vector and a closing vector, whatever the robot.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def unit(v: np.ndarray) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if n < 1e-12:
+        raise ValueError("zero-length vector")
+    return np.asarray(v, dtype=float) / n
+
+
+def tool_frame(approach: np.ndarray, closing: np.ndarray) -> np.ndarray:
+    """Rotation of the tcp whose z points along ``approach`` and whose y (the closing direction) is
+    ``closing`` made perpendicular to it."""
+    z = unit(approach)
+    y = unit(closing - np.dot(closing, z) * z)
+    return np.column_stack([np.cross(y, z), y, z])
+
+
+def horizontal(v: np.ndarray) -> np.ndarray:
+    return unit(np.array([v[0], v[1], 0.0]))
+
+
+def down_frame(closing: np.ndarray) -> np.ndarray:
+    """Fingers pointing straight down, closing along the horizontal direction ``closing``."""
+    return tool_frame(-UP, horizontal(closing))
+
+
+def pitched_frame(toward: np.ndarray, pitch_deg: float) -> np.ndarray:
+    """Fingers pointing horizontally along ``toward``, tilted ``pitch_deg`` below the horizon (90 is
+    straight down); they close along the horizontal perpendicular of ``toward``."""
+    radial = horizontal(toward)
+    th = np.deg2rad(pitch_deg)
+    approach = np.cos(th) * radial - np.sin(th) * UP
+    return tool_frame(approach, np.array([-radial[1], radial[0], 0.0]))
+
+
+def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation matrix of ``angle`` radians about unit ``axis`` (Rodrigues)."""
+    a = unit(axis)
+    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
+    """Angle in radians of the rotation taking ``r0`` to ``r1``."""
+    c = (np.trace(r0.T @ r1) - 1.0) / 2.0
+    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+
+
+def mat_to_quat(mat: np.ndarray) -> np.ndarray:
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, np.asarray(mat, dtype=float).flatten())
+    return quat
+
+
+def quat_to_mat(quat: np.ndarray) -> np.ndarray:
+    mat = np.zeros(9)
+    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
+    return mat.reshape(3, 3)
+
+
+def slerp(r0: np.ndarray, r1: np.ndarray, t: float) -> np.ndarray:
+    q0, q1 = mat_to_quat(r0), mat_to_quat(r1)
+    if np.dot(q0, q1) < 0:
+        q1 = -q1
+    omega = np.arccos(np.clip(np.dot(q0, q1), -1.0, 1.0))
+    if omega < 1e-6:
+        return r1.copy()
+    q = (np.sin((1 - t) * omega) * q0 + np.sin(t * omega) * q1) / np.sin(omega)
+    return quat_to_mat(q / np.linalg.norm(q))
+
+
+def min_jerk(t: float) -> float:
+    """Smooth 0 -> 1 time profile with zero velocity and acceleration at both ends."""
+    t = min(1.0, max(0.0, t))
+    return t**3 * (10 - 15 * t + 6 * t * t)

@@ -1,0 +1,258 @@
+"""Grasps from an object's shape and semantics: where the fingers go and how the hand is turned.
+
+Three kinds, chosen from the object's collision box in the world and its asset's ``pipette:*``
+semantics (ManiSkill-style: from the oriented bounding box, with the arm's reach deciding between
+candidates):
+
+* ``axis``: an upright object narrow enough for the gripper (a tube, a flask's neck, a bottle) is
+  taken from above around its vertical axis, at its ``grasp`` site (or a named site), low enough
+  that its top stays below the palm.
+* ``across``: a lying tool (a pipette, a rod) is taken from above across its long axis.
+* ``pinch``: a flat, low object (a petri dish, a plate) is pinched near the rim facing the robot
+  with the hand pitched down, across the widest chord the gripper spans; the pitch lets the
+  fingertips reach below its rim without touching the surface under it.
+
+When the straight-down hand cannot reach (a short arm, far away), the approach is pitched toward
+the robot in steps until it can.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipette_cli.skills.frames import UP, down_frame, horizontal, pitched_frame, tool_frame, unit
+from pipette_cli.skills.runtime import SkillContext, SkillFailure
+from pipette_cli.skills.scene import Shape
+
+GRIP_MARGIN = 0.006
+"""Metres the open gripper must exceed the object's width by."""
+PALM_MARGIN = 0.008
+"""Metres kept between the object's top and the palm."""
+FINGERTIP_LIFT = 0.012
+"""Lowest tcp height above the supporting surface for a straight-down grasp (fingertips' reach)."""
+FLAT = 0.03
+LIFT_CHECK = 0.015
+"""Metres above the grasp the arm must also reach, to take the object off its support."""
+"""Objects lower than this are pinched at the rim rather than taken around an axis."""
+PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
+"""Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
+TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """Tcp pose at the grasp, the approach path into it, and what kind of grasp it is."""
+
+    kind: str
+    pos: np.ndarray
+    rot: np.ndarray
+    approach: list[np.ndarray]
+    """Tcp positions to pass through before ``pos`` (outermost first)."""
+    width: float
+
+
+def semantics(ctx: SkillContext, name: str) -> dict:
+    from pipette_cli.assets.library import load_asset_library
+
+    return load_asset_library().get(ctx.world.objects[name].asset).semantics()
+
+
+def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
+               height: float | None = None, toward: np.ndarray | None = None) -> Grasp:
+    """The first reachable grasp of ``name`` (see the module docstring). ``toward`` is the horizontal
+    direction the hand should point for what comes next (into an enclosure): pinches and pitched
+    grasps try it first."""
+    shape = ctx.scene.shape(name)
+    opening = ctx.robot.gripper.max_opening
+    half = shape.world_half()
+    size = 2 * half
+    low = size[2] < FLAT
+    if mode == "pinch" or (mode == "auto" and at is None and low):
+        return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch")
+    axis_obj = shape.axes[:, shape.vertical_axis()]
+    lying = abs(axis_obj[2]) < 0.7 or (at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and not low)
+    point, closing, width = _grasp_point(ctx, name, shape, at, height, lying)
+    if width > opening - GRIP_MARGIN:
+        raise SkillFailure(f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
+                           f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm")
+    round_ = not lying and bool(np.allclose(closing, horizontal(point - ctx.base)))
+    return _first_reachable(ctx, name, _top_candidates(ctx, point, closing, shape, width, lying, round_), "across" if lying else "axis")
+
+
+def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None,
+                 lying: bool) -> tuple[np.ndarray, np.ndarray, float]:
+    """Grasp point, closing direction and the object's width across the fingers there."""
+    sem = semantics(ctx, name)
+    base = ctx.world.position(name)
+    if at is not None:
+        point = ctx.world.position(at)
+        closing, width = _local_closing(ctx, name, point, shape)
+        return point, closing, width
+    if lying:
+        long_axis = horizontal(shape.long_axis())
+        point = ctx.world.position(f"{name}/grasp") if "grasp" in sem.get("sites", []) else shape.center.copy()
+        point[2] = max(point[2], shape.bottom + FINGERTIP_LIFT)
+        closing = np.array([-long_axis[1], long_axis[0], 0.0])
+        width = float(2 * np.abs(closing @ shape.axes) @ shape.half)
+        return point, closing, width
+    top = shape.top
+    if height is not None:
+        z = base[2] + height
+    elif "grasp" in sem.get("sites", []):
+        z = float(ctx.world.position(f"{name}/grasp")[2])
+    else:
+        z = shape.bottom + 0.6 * (top - shape.bottom)
+    palm = ctx.robot.gripper.finger_depth - PALM_MARGIN
+    z = max(z, top - palm, shape.bottom + FINGERTIP_LIFT)
+    z = min(z, top - 0.004)
+    slab = _slab(ctx, name, shape, z)
+    point = np.array([slab.center[0], slab.center[1], z])
+    radial = horizontal(point - ctx.base)
+    closing, width = _narrow_side(slab, radial, shape.vertical_axis())
+    return point, closing, width
+
+
+def _slab(ctx: SkillContext, name: str, shape: Shape, z: float, thickness: float = 0.008) -> Shape:
+    """The object's collision geometry within ``thickness`` of height ``z``, as a box in its own axes:
+    a flask's neck, not its body."""
+    w = ctx.world
+    m, d = w.model, w.data
+    body = w.body_id(name)
+    rot, origin = d.xmat[body].reshape(3, 3), d.xpos[body]
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for g in np.flatnonzero(m.geom_bodyid == body):
+        if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+            continue
+        grot = d.geom_xmat[g].reshape(3, 3)
+        center = d.geom_xpos[g] + grot @ m.geom_aabb[g, :3]
+        zhalf = float(np.abs(grot[2]) @ m.geom_aabb[g, 3:])
+        if abs(center[2] - z) > zhalf + thickness:
+            continue
+        local = rot.T @ grot
+        c = rot.T @ (center - origin)
+        h = np.abs(local) @ m.geom_aabb[g, 3:]
+        lo, hi = np.minimum(lo, c - h), np.maximum(hi, c + h)
+    if not np.all(np.isfinite(lo)):
+        return shape
+    return Shape(origin + rot @ ((lo + hi) / 2), rot.copy(), (hi - lo) / 2)
+
+
+def _narrow_side(shape: Shape, radial: np.ndarray, vertical: int) -> tuple[np.ndarray, float]:
+    """Close across the object's narrower horizontal side (radially when it is round)."""
+    a, b = (i for i in range(3) if i != vertical)
+    widths = {a: 2 * float(shape.half[a]), b: 2 * float(shape.half[b])}
+    if abs(widths[a] - widths[b]) < 0.002:
+        return radial, widths[a]
+    narrow = a if widths[a] < widths[b] else b
+    return horizontal(shape.axes[:, narrow]), widths[narrow]
+
+
+def _local_closing(ctx: SkillContext, name: str, point: np.ndarray, shape: Shape) -> tuple[np.ndarray, float]:
+    """At a named site (a handle bar, a neck): close across the geometry within 3 cm of it."""
+    w = ctx.world
+    m, d = w.model, w.data
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for body in ctx.scene.bodies(name):
+        for g in np.flatnonzero(m.geom_bodyid == body):
+            if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+                continue
+            center = d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ m.geom_aabb[g, :3]
+            half = np.abs(d.geom_xmat[g].reshape(3, 3)) @ m.geom_aabb[g, 3:]
+            if np.all(np.abs(center - point) <= half + 0.03) and np.all(np.abs(center - point)[:2] <= 0.03 + half[:2]):
+                if np.any(2 * half[:2] > 0.25):
+                    continue  # a plate or a wall, not the part to hold
+                lo, hi = np.minimum(lo, center - half), np.maximum(hi, center + half)
+    radial = horizontal(point - ctx.base)
+    if not np.all(np.isfinite(lo)):
+        return radial, 0.0
+    size = hi - lo
+    if abs(size[0] - size[1]) < 0.004:
+        return radial, float(min(size[0], size[1]))
+    # a bar: close across it
+    if size[0] > size[1]:
+        return np.array([0.0, 1.0, 0.0]), float(size[1])
+    return np.array([1.0, 0.0, 0.0]), float(size[0])
+
+
+def _top_candidates(ctx: SkillContext, point: np.ndarray, closing: np.ndarray, shape: Shape, width: float,
+                    lying: bool, round_: bool = False) -> list[Grasp]:
+    """Straight down, then pitched toward the robot (a round object can be taken from any side)."""
+    out = []
+    above = max(0.10, shape.top - point[2] + 0.06)
+    for pitch in TOP_PITCHES:
+        if pitch >= 89.9:
+            rot = down_frame(closing)
+        else:
+            toward = horizontal(point - ctx.base)
+            if lying or (abs(toward @ horizontal(closing)) > 0.5 and not round_):
+                continue  # pitched toward the robot, the fingers must close across the radial direction
+            rot = pitched_frame(toward, pitch)
+        back = point - rot[:, 2] * above
+        back[2] = max(back[2], point[2] + above * 0.5)
+        out.append(Grasp("top", point.copy(), rot, [back], width))
+    return out
+
+
+def _pinch_candidates(ctx: SkillContext, name: str, shape: Shape, toward: np.ndarray | None) -> list[Grasp]:
+    out = []
+    directions = [horizontal(shape.center - ctx.base)]
+    if toward is not None:
+        directions.insert(0, horizontal(toward))
+    for radial in directions:
+        out += _pinches(ctx, name, shape, radial)
+    return out
+
+
+def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> list[Grasp]:
+    opening = ctx.robot.gripper.max_opening
+    center = shape.center
+    half = shape.world_half()
+    round_ = abs(shape.half[0] - shape.half[1]) < 0.003 if shape.vertical_axis() == 2 else False
+    chord = opening - 2 * GRIP_MARGIN / 3
+    if round_:
+        r = float(max(half[0], half[1]))
+        c = min(2 * r, chord)
+        depth = float(np.sqrt(max(0.0, r * r - (c / 2) ** 2)))
+    else:
+        # a rectangle: along the radial direction, the far side is depth away; the fingers must span the
+        # side across it
+        across = float(2 * np.abs(np.array([-radial[1], radial[0], 0.0]) @ shape.axes) @ shape.half)
+        if across > chord:
+            raise SkillFailure(f"no grasp for {name!r}: it is {across * 1000:.0f} mm across the fingers at its rim; "
+                               f"the {ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm")
+        c, depth = across, 0.0
+    height = shape.top - shape.bottom
+    out = []
+    for pitch in PINCH_PITCHES:
+        pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
+        rot = pitched_frame(radial, pitch)
+        over = pinch + (height * 0.5 + 0.015) * UP
+        out.append(Grasp("pinch", pinch, rot, [over - 0.12 * radial, over], c))
+    return out
+
+
+def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: set[int] = frozenset()) -> Grasp:
+    touch = set(touch) | ctx.scene.bodies(name) | _support_of(ctx, name)
+    chosen = ctx.choose(candidates, lambda g: [(p, g.rot) for p in (*g.approach, g.pos, g.pos + LIFT_CHECK * UP)], touch=touch,
+                        via=lambda g: (g.approach[0], g.rot))
+    if chosen is not None:
+        return chosen
+    distance = float(np.linalg.norm(ctx.world.position(name)[:2] - ctx.base[:2]))
+    raise SkillFailure(f"no reachable {kind} grasp of {name!r} ({distance:.2f} m from the {ctx.robot.name}'s base, "
+                       f"reach {ctx.robot.reach:.2f} m)")
+
+
+def _support_of(ctx: SkillContext, name: str) -> set[int]:
+    """The body ``name`` rests on (fingertips reaching low may graze it)."""
+    shape = ctx.scene.shape(name)
+    _, body = ctx.scene.ray(np.array([shape.center[0], shape.center[1], shape.bottom + 0.002]), -UP, ctx.scene.bodies(name))
+    return {body} if body >= 0 else set()
+
+
+def approach_axis(grasp: Grasp) -> np.ndarray:
+    return unit(grasp.rot[:, 2])
+
+
+__all__ = ["Grasp", "plan_grasp", "semantics", "tool_frame"]

@@ -1,0 +1,29 @@
+"""``wait`` and ``retreat``: hold still, or let go and back away (home, with ``home``)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+from pipette_cli.skills.runtime import OPEN, TRANSIT_SPEED, Move, SkillContext, skill
+from pipette_cli.specs.expert import RetreatSpec, WaitSpec
+
+
+@skill("wait")
+def wait(ctx: SkillContext, step: WaitSpec) -> Iterator[Move]:
+    yield ctx.hold(step.seconds)
+
+
+@skill("retreat")
+def retreat(ctx: SkillContext, step: RetreatSpec) -> Iterator[Move]:
+    from pipette_cli.skills.library.place import back_off
+
+    if ctx.gripper != OPEN:
+        yield ctx.grip(OPEN, 0.4)
+        ctx.held = None
+    yield from back_off(ctx, step.distance)
+    if step.home:
+        pos, rot = ctx.ik.tool_pose(ctx.robot.home())
+        yield from ctx.transit(pos, rot, what="the way home")
+        yield ctx.move(pos, rot, speed=TRANSIT_SPEED, what="the home pose")
+    if step.hold_s:
+        yield ctx.hold(step.hold_s)

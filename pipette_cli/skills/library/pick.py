@@ -1,0 +1,92 @@
+"""``pick`` and ``remove_from``: grasp an object and take it up, or out of what holds it."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from pipette_cli.skills.frames import UP
+from pipette_cli.skills.grasp import plan_grasp
+from pipette_cli.skills.runtime import APPROACH_SPEED, CLOSED, OPEN, Move, SkillContext, SkillFailure, skill
+from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
+
+SETTLE_S = 0.25
+"""Seconds to let the arm's servos catch up with the grasp pose before closing."""
+CLOSE_S = 0.5
+
+
+def grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
+          height: float | None = None, extra_touch: set[int] = frozenset()) -> Iterator[Move]:
+    """Approach ``name``, close on it and record it as held (the hand ends at the grasp pose).
+    The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
+    if ctx.held is not None:
+        raise SkillFailure(f"the hand already holds {ctx.held.name!r}; put it down first")
+    plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=entry_direction(ctx, name))
+    exclude = ctx.scene.bodies(name)
+    if ctx.gripper != OPEN:
+        yield ctx.grip(OPEN, 0.3)
+    yield from ctx.transit(plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
+    from pipette_cli.skills.grasp import _support_of
+
+    with ctx.touching(exclude | set(extra_touch) | _support_of(ctx, name)):
+        for point in plan.approach[1:]:
+            yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
+        yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
+        yield ctx.hold(SETTLE_S)
+        yield ctx.grip(CLOSED, CLOSE_S)
+    ctx.attach(name)
+
+
+def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
+    """If the program's next step puts ``name`` into an enclosure (a shelf under a roof), the
+    horizontal direction into it: the grasp should let the hand point that way."""
+    step = ctx.next_step
+    target = getattr(step, "target", None)
+    if step is None or getattr(step, "object", None) != name or target is None:
+        return None
+    from pipette_cli.skills.library.place import resolve_target
+
+    point = resolve_target(ctx, target, surface=False)
+    skip = ctx.scene.bodies(name)
+    if not ctx.covered(point, skip):
+        return None
+    direction, _ = ctx.scene.way_out(point + 0.01 * UP, skip, prefer=ctx.base - point)
+    return -direction
+
+
+@skill("pick")
+def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
+    yield from grasp(ctx, step.object, at=step.at, mode=step.grasp, height=step.height)
+    yield from ctx.lift_clear(step.lift, required=True)
+    ctx.check_holding(step.object)
+    if step.hold_s:
+        yield ctx.hold(step.hold_s)
+
+
+@skill("remove_from")
+def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
+    source = ctx.scene.bodies(step.source)
+    yield from grasp(ctx, step.object, at=step.at, extra_touch=source)
+    with ctx.touching(source):
+        yield from ctx.lift_clear(0.03)
+        ctx.check_holding(step.object)
+        if ctx.covered(ctx.pos, ctx.held_bodies()):
+            yield from ctx.leave_enclosure(ctx.held_bodies())
+    ctx.check_holding(step.object)
+    if step.to == "hold":
+        yield ctx.hold(step.hold_s)
+        return
+    from pipette_cli.skills.library.place import put_down, resolve_target
+
+    if step.to == "bench":
+        shape = ctx.scene.shape(step.object)
+        spot = ctx.scene.free_spot(ctx.start[step.object], float(np.max(shape.world_half()[:2])) + 0.02,
+                                   ctx.held_bodies(), (ctx.robot.min_reach, ctx.robot.reach), ctx.base,
+                                   ctx.robot.base_height)
+        if spot is None:
+            raise SkillFailure(f"no free spot on the bench near {step.source!r} to set {step.object!r} down")
+        target = spot
+    else:
+        target = resolve_target(ctx, step.to)
+    yield from put_down(ctx, step.object, target)

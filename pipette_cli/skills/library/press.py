@@ -1,0 +1,83 @@
+"""``press``: push a button along its face's normal with the closed fingertips."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from pipette_cli.skills.frames import UP, down_frame, pitched_frame, tool_frame
+from pipette_cli.skills.runtime import CLOSED, FINE_SPEED, Move, SkillContext, SkillFailure, skill
+from pipette_cli.specs.expert import PressSpec
+
+STANDOFFS = (0.08, 0.05, 0.03)
+"""Metres in front of the button where the approach starts (less where the arm is cramped)."""
+
+
+def face_normal(ctx: SkillContext, point: np.ndarray, owner: str) -> np.ndarray:
+    """The outward normal of the face a site sits on: of the horizontal directions and up, the one
+    with free space in front of the site (facing the robot when several are free)."""
+    skip: set[int] = set()
+    best, best_score = UP.copy(), -np.inf
+    toward_robot = ctx.base - point
+    toward_robot[2] = 0.0
+    toward_robot /= np.linalg.norm(toward_robot) + 1e-12
+    for direction in (np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 1.0, 0]), UP):
+        free, _ = ctx.scene.ray(point + 0.003 * direction, direction, skip)
+        # the owner's own geometry right behind the site tells which side is solid
+        behind, body = ctx.scene.ray(point + 0.003 * direction, -direction, skip)
+        solid = np.isfinite(behind) and behind < 0.02 and ctx.scene.owner(body) == owner
+        score = min(free, 0.3) + (0.3 if solid else 0.0) + 0.05 * float(direction @ toward_robot)
+        if score > best_score:
+            best, best_score = direction, score
+    return best
+
+
+@skill("press")
+def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
+    if ctx.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before pressing")
+    owner = step.button.split("/", 1)[0]
+    site = ctx.world.position(step.button)
+    panel = int(ctx.world.model.site_bodyid[ctx.world.site_id(step.button)])
+    normal = face_normal(ctx, site, owner)
+    fingers = ctx.robot.gripper
+    if normal[2] > 0.9:  # a button on a top face: fingertips straight down onto it
+        frames = [down_frame(np.array([1.0, 0.0, 0.0]))]
+    else:  # a front face: fingertips first, or the side of the fingers with the hand pitched down or held sideways
+        frames = [pitched_frame(-normal, pitch) for pitch in (0.0, 30.0, 45.0, 60.0, 75.0, 90.0, 105.0, 120.0)]
+        along = np.cross(normal, UP)
+        for s in (1.0, -1.0):
+            for tilt in (0.0, 45.0):
+                a = np.cos(np.deg2rad(tilt)) * s * along - np.sin(np.deg2rad(tilt)) * UP
+                frames.append(tool_frame(a, np.cross(normal, a)))
+    candidates = [(rot, standoff) for standoff in STANDOFFS for rot in frames]
+
+    def contact(candidate: tuple[np.ndarray, float]) -> np.ndarray:
+        """Tcp position where the fingers touch the button's face: the fingertips and the fingers'
+        sides reach this far along the push from the tcp."""
+        rot = candidate[0]
+        reach = fingers.fingertip * max(0.0, float(rot[:, 2] @ -normal)) \
+            + 0.5 * fingers.finger_thickness * abs(float(rot[:, 0] @ normal))
+        return site + reach * normal
+
+    def poses(candidate: tuple[np.ndarray, float]) -> list[tuple[np.ndarray, np.ndarray]]:
+        rot, standoff = candidate
+        touch = contact(candidate)
+        return [(touch + standoff * normal, rot), (touch - step.depth * normal, rot)]
+
+    chosen = ctx.choose(candidates, poses, via=lambda c: (contact(c) + c[1] * normal, c[0]), touch={panel})
+    if chosen is None:
+        raise SkillFailure(f"no reachable way to press {step.button!r} along its face")
+    rot, standoff = chosen
+    touch = contact(chosen)
+    front, pushed = touch + standoff * normal, touch - step.depth * normal
+    if ctx.gripper != CLOSED:
+        yield ctx.grip(CLOSED, 0.3)
+    yield from ctx.transit(front, rot, what=f"the approach to {step.button!r}")
+    with ctx.touching({panel}):
+        yield ctx.move(touch + 0.01 * normal, rot, speed=FINE_SPEED * 2, what=f"pressing {step.button!r}")
+        yield ctx.move(pushed, rot, speed=FINE_SPEED, what=f"pressing {step.button!r}")
+        if step.hold_s:
+            yield ctx.hold(step.hold_s)
+        yield ctx.move(front, rot, speed=FINE_SPEED * 2, what=f"backing off {step.button!r}")

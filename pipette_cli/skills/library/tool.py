@@ -1,0 +1,60 @@
+"""``position_over`` and ``tilt``: use what the hand holds as a tool.
+
+``position_over`` brings a point of the held tool (its ``tip`` site by default: a pipette's tip,
+a loop's end) to a height above a target and holds it there, the tool kept as it was grasped.
+``tilt`` turns the held object about the horizontal axis across the hand (pouring) and back.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from pipette_cli.skills.frames import UP, axis_rotation
+from pipette_cli.skills.library.place import resolve_target
+from pipette_cli.skills.runtime import APPROACH_SPEED, Move, SkillContext, SkillFailure, skill
+from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
+
+
+def tool_point(ctx: SkillContext, name: str, point: str | None) -> np.ndarray:
+    """The held tool's working point in the tcp frame: ``point``, else its ``tip`` site, else its origin."""
+    from pipette_cli.skills.grasp import semantics
+
+    held = ctx.holding(name)
+    if point is None and "tip" in semantics(ctx, name).get("sites", []):
+        point = f"{name}/tip"
+    if point is None:
+        return held.pos
+    tcp_pos, tcp_rot = ctx.world.tcp_position(), ctx.world.tcp_rotation()
+    return tcp_rot.T @ (ctx.world.position(point) - tcp_pos)
+
+
+@skill("position_over")
+def position_over(ctx: SkillContext, step: PositionOverSpec) -> Iterator[Move]:
+    offset = tool_point(ctx, step.object, step.point)
+    target = resolve_target(ctx, step.target, surface=False)
+    goal = target + step.height * UP
+    tool_pos = goal - ctx.rot @ offset
+    yield from ctx.transit(tool_pos, ctx.rot, what=f"bringing {step.object!r} over {step.target!r}")
+    ctx.check_holding(step.object)
+    if step.hold_s:
+        yield ctx.hold(step.hold_s)
+
+
+@skill("tilt")
+def tilt(ctx: SkillContext, step: TiltSpec) -> Iterator[Move]:
+    ctx.holding(step.object)
+    axis = ctx.rot[:, 1].copy()  # across the hand: the fingers' closing direction
+    axis[2] = 0.0
+    if np.linalg.norm(axis) < 1e-6:
+        raise SkillFailure(f"cannot tilt {step.object!r}: the hand's closing direction is vertical")
+    axis /= np.linalg.norm(axis)
+    start_pos, start_rot = ctx.pos.copy(), ctx.rot.copy()
+    turned = axis_rotation(axis, np.deg2rad(step.angle_deg)) @ start_rot
+    yield ctx.move(start_pos, turned, speed=APPROACH_SPEED, what=f"tilting {step.object!r}")
+    ctx.check_holding(step.object)
+    if step.hold_s:
+        yield ctx.hold(step.hold_s)
+    if step.back:
+        yield ctx.move(start_pos, start_rot, speed=APPROACH_SPEED, what=f"tilting {step.object!r} back")

@@ -1,0 +1,201 @@
+"""Robot facts: one YAML file per robot under ``registry/robots/``, the only home of robot numbers.
+
+Every module that needs a robot's joints, home pose, gripper mapping, tool centre point, reach or
+payload reads it from here (``robot_spec("franka_panda")``); nothing else writes those literals.
+Adding a robot is a new file here plus its ``mujoco_menagerie`` folder (docs/extending/adding_a_robot.md).
+
+The tool centre point (tcp) is given in the end-effector body's frame together with two of its axes
+(``approach``: the direction the fingers point; ``closing``: the direction the fingers close along).
+Pipette builds a site ``tcp`` whose frame is canonical on every robot: z along ``approach``,
+y along ``closing``, so skills and teleoperation are written once for all robots.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+from pydantic import Field, ValidationError, model_validator
+
+from pipette_cli.errors import SpecError, suggest
+from pipette_cli.resources import data_dir
+from pipette_cli.specs.base import Name, Spec, Vec3
+
+Axis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+ROBOTS_FOLDER = "robots"
+"""Sub-folder of the registry holding robot facts (never task files)."""
+
+
+class MenagerieRef(Spec):
+    """A model in ``mujoco_menagerie``: its folder and the XML entry (``panda`` -> ``panda.xml``)."""
+
+    model: str
+    entry: str
+
+
+class AttachSpec(Spec):
+    """A second menagerie model (a gripper) attached at a site of the first."""
+
+    menagerie: MenagerieRef
+    site: str
+    prefix: str = Field(pattern=r"^[a-z0-9_]+/$")
+
+
+class ArmSpec(Spec):
+    joints: list[str] = Field(min_length=3)
+    actuators: list[str] = Field(min_length=3)
+    home: list[float] = Field(description="a comfortable configuration facing +x, radians")
+    limit_ctrl_to_joint_range: bool = False
+
+    @model_validator(mode="after")
+    def _lengths(self) -> ArmSpec:
+        if not len(self.joints) == len(self.actuators) == len(self.home):
+            raise ValueError(f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
+                             f"({len(self.home)}) must have one entry per arm joint")
+        return self
+
+
+class DriveSpec(Spec):
+    """Position servo gains of the gripper actuator (overriding menagerie's)."""
+
+    kp: float = Field(gt=0)
+    kv: float = Field(ge=0)
+    force: float = Field(gt=0, description="newtons")
+
+
+class GripperSpec(Spec):
+    actuator: str
+    joint: str = Field(description="joint whose position is the gripper state g_t")
+    open_ctrl: float = Field(description="actuator control for the binary command u = 1 (open)")
+    closed_ctrl: float = Field(description="actuator control for u = 0 (closed)")
+    max_opening: float = Field(gt=0, lt=0.3, description="metres between the fingertips, fully open")
+    finger_depth: float = Field(gt=0, lt=0.2, description="metres from the tcp up to the palm")
+    fingertip: float = Field(ge=0, lt=0.05, description="metres the fingertips reach beyond the tcp")
+    finger_thickness: float = Field(gt=0, lt=0.05, description="metres across a fingertip, perpendicular to closing and approach")
+    drive: DriveSpec | None = None
+
+
+class TcpSpec(Spec):
+    pos: Vec3
+    approach: Axis = "+z"
+    closing: Axis = "+y"
+
+    @model_validator(mode="after")
+    def _orthogonal(self) -> TcpSpec:
+        if self.approach[1] == self.closing[1]:
+            raise ValueError(f"approach ({self.approach}) and closing ({self.closing}) must be different axes")
+        return self
+
+    def rotation(self) -> np.ndarray:
+        """3x3 rotation of the canonical tcp frame (z approach, y closing) in the end-effector body."""
+        z, y = _axis(self.approach), _axis(self.closing)
+        return np.column_stack([np.cross(y, z), y, z])
+
+
+class EndEffectorSpec(Spec):
+    body: str
+    tcp: TcpSpec
+    wrist_camera_body: str
+
+
+class RobotSpec(Spec):
+    """Everything Pipette knows about one robot."""
+
+    name: Name
+    aliases: list[Name] = []
+    description: str = ""
+    menagerie: MenagerieRef
+    attach: AttachSpec | None = None
+    arm: ArmSpec
+    gripper: GripperSpec
+    end_effector: EndEffectorSpec
+    base_height: float = Field(0.55, description="default base height: the bench top")
+    reach: float = Field(gt=0, description="metres from the base axis for a top-down grasp at bench height")
+    min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
+    payload_kg: float = Field(gt=0)
+
+    @property
+    def arm_dof(self) -> int:
+        return len(self.arm.joints)
+
+    @property
+    def arm_joints(self) -> tuple[str, ...]:
+        return tuple(self.arm.joints)
+
+    @property
+    def arm_actuators(self) -> tuple[str, ...]:
+        return tuple(self.arm.actuators)
+
+    def home(self) -> np.ndarray:
+        return np.asarray(self.arm.home, dtype=float)
+
+    def gripper_ctrl(self, command: float) -> float:
+        """Actuator control for a binary gripper command: open when ``command >= 0.5`` (paper A.6)."""
+        return self.gripper.open_ctrl if command >= 0.5 else self.gripper.closed_ctrl
+
+    def state_names(self) -> list[str]:
+        """Names of the state/action vector entries: arm joints, then the gripper."""
+        return [*self.arm.joints, "gripper"]
+
+
+def _axis(name: str) -> np.ndarray:
+    out = np.zeros(3)
+    out["xyz".index(name[1])] = 1.0 if name[0] == "+" else -1.0
+    return out
+
+
+def robots_dir() -> Path:
+    return data_dir("registry") / ROBOTS_FOLDER
+
+
+@cache
+def load_robot_specs() -> dict[str, RobotSpec]:
+    """Every robot in ``registry/robots/``, by name.
+
+    Raises:
+        SpecError: a file does not validate (``file:line: field: message``), or two robots share a
+            name or alias.
+    """
+    from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
+
+    robots: dict[str, RobotSpec] = {}
+    owner: dict[str, Path] = {}
+    problems: list[str] = []
+    for path in sorted(robots_dir().glob("*.yaml")):
+        doc = read_yaml(path)
+        raw = to_plain(doc)
+        try:
+            spec = RobotSpec.model_validate(raw)
+        except ValidationError as exc:
+            problems.extend(validation_problems(exc, RobotSpec, raw, doc, str(path)))
+            continue
+        for key in (spec.name, *spec.aliases):
+            if key in owner:
+                problems.append(f"{path}: robot name {key!r} is already used by {owner[key]}")
+            owner[key] = path
+        robots[spec.name] = spec
+    if problems:
+        raise SpecError(problems)
+    return robots
+
+
+def robot_names() -> list[str]:
+    return sorted(load_robot_specs())
+
+
+def robot_spec(name: str) -> RobotSpec:
+    """The robot called ``name`` (or one of its aliases).
+
+    Raises:
+        SpecError: unknown robot, listing the known ones with a close match.
+    """
+    robots = load_robot_specs()
+    if name in robots:
+        return robots[name]
+    for spec in robots.values():
+        if name in spec.aliases:
+            return spec
+    keys = [*robots, *(a for s in robots.values() for a in s.aliases)]
+    raise SpecError(f"unknown robot {name!r}; {suggest(name, keys)}")
