@@ -1,0 +1,104 @@
+"""A request -> its clauses, one per command, and which command each clause asks for.
+
+Chained requests ("record 20 demos of X, augment them, convert and train ACT") are split at
+the vocabulary's chain words ("then", "after that", ...), at ";" and at sentence ends, and at
+"," and "and" when what follows asks for a command of its own (a verb such as "augment");
+anything else after them stays in the clause ("..., 64 px images", "pick and place").
+
+A clause's command is the one whose cues (vocabulary ``intents``) weigh most: phrases 3,
+verbs 2, nouns 1, and the agent's answers 1 more when the clause is a question. On a tie the
+command listed first in the vocabulary wins.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from pipette_cli.agent.mentions import find_mentions
+from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, phrase_pattern
+
+ANSWER_PREFIX = "answer "
+
+
+def words_of(text: str) -> str:
+    """Lowercased words for cue matching: punctuation other than ``' - . + %`` becomes space."""
+    lowered = text.lower().replace("’", "'").replace("“", '"').replace("”", '"')
+    return " ".join(re.sub(r"[^\w'.+%π-]+", " ", lowered).split()).replace(" .", " ").rstrip(".")
+
+
+@dataclass(frozen=True)
+class Clause:
+    text: str
+    """The clause as written (paths included)."""
+    command: str | None
+    score: int
+
+
+class Intents:
+    """Scores clauses against the vocabulary's command cues."""
+
+    def __init__(self, vocab: VocabularySpec, commands: set[str], task_names: list[str]) -> None:
+        self.vocab = vocab
+        self.names = task_names
+        self.cues = [(command, WEIGHTS[kind], phrase)
+                     for command, cues in vocab.intents.items() if command in commands
+                     for kind in ("phrases", "verbs", "nouns") for phrase in getattr(cues, kind)]
+        self.order = [c for c in vocab.intents if c in commands]
+
+    def scores(self, text: str) -> dict[str, int]:
+        """Command -> cue weight for ``text`` (paths and addresses do not count)."""
+        words = words_of(find_mentions(text, self.names).words)
+        question = bool(find_phrase(self.vocab.questions, words)) and (
+            phrase_pattern(self.vocab.questions[0]).match(words) is not None or text.rstrip().endswith("?"))
+        out: dict[str, int] = {}
+        for command, weight, phrase in self.cues:
+            if phrase_pattern(phrase).search(words):
+                out[command] = max(out.get(command, 0), weight) + (1 if command in out else 0)
+        if question:
+            for command in out:
+                if command.startswith(ANSWER_PREFIX):
+                    out[command] += 1
+        return out
+
+    def best(self, text: str) -> tuple[str | None, int]:
+        scores = self.scores(text)
+        if not scores:
+            return None, 0
+        top = max(scores.values())
+        return next(c for c in self.order if scores.get(c) == top), top
+
+
+_SENTENCE = r"[;!?]\s*(?=\S)|\.\s+(?=[A-Za-z])"
+
+
+def split_clauses(text: str, intents: Intents) -> list[Clause]:
+    """The clauses of ``text``, each with its command (None if it names none)."""
+    strong = "|".join(phrase_pattern(p).pattern for p in intents.vocab.chain.strong)
+    pattern = re.compile(rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*|{_SENTENCE})|(?P<weak>,\s+|\s+and\s+)",
+                         re.IGNORECASE)
+    pieces: list[tuple[str, str, str]] = []  # (kind of the separator before, the separator, text)
+    position, kind, separator = 0, "strong", ""
+    for m in pattern.finditer(text):
+        pieces.append((kind, separator, text[position:m.start()]))
+        kind, separator, position = ("strong" if m.group("strong") else "weak"), m.group(0), m.end()
+    pieces.append((kind, separator, text[position:]))
+    merged: list[list] = []  # [text, command]
+    for kind, separator, piece in pieces:
+        if not piece.strip():
+            continue
+        command, score = intents.best(piece)
+        # after "," or "and", only a verb of another command starts a step ("export a.h5 and b.h5 to lerobot")
+        starts = command is not None and (kind == "strong" or (score >= WEIGHTS["verbs"] and command != merged[-1][1]
+                                                               if merged else True))
+        if merged and not (starts and merged[-1][1] is not None):
+            merged[-1][0] += separator + piece
+            merged[-1][1] = merged[-1][1] or command
+        else:
+            merged.append([piece, command])
+    clauses = []
+    for clause_text, _ in merged:
+        clause_text = clause_text.strip(" ,;")
+        command, score = intents.best(clause_text)
+        clauses.append(Clause(clause_text, command, score))
+    return clauses
