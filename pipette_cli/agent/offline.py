@@ -25,6 +25,8 @@ from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_vocab
 from pipette_cli.registry import Registry
 
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
+_MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
+"""Units after a number that make it a size ("50 mL tube"), not a count."""
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 
@@ -34,6 +36,10 @@ def _derived(param: ParamInfo) -> list[str]:
     if param.flag:
         names.add(param.flag.lstrip("-").replace("-", " "))
     return sorted(n for n in names if n not in ("as json",)) + (["json"] if param.flag == "--json" else [])
+
+
+def _typed(param: ParamInfo, number: float) -> int | float:
+    return int(number) if param.kind == "int" and number == int(number) else number
 
 
 class OfflineAgent:
@@ -147,7 +153,8 @@ class OfflineAgent:
         elif match.candidates and not info.is_answer:
             raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
         elif param.required and not info.is_answer:
-            named = re.search(r"\b(?:of|for|on|the)\s+([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words)
+            named = re.search(r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b",
+                              words)
             stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
             if named and not {stem(w) for w in named.group(1).split()} <= stop | {"new", "same", "last", "previous",
                                                                                  "first", "next", "one", "which", "what"}:
@@ -160,7 +167,8 @@ class OfflineAgent:
         return None
 
     def _numbers(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
-        """Numbers next to an option's words: units after ("30 demos"), names before ("seed 3")."""
+        """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
+        before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
         numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
         if not numeric:
             return
@@ -168,26 +176,29 @@ class OfflineAgent:
         for word, value in sorted(self.vocab.numbers.items(), key=lambda kv: -len(kv[0])):
             text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
         taken: set[str] = set()
+        bare: list[float] = []
         for m in _NUMBER.finditer(text):
             number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
             after, before = text[m.end():].lstrip(), text[:m.start()].rstrip()
             best: tuple[int, ParamInfo] | None = None
-            for param in numeric:
-                if param.name in taken:
-                    continue
+            for param in (p for p in numeric if p.name not in taken):
                 spec = self.vocab.words_for(param.name, info.name)
-                units = spec.units or ([] if spec.names else [])
                 names = [*spec.names, *_derived(param)]
-                for rank, phrases, matcher in ((2, units, lambda p: phrase_pattern(p).match(after)),
-                                               (1, names, lambda p: re.search(
-                                                   rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
-                                                   before))):
+                tests = ((3, spec.units, lambda p: phrase_pattern(p).match(after)),
+                         (2, spec.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),
+                         (1, names, lambda p: re.search(rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
+                                                        before)))
+                for rank, phrases, matcher in tests:
                     if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
                         best = (rank, param)
             if best is not None:
-                param = best[1]
-                args[param.name] = int(number) if param.kind == "int" and number == int(number) else number
-                taken.add(param.name)
+                args[best[1].name] = _typed(best[1], number)
+                taken.add(best[1].name)
+            elif not m.group(3) and not _MEASURE.match(after):
+                bare.append(number)
+        fallback = info.params.get(self.vocab.bare_number)
+        if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
+            args[fallback.name] = _typed(fallback, bare[0])
 
     def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
@@ -209,7 +220,10 @@ class OfflineAgent:
             names = "|".join(phrase_pattern(n).pattern for n in [*self.vocab.words_for(param.name, info.name).names, *_derived(param)])
             for value in param.hinted:
                 v = re.escape(value.lower())
-                m = re.search(rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words)
+                if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
+                    m = re.search(rf"(?<![\w-]){v}(?![\w-])", words)
+                else:
+                    m = re.search(rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words)
                 if m:
                     found.append((m.start(), value))
             if found:
@@ -232,14 +246,20 @@ class OfflineAgent:
             for path in saved:  # "... and save it to x.yaml" is not part of the description
                 said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(path)}\S*", "", said)
             quoted = _QUOTED.search(said)
-            rest = re.sub(r"^.*?\b(?:where|in which|that|:|for|to|of)\s+", "", said, count=1)
-            args["description"] = quoted.group(1) if quoted else rest.strip(" .")
+            cues = self.vocab.intents[info.name] if info.name in self.vocab.intents else None
+            cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
+            rest = said[cue.end():] if cue else said
+            rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)
+            if quoted or rest.strip(" ."):
+                args["description"] = quoted.group(1) if quoted else rest.strip(" .")
         if "about" in info.params and is_empty(args.get("about")):
             about = self.index.filter_words(words)
             if about:
                 args["about"] = " ".join(about)
         if "asset_id" in info.params and info.params["asset_id"].required and is_empty(args.get("asset_id")):
-            args["asset_id"] = self._asset(words)
+            asset = self._asset(words)
+            if asset:
+                args["asset_id"] = asset
         for param in info.params.values():
             if param.kind != "str" or param.values() or not is_empty(args.get(param.name)) or param.name in (
                     "description", "about", "asset_id", "backend", "model", "base_url"):

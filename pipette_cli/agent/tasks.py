@@ -46,6 +46,19 @@ def short_name(task_id: str) -> str:
     return task_id.split("/", 1)[-1].rsplit("-v", 1)[0]
 
 
+def _longest_run(name: list[str], words: list[str]) -> int:
+    """Length of the longest run of ``name``'s words that ``words`` repeat in order
+    ("tube on balance" in PlaceTubeOnBalance: 3)."""
+    best = 0
+    for i in range(len(words)):
+        for j in range(len(name)):
+            k = 0
+            while i + k < len(words) and j + k < len(name) and words[i + k] == name[j + k]:
+                k += 1
+            best = max(best, k)
+    return best
+
+
 @dataclass(frozen=True)
 class TaskMatch:
     """A request's task: ``task`` (an id), or ``candidates`` when several fit equally well."""
@@ -64,6 +77,7 @@ class TaskIndex:
     vocab: VocabularySpec
     terms: dict[str, dict[str, float]] = field(default_factory=dict)
     name_terms: dict[str, set[str]] = field(default_factory=dict)
+    name_words: dict[str, list[str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
@@ -89,6 +103,7 @@ class TaskIndex:
                     terms[f"kind:{kind}"] = WEIGHTS["kind"]
             self.terms[tid] = terms
             self.name_terms[tid] = self.concepts(" ".join(names)) - self._stop
+            self.name_words[tid] = [stem(w) for w in names]
         self._aliases = assets.aliases()
         self._alias_kind = assets.alias_to_kind
 
@@ -168,6 +183,7 @@ class TaskIndex:
     def scores(self, text: str) -> dict[str, float]:
         """Each task's score for ``text`` (tasks sharing no object term are left out)."""
         said = self.request_terms(text)
+        request_words = [stem(w) for w in re.findall(r"[a-z0-9]+", text.lower())]
         out: dict[str, float] = {}
         for tid, terms in self.terms.items():
             shared = said & terms.keys()
@@ -175,7 +191,8 @@ class TaskIndex:
                 continue  # an object, tag or robot must match, not only an action or the instruction
             score = sum(terms[t] * self._idf[t] for t in shared)
             names = self.name_terms[tid]
-            out[tid] = score + 0.2 * len(names & said) / max(len(names), 1)
+            run = _longest_run(self.name_words[tid], request_words)
+            out[tid] = score + 0.2 * len(names & said) / max(len(names), 1) + 0.3 * max(run - 1, 0)
         return out
 
     def match(self, text: str) -> TaskMatch:

@@ -18,6 +18,7 @@ an :class:`AgentError` saying what is wrong (which an LLM backend sends back to 
 from __future__ import annotations
 
 import re
+from pathlib import Path
 from typing import Any
 
 from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo, AgentError, Unsupported, is_empty
@@ -198,10 +199,14 @@ class Validator:
                notes: list[str]) -> str | None:
         """Fill values earlier steps set (task, dataset version...); return the step's task."""
         param = info.task_param()
-        if param is not None and is_empty(args.get(param.name)) and carried.get("task") and param.required:
-            args[param.name] = [carried["task"]] if param.multiple else carried["task"]
-            if not steps:
-                notes.append(f"task from the previous request: {carried['task']}")
+        inferred = self._task_of_files(info, args)
+        if param is not None and is_empty(args.get(param.name)) and param.required and (inferred or carried.get("task")):
+            task = inferred or carried["task"]
+            args[param.name] = [task] if param.multiple else task
+            if inferred:
+                notes.append(f"task of the input file: {inferred}")
+            elif not steps:
+                notes.append(f"task from the previous request: {task}")
         for name in self.vocab.carry:
             if name in info.params and is_empty(args.get(name)) and name in carried:
                 args[name] = carried[name]
@@ -213,7 +218,32 @@ class Validator:
             task = task[0] if len(task) == 1 else None
         if isinstance(task, str) and task != "all" and "," not in task:
             return task
-        return carried.get("task") if param is None else None
+        return (inferred or carried.get("task")) if param is None else None
+
+    def _task_of_files(self, info: CommandInfo, args: dict[str, Any]) -> str | None:
+        """The task of a demo file the step reads: the file's own record if it exists, else a
+        registered task name in its file name (``data/PickUpTestTube_augmented.h5``)."""
+        for param in info.params.values():
+            if not param.path or param.writes:
+                continue
+            value = args.get(param.name)
+            for path in (value if isinstance(value, list) else [value]):
+                if not isinstance(path, str) or not path.endswith((".h5", ".hdf5")):
+                    continue
+                if Path(path).is_file():
+                    from pipette_cli.demos.store import scan
+
+                    try:
+                        status = scan(Path(path))
+                    except PipetteError:
+                        status = None
+                    if status is not None and status.info is not None and status.info.task_id in self.registry.tasks:
+                        return status.info.task_id
+                name = Path(path).name.lower()
+                named = [tid for tid in self.registry.ids() if short_name(tid).lower() in name]
+                if named:
+                    return max(named, key=lambda tid: len(short_name(tid)))
+        return None
 
     def _defaults(self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str]) -> None:
         for key, template in self.vocab.defaults.items():

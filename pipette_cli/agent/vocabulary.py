@@ -71,6 +71,7 @@ class VocabularySpec(Spec):
     options: dict[str, OptionWordsSpec]
     values: dict[str, dict[str, list[str]]]
     numbers: dict[str, int]
+    bare_number: str
     policies: dict[str, PolicySpec]
     tasks: TaskWordsSpec
     defaults: dict[str, str]
