@@ -47,7 +47,9 @@ def tasks(
     from pipette_cli.registry import load_registry
 
     registry = load_registry(STATE.registry_dirs)
-    ids, terms = TaskIndex(registry, load_vocabulary()).filter(about or "")
+    index = TaskIndex(registry, load_vocabulary())
+    ids, _ = index.filter(about or "")
+    terms = index.filter_words(about or "")
     rows = [[tid, registry.get(tid).embodiment.robot, registry.get(tid).instruction] for tid in ids]
     what = f" about {', '.join(terms)}" if terms else ""
     text = f"{len(ids)} task{'s' if len(ids) != 1 else ''}{what}" if ids else f"no registered task is{what or ' known'}"

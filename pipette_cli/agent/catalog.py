@@ -285,17 +285,22 @@ def _command(path: tuple[str, ...], command: Any) -> CommandInfo:
     return CommandInfo(path, params, text.splitlines()[0] if text else "", example)
 
 
-@cache
-def load_catalog() -> CommandCatalog:
-    """Every leaf command of the ``pipette`` CLI (but ``agent``) and the agent's answers."""
-    from pipette_cli.agent.answers import app as answers_app
-    from pipette_cli.cli.main import app
-
+def read_catalog(*apps: tuple[typer.Typer, tuple[str, ...]]) -> CommandCatalog:
+    """The catalog of the typer ``apps``, each with the prefix its commands get (``("answer",)``)."""
     commands: dict[str, CommandInfo] = {}
-    for root, prefix in ((app, ()), (answers_app, (ANSWER,))):
+    for root, prefix in apps:
         for path, command in _walk(typer.main.get_command(root), prefix):
             if path[0] != "agent":  # the agent does not call itself
                 info = _command(path, command)
                 commands[info.name] = info
     one_of = {k: tuple(v) for k, v in load_vocabulary().one_of.items() if k in commands}
     return CommandCatalog(commands, one_of)
+
+
+@cache
+def load_catalog() -> CommandCatalog:
+    """Every leaf command of the ``pipette`` CLI (but ``agent``) and the agent's answers."""
+    from pipette_cli.agent.answers import app as answers_app
+    from pipette_cli.cli.main import app
+
+    return read_catalog((app, ()), (answers_app, (ANSWER,)))

@@ -1,8 +1,8 @@
 """The agent through an LLM server: the model fills the same :class:`PlanSpec` as the offline
 parser, through structured output, and the same validator checks it.
 
-The model sees a compact catalog (all commands by name; the parameters, with types and
-choices, of the commands the request's words point to) and the task ids, and must answer a
+The model sees a compact catalog (the commands the request's words point to with their
+parameters, types and choices; the others by name) and the task ids, and must answer a
 JSON plan whose ``command`` is one of the catalog's names. An answer the validator rejects
 (unknown command, parameter, task or value; a bad step reference) is sent back with the error,
 up to the server's attempt limit (:func:`pipette_cli.llm.ask_structured`); an unsupported
@@ -16,19 +16,13 @@ import copy
 import json
 from typing import Any
 
-from pipette_cli.agent.catalog import CommandCatalog, CommandInfo
+from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import VocabularySpec, load_vocabulary
 from pipette_cli.llm import ChatClient, ask_structured, make_client, strict_json_schema
 from pipette_cli.registry import Registry
-
-EXAMPLE = {"steps": [
-    {"command": "collect", "args": {"task_id": "pipette/PickUpTestTube-v1", "episodes": 5}},
-    {"command": "augment", "args": {"task_id": "pipette/PickUpTestTube-v1", "input": {"from_step": 1}}},
-]}
-
 
 def _param_text(info: CommandInfo) -> str:
     parts = []
@@ -39,31 +33,56 @@ def _param_text(info: CommandInfo) -> str:
 
 
 def plan_prompt(catalog: CommandCatalog, registry: Registry, relevant: set[str]) -> str:
-    """Instructions for the model: the plan format, the catalog and the task ids (compact)."""
+    """Instructions for the model: the plan format, the commands the request points to with
+    their parameters, the other commands by name, and the task ids (about 500 tokens)."""
     lines = [
-        "You turn a user's request about the `pipette` robot-learning CLI into a plan: one step per command, in order.",
-        'Answer with JSON only: {"steps": [{"command": "<name>", "args": {"<parameter>": <value>}}]}.',
-        'A step can use an earlier step\'s output file or folder as a value: {"from_step": <step number>}.',
-        "Use only the commands and parameters below (* = required) and the task ids listed; leave out values",
-        "the request does not give. Questions about tasks, demo counts or evaluation scores use the answer commands.",
-        "Commands:",
+        "Turn the user's request about the `pipette` robot-learning CLI into a plan: one step per command, in order.",
+        'Answer with one JSON object: "steps" is a list of steps; each step has "command" (a command name) and',
+        '"args" (parameter name -> value). A value can be an earlier step\'s output file or folder: {"from_step": N}.',
+        "Use only these commands and parameters (* = required) and these task ids; leave out what the request",
+        "does not say. Questions about tasks, demo counts or evaluation scores use the `answer` commands.",
     ]
-    for name, info in catalog.commands.items():
-        detail = f" [{_param_text(info)}]" if name in relevant else ""
-        lines.append(f"- {name}: {info.help}{detail}")
-    lines.append("Task ids: " + ", ".join(f"{tid} ({registry.get(tid).instruction.rstrip('.')})"
-                                            for tid in registry.ids()))
-    lines.append('Example: "record 5 demos of the test tube task and augment them" -> '
-                 + json.dumps(EXAMPLE, separators=(",", ":")))
+    for name in sorted(relevant):
+        info = catalog.get(name)
+        lines.append(f"- {name}: {info.help} [{_param_text(info)}]")
+    lines.append("Other commands: " + ", ".join(sorted(set(catalog.commands) - relevant)))
+    lines.append("Task ids: " + ", ".join(registry.ids()))
     return "\n".join(lines)
 
 
-def plan_schema(catalog: CommandCatalog) -> dict[str, Any]:
-    """:class:`PlanSpec`'s JSON schema with ``command`` narrowed to the catalog's names."""
-    schema = copy.deepcopy(strict_json_schema(PlanSpec))
-    step = schema["$defs"]["StepSpec"]
-    step["properties"]["command"]["enum"] = sorted(catalog.commands)
-    return schema
+def _value_schema(param: ParamInfo, task_ids: list[str]) -> dict[str, Any]:
+    kinds = {"int": "integer", "float": "number", "bool": "boolean"}
+    if param.kind == "task":
+        schema: dict[str, Any] = {"type": "string", "enum": [*task_ids, *(["all"] if "`all`" in param.help else [])]}
+    elif param.choices:
+        schema = {"type": "string", "enum": list(param.choices)}
+    else:
+        schema = {"type": kinds.get(param.kind, "string")}
+    if param.path:
+        schema = {"anyOf": [schema, {"$ref": "#/$defs/StepRef"}]}
+    return {"type": "array", "items": schema} if param.multiple else schema
+
+
+def plan_schema(catalog: CommandCatalog, relevant: set[str], task_ids: list[str]) -> dict[str, Any]:
+    """The JSON schema sent to the server: :class:`PlanSpec`, with one step shape per command
+    the request points to (its parameters by name, typed, task ids and choices as enums), so a
+    server that constrains decoding cannot produce an unknown parameter; other commands take
+    any arguments (the validator checks them)."""
+    generic = strict_json_schema(PlanSpec)
+    shapes = []
+    for name in sorted(relevant):
+        params = catalog.get(name).params
+        shapes.append({"type": "object", "additionalProperties": False, "required": ["command", "args"],
+                       "properties": {"command": {"type": "string", "enum": [name]},
+                                      "args": {"type": "object", "additionalProperties": False,
+                                               "properties": {p: _value_schema(info, task_ids)
+                                                              for p, info in params.items()}}}})
+    other = copy.deepcopy(generic["$defs"]["StepSpec"])
+    other["properties"]["command"]["enum"] = sorted(set(catalog.commands) - relevant)
+    shapes.append(other)
+    return {"type": "object", "additionalProperties": False, "required": ["steps"],
+            "properties": {"steps": {"type": "array", "minItems": 1, "maxItems": 12, "items": {"anyOf": shapes}}},
+            "$defs": {"StepRef": generic["$defs"]["StepRef"]}}
 
 
 class LLMAgent:
@@ -97,7 +116,9 @@ class LLMAgent:
             return self.validator.check(spec, request=text, context=context)
 
         self.trace = []
-        return ask_structured(self.client, system=plan_prompt(self.catalog, self.registry, self.relevant(text)),
-                              user=text, schema=PlanSpec, accept=accept, json_schema=plan_schema(self.catalog),
+        relevant = self.relevant(text)
+        return ask_structured(self.client, system=plan_prompt(self.catalog, self.registry, relevant),
+                              user=text, schema=PlanSpec, accept=accept,
+                              json_schema=plan_schema(self.catalog, relevant, self.registry.ids()),
                               fix_hint="Fix the plan (only commands, parameters and task ids from the lists)",
                               trace=self.trace)

@@ -146,13 +146,13 @@ class OfflineAgent:
         if match.explicit:
             many = param.multiple or "comma" in param.help.lower()
             args[param.name] = list(match.explicit) if many else match.explicit[0]
-        elif unknown and not info.is_answer:
+        elif unknown:
             raise AgentError(f"unknown task {unknown!r}; {self.index.suggest_name(short_name(unknown))}")
         elif match.task:
             args[param.name] = match.task
-        elif match.candidates and not info.is_answer:
+        elif match.candidates:
             raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
-        elif param.required and not info.is_answer:
+        elif param.required or info.is_answer:
             named = re.search(r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b",
                               words)
             stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
