@@ -58,7 +58,7 @@ def _value_schema(param: ParamInfo, task_ids: list[str]) -> dict[str, Any]:
         schema = {"type": "string", "enum": list(param.choices)}
     else:
         schema = {"type": kinds.get(param.kind, "string")}
-    if param.path:
+    if param.path or param.address:
         schema = {"anyOf": [schema, {"$ref": "#/$defs/StepRef"}]}
     return {"type": "array", "items": schema} if param.multiple else schema
 

@@ -4,7 +4,9 @@ Every CLI step runs as ``python -m pipette_cli.cli.main ARGS`` (never a shell), 
 bar that shows the step's latest line of output and its elapsed time; its results (stdout)
 are shown when it ends. The first step that fails stops the plan with an error naming the step,
 its exit code and its last error line; Ctrl-C interrupts the running step the way Ctrl-C
-interrupts that command (they are all safe to interrupt) and stops the plan.
+interrupts that command (they are all safe to interrupt) and stops the plan. A server step
+(``serve``) followed by more steps keeps running beside them once it says it is ready, and is
+stopped (Ctrl-C) when the plan ends.
 """
 
 from __future__ import annotations
@@ -62,8 +64,12 @@ class PlanRunner:
 
     def __init__(self, catalog: CommandCatalog, console: Console, *, global_args: Sequence[str] = (),
                  show_output: Callable[[str], None] | None = None, show_answer: Callable[[Answer], None] | None = None,
-                 python: str = sys.executable) -> None:
+                 background: dict[str, str] | None = None, python: str = sys.executable) -> None:
         self.catalog = catalog
+        self.background = background or {}
+        """Commands that keep running (``serve``) -> the start of the output line that says they
+        are ready; followed by more steps, they run beside them and are stopped at the end."""
+        self._running: list[subprocess.Popen[str]] = []
         self.console = console
         self.global_args = list(global_args)
         self.show_output = show_output
@@ -79,6 +85,12 @@ class PlanRunner:
         """
         if not plan.runnable:
             raise AgentError(f"the plan still misses values: {plan.missing}")
+        try:
+            return self._run(plan)
+        finally:
+            self._stop_background()
+
+    def _run(self, plan: CheckedPlan) -> list[StepResult]:
         results: list[StepResult] = []
         total = len(plan.steps)
         for step in plan.steps:
@@ -92,7 +104,8 @@ class PlanRunner:
                     self.show_answer(found)
                 continue
             argv = step_argv(plan, step, self.catalog)
-            result = self._run_command(label, step, argv)
+            ready = self.background.get(step.command) if step.index < total else None
+            result = self._run_command(label, step, argv, ready)
             results.append(result)
             if self.show_output and result.stdout.strip():
                 self.show_output(result.stdout)
@@ -103,7 +116,18 @@ class PlanRunner:
                                  + (f"; steps {step.index + 1}-{total} did not run" if step.index < total else ""))
         return results
 
-    def _run_command(self, label: str, step: CheckedStep, argv: list[str]) -> StepResult:
+    def _stop_background(self) -> None:
+        for process in self._running:
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+                try:
+                    process.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait()
+        self._running.clear()
+
+    def _run_command(self, label: str, step: CheckedStep, argv: list[str], ready: str | None = None) -> StepResult:
         command = [self.python, "-m", "pipette_cli.cli.main", *self.global_args, *argv]
         env = {**os.environ, "PYTHONUNBUFFERED": "1", "COLUMNS": os.environ.get("COLUMNS", "120")}
         started = time.perf_counter()
@@ -135,7 +159,13 @@ class PlanRunner:
                     if line.strip():
                         tail.append(line)
                         progress.update(bar, description=f"{_short(title)} [dim]{_short(line.strip(), 60)}[/dim]")
-                code = process.wait()
+                    if ready is not None and name == "out" and line.startswith(ready):
+                        break  # a server is up: it runs beside the next steps
+                if open_streams and ready is not None:
+                    self._running.append(process)
+                    code = 0
+                else:
+                    code = process.wait()
             except KeyboardInterrupt:
                 process.send_signal(signal.SIGINT)
                 try:
@@ -143,7 +173,8 @@ class PlanRunner:
                 except subprocess.TimeoutExpired:
                     process.kill()
                 raise
-            mark = "[green]done[/green]" if code == 0 else f"[red]failed ({code})[/red]"
+            mark = ("[green]running[/green]" if process in self._running else "[green]done[/green]") if code == 0 \
+                else f"[red]failed ({code})[/red]"
             progress.update(bar, total=1, completed=1, description=f"{_short(title)} {mark}")
         return StepResult(step.index, step.command, argv, code, time.perf_counter() - started,
                           "\n".join(out) + ("\n" if out else ""), list(tail))

@@ -92,8 +92,8 @@ class Validator:
             value = value[0] if len(value) == 1 else value
         if isinstance(value, StepRef) or (isinstance(value, dict) and "from_step" in value):
             ref = value if isinstance(value, StepRef) else StepRef.model_validate(value)
-            if not param.path:
-                raise AgentError(f"{label} is not a file or folder; it cannot take step {ref.from_step}'s output")
+            if not (param.path or param.address):
+                raise AgentError(f"{label} is not a file, folder or address; it cannot take step {ref.from_step}'s output")
             if ref.from_step >= index:
                 raise AgentError(f"{label}: a step can only use an earlier step's output, not step {ref.from_step}'s")
             if steps[ref.from_step - 1].product is None:

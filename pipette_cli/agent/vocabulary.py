@@ -78,6 +78,7 @@ class VocabularySpec(Spec):
     carry: list[str]
     carry_to: dict[str, list[str]]
     one_of: dict[str, list[str]]
+    background: dict[str, str]
     products: dict[str, ProductSpec]
     consumes: dict[str, str]
 

@@ -123,7 +123,7 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
     global_args = [arg for d in STATE.registry_dirs for arg in ("--registry-dir", str(d))]
     runner = PlanRunner(catalog, err_console, global_args=global_args,
                         show_output=lambda text: out_console.print(text, end="", markup=False, highlight=False),
-                        show_answer=show_answer)
+                        show_answer=show_answer, background=agent.vocab.background)
     runner.run(plan)
 
 
