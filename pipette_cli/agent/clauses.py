@@ -15,6 +15,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
+from pipette_cli.agent.catalog import CommandCatalog
 from pipette_cli.agent.mentions import find_mentions
 from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, phrase_pattern
 
@@ -38,9 +39,11 @@ class Clause:
 class Intents:
     """Scores clauses against the vocabulary's command cues."""
 
-    def __init__(self, vocab: VocabularySpec, commands: set[str], task_names: list[str]) -> None:
+    def __init__(self, vocab: VocabularySpec, catalog: CommandCatalog, task_names: list[str]) -> None:
         self.vocab = vocab
         self.names = task_names
+        commands = set(catalog.commands)
+        self.option_words = {name: {w for p in info.params for w in p.split("_")} for name, info in catalog.commands.items()}
         self.cues = [(command, WEIGHTS[kind], phrase)
                      for command, cues in vocab.intents.items() if command in commands
                      for kind in ("phrases", "verbs", "nouns") for phrase in getattr(cues, kind)]
@@ -60,6 +63,12 @@ class Intents:
                 if command.startswith(ANSWER_PREFIX):
                     out[command] += 1
         return out
+
+    def cue_words(self, text: str, command: str) -> set[str]:
+        """The words of ``text`` that ask for ``command``."""
+        words = words_of(find_mentions(text, self.names).words)
+        spans = [m.group(0) for c, _, phrase in self.cues if c == command for m in [phrase_pattern(phrase).search(words)] if m]
+        return {w for span in spans for w in span.split()}
 
     def best(self, text: str) -> tuple[str | None, int]:
         scores = self.scores(text)
@@ -88,17 +97,20 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         if not piece.strip():
             continue
         command, score = intents.best(piece)
-        # after "," or "and", only a verb of another command starts a step ("export a.h5 and b.h5 to lerobot")
-        starts = command is not None and (kind == "strong" or (score >= WEIGHTS["verbs"] and command != merged[-1][1]
-                                                               if merged else True))
+        # after "," or "and", only a verb of another command starts a step ("export a.h5 and b.h5 to lerobot"),
+        # and not when it names an option of the command before ("augment ... and write the yield report to x")
+        previous = merged[-1][1] if merged else None
+        starts = command is not None and (kind == "strong" or previous is None or (
+            score >= WEIGHTS["verbs"] and command != previous
+            and not intents.cue_words(piece, command) & intents.option_words.get(previous, set())))
         if merged and not (starts and merged[-1][1] is not None):
             merged[-1][0] += separator + piece
             merged[-1][1] = merged[-1][1] or command
         else:
             merged.append([piece, command])
     clauses = []
-    for clause_text, _ in merged:
+    for clause_text, command in merged:  # a clause keeps the command of the piece that started it
         clause_text = clause_text.strip(" ,;")
-        command, score = intents.best(clause_text)
-        clauses.append(Clause(clause_text, command, score))
+        best, score = intents.best(clause_text)
+        clauses.append(Clause(clause_text, command or best, score))
     return clauses

@@ -96,7 +96,7 @@ class LLMAgent:
         self.vocab = vocab or load_vocabulary()
         self.client = client or make_client(kind, **options)
         self.validator = Validator(catalog, registry, self.vocab)
-        self.intents = Intents(self.vocab, set(catalog.commands), registry.ids())
+        self.intents = Intents(self.vocab, catalog, registry.ids())
         self.trace: list[str] = []
         """What happened on each attempt of the last request."""
 

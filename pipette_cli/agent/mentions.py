@@ -43,6 +43,8 @@ class PathMention:
     path: str
     before: str
     """Up to four lowercased words just before the path ("the policy in")."""
+    listed: bool = False
+    """It continues a list of paths ("a.h5 b.h5", "a.h5, b.h5", "a.h5 and b.h5")."""
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,7 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
     kept: list[str] = []
     paths: list[PathMention] = []
     addresses: list[str] = []
+    since: list[str] | None = None  # words since the last path
     for token in text.split():
         core = token.strip(_STRIP_LEFT).rstrip(_STRIP_RIGHT)
         if core and _URL.match(core):
@@ -76,9 +79,13 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
             addresses.append(f"tcp://{core}")
         elif core and _is_path(core) and not all(part in known for part in core.lower().split(",")):
             before = " ".join(re.findall(r"[a-z0-9π-]+", " ".join(kept).lower())[-4:])
-            paths.append(PathMention(core, before))
+            listed = since is not None and all(w.strip(",") in ("", "and", "&") for w in since)
+            paths.append(PathMention(core, before, listed))
+            since = []
         else:
             kept.append(token)
+            if since is not None:
+                since.append(token.lower())
     words = " ".join(kept)
     for m in _PORT.finditer(words):
         addresses.append(f"tcp://{LOCAL_HOST}:{m.group(1)}")
@@ -115,7 +122,17 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
         return param.multiple or is_empty(args.get(param.name))
 
     choice = catalog.one_of.get(info.name, ())
+    named_strings = [p for p in info.params.values() if p.kind == "str" and not p.address and not p.values()]
+    previous: ParamInfo | None = None
     for mention in paths:
+        if previous is not None and previous.multiple and mention.listed:
+            args[previous.name] = [*args.get(previous.name, []), mention.path]  # "a.h5 and b.h5"
+            continue
+        string = None if _SUFFIX.search(mention.path) or _named(mention.before, options, info.name) else _named(
+            mention.before, [p for p in named_strings if is_empty(args.get(p.name))], info.name)
+        if string is not None:  # "repo id me/centrifuge": a name with a slash, not a file
+            args[string.name] = mention.path
+            continue
         # of a choice (eval: endpoint or policy), one given bars the others
         barred = set(choice) if any(not free(info.params[c]) for c in choice) else set()
         writes = [p for p in options if p.writes and free(p) and p.name not in barred]
@@ -142,3 +159,4 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
             args[target.name] = [*args.get(target.name, []), mention.path]
         else:
             args[target.name] = mention.path
+        previous = target

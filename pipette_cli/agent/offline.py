@@ -53,7 +53,7 @@ class OfflineAgent:
         self.vocab = vocab or load_vocabulary()
         self.index = TaskIndex(registry, self.vocab)
         self.validator = Validator(catalog, registry, self.vocab)
-        self.intents = Intents(self.vocab, set(catalog.commands), registry.ids())
+        self.intents = Intents(self.vocab, catalog, registry.ids())
 
     def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
         """The checked plan for ``text``.
