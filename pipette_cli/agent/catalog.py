@@ -68,6 +68,13 @@ class ParamInfo:
     """A path the command writes (``--out``, "file to create")."""
     address: bool = False
     """A network endpoint (``tcp://host:port``)."""
+    names: tuple[str, ...] = ()
+    """Words people use for it: its own name ("max steps", "json") and the vocabulary's
+    ("checkpoint" for ``--pretrained-path``); they precede a number or switch a flag on."""
+    units: tuple[str, ...] = ()
+    """Words that follow a number meant for it ("demos" for ``--episodes``, "px")."""
+    off_words: tuple[str, ...] = ()
+    """Words that switch a flag off ("png images" for ``--video``)."""
 
     @property
     def is_flag(self) -> bool:
@@ -275,11 +282,25 @@ def _param(p: Any, hint: Any) -> ParamInfo:
     )
 
 
+def own_names(param: ParamInfo) -> tuple[str, ...]:
+    """Words of a parameter's own name: ``max_steps`` / ``--max-steps`` -> "max steps"."""
+    names = {param.name.replace("_", " ")} - {"as json"}
+    if param.flag:
+        names.add(param.flag.lstrip("-").replace("-", " "))
+    return tuple(sorted(names))
+
+
+def _with_words(command: str, param: ParamInfo) -> ParamInfo:
+    spec = load_vocabulary().words_for(param.name, command)
+    return replace(param, names=(*spec.names, *own_names(param)), units=tuple(spec.units), off_words=tuple(spec.off))
+
+
 def _command(path: tuple[str, ...], command: Any) -> CommandInfo:
     hints = typing.get_type_hints(command.callback, include_extras=False) if command.callback else {}
     params = {p.name: _param(p, hints.get(p.name)) for p in command.params if p.name and p.name != "help"}
     if path[-1].startswith("new") or path[-1].endswith("new-task"):  # the id of a task to create
         params = {k: replace(v, kind="str") if v.kind == "task" else v for k, v in params.items()}
+    params = {k: _with_words(" ".join(path), v) for k, v in params.items()}
     text = (command.help or "").strip()
     example = next((line.split("Example:", 1)[1].strip() for line in text.splitlines() if "Example:" in line), "")
     return CommandInfo(path, params, text.splitlines()[0] if text else "", example)

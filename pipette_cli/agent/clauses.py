@@ -84,24 +84,25 @@ _SENTENCE = r"[;!?]\s*(?=\S)|\.\s+(?=[A-Za-z])"
 def split_clauses(text: str, intents: Intents) -> list[Clause]:
     """The clauses of ``text``, each with its command (None if it names none)."""
     strong = "|".join(phrase_pattern(p).pattern for p in intents.vocab.chain.strong)
-    pattern = re.compile(rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*|{_SENTENCE})|(?P<weak>,\s+|\s+and\s+)",
-                         re.IGNORECASE)
+    pattern = re.compile(rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*)|(?P<sentence>{_SENTENCE})"
+                         rf"|(?P<weak>,\s+|\s+and\s+)", re.IGNORECASE)
     pieces: list[tuple[str, str, str]] = []  # (kind of the separator before, the separator, text)
     position, kind, separator = 0, "strong", ""
     for m in pattern.finditer(text):
         pieces.append((kind, separator, text[position:m.start()]))
-        kind, separator, position = ("strong" if m.group("strong") else "weak"), m.group(0), m.end()
+        kind, separator, position = m.lastgroup or "weak", m.group(0), m.end()
     pieces.append((kind, separator, text[position:]))
     merged: list[list] = []  # [text, command]
     for kind, separator, piece in pieces:
         if not piece.strip():
             continue
         command, score = intents.best(piece)
-        # after "," or "and", only a verb of another command starts a step ("export a.h5 and b.h5 to lerobot"),
-        # and not when it names an option of the command before ("augment ... and write the yield report to x")
+        # after a chain word any command starts a step; after a sentence end only a verb; after "," or
+        # "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step), and not
+        # when it names an option of the command before ("augment ... and write the yield report to x")
         previous = merged[-1][1] if merged else None
         starts = command is not None and (kind == "strong" or previous is None or (
-            score >= WEIGHTS["verbs"] and command != previous
+            score >= WEIGHTS["verbs"] and (kind == "sentence" or command != previous)
             and not intents.cue_words(piece, command) & intents.option_words.get(previous, set())))
         if merged and not (starts and merged[-1][1] is not None):
             merged[-1][0] += separator + piece

@@ -13,7 +13,6 @@ passed the validator is ever shown as runnable.
 from __future__ import annotations
 
 import copy
-import json
 from typing import Any
 
 from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo
@@ -23,6 +22,7 @@ from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import VocabularySpec, load_vocabulary
 from pipette_cli.llm import ChatClient, ask_structured, make_client, strict_json_schema
 from pipette_cli.registry import Registry
+
 
 def _param_text(info: CommandInfo) -> str:
     parts = []

@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, is_empty
-from pipette_cli.agent.vocabulary import load_vocabulary
 
 FILE_SUFFIXES = ("h5", "hdf5", "png", "jpg", "gif", "mp4", "yaml", "yml", "json", "csv", "md", "usd", "usda", "usdc",
                  "safetensors", "pt", "log")
@@ -52,7 +51,8 @@ class Mentions:
     words: str
     """The request with paths and addresses taken out: what the parser reads as words."""
     paths: list[PathMention]
-    addresses: list[str]
+    addresses: list[tuple[str, str]]
+    """(``tcp://host:port``, as written)."""
 
 
 def _is_path(token: str) -> bool:
@@ -69,14 +69,14 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
     known = {n.lower() for n in names}
     kept: list[str] = []
     paths: list[PathMention] = []
-    addresses: list[str] = []
+    addresses: list[tuple[str, str]] = []
     since: list[str] | None = None  # words since the last path
     for token in text.split():
         core = token.strip(_STRIP_LEFT).rstrip(_STRIP_RIGHT)
         if core and _URL.match(core):
-            addresses.append(core)
+            addresses.append((core, core))
         elif core and _HOST_PORT.match(core):
-            addresses.append(f"tcp://{core}")
+            addresses.append((f"tcp://{core}", core))
         elif core and _is_path(core) and not all(part in known for part in core.lower().split(",")):
             before = " ".join(re.findall(r"[a-z0-9π-]+", " ".join(kept).lower())[-4:])
             listed = since is not None and all(w.strip(",") in ("", "and", "&") for w in since)
@@ -88,15 +88,14 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
                 since.append(token.lower())
     words = " ".join(kept)
     for m in _PORT.finditer(words):
-        addresses.append(f"tcp://{LOCAL_HOST}:{m.group(1)}")
+        addresses.append((f"tcp://{LOCAL_HOST}:{m.group(1)}", m.group(0)))
     return Mentions(_PORT.sub(" ", words), paths, addresses)
 
 
-def option_words(param: ParamInfo, command: str = "") -> set[str]:
-    """Words that name ``param``: its name's parts and its vocabulary names ("checkpoint" for
-    ``pretrained_path``), singular, without the generic "path"/"file"/"root"."""
-    words = set(param.name.split("_")) | {w for name in load_vocabulary().words_for(param.name, command).names
-                                          for w in name.split()}
+def option_words(param: ParamInfo) -> set[str]:
+    """Words that name ``param`` (its name's parts and its vocabulary names, singular), without
+    the generic "path"/"file"/"root"."""
+    words = set(param.name.split("_")) | {w for name in param.names for w in name.split()}
     return {_singular(w) for w in words} - {"path", "root", "file", "the", "a", "in", "of", "to"}
 
 
@@ -104,10 +103,10 @@ def _singular(word: str) -> str:
     return word[:-1] if word.endswith("s") and len(word) > 3 else word
 
 
-def _named(before: str, params: list[ParamInfo], command: str) -> ParamInfo | None:
+def _named(before: str, params: list[ParamInfo]) -> ParamInfo | None:
     """The option among ``params`` that the words before a path name ("the policy in")."""
     said = {_singular(w) for w in re.split(r"[\s-]+", before)[-3:]}
-    return next((p for p in params if option_words(p, command) & said), None)
+    return next((p for p in params if option_words(p) & said), None)
 
 
 def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, Any], catalog: CommandCatalog) -> None:
@@ -128,8 +127,8 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
         if previous is not None and previous.multiple and mention.listed:
             args[previous.name] = [*args.get(previous.name, []), mention.path]  # "a.h5 and b.h5"
             continue
-        string = None if _SUFFIX.search(mention.path) or _named(mention.before, options, info.name) else _named(
-            mention.before, [p for p in named_strings if is_empty(args.get(p.name))], info.name)
+        string = None if _SUFFIX.search(mention.path) or _named(mention.before, options) else _named(
+            mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
         if string is not None:  # "repo id me/centrifuge": a name with a slash, not a file
             args[string.name] = mention.path
             continue
@@ -140,7 +139,7 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
         candidates = [
-            _named(mention.before, reads if reads_from else writes + reads, info.name),
+            _named(mention.before, reads if reads_from else writes + reads),
             writes[0] if wants_output and writes else None,
             next((p for p in reads if p.required), None),
             next((p for p in reads if p.name in choice), None),

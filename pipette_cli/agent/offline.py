@@ -19,7 +19,7 @@ from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, P
 from pipette_cli.agent.clauses import Intents, split_clauses, words_of
 from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
-from pipette_cli.agent.tasks import TaskIndex, short_name, stem
+from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_vocabulary, phrase_pattern
 from pipette_cli.registry import Registry
@@ -27,15 +27,12 @@ from pipette_cli.registry import Registry
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
 _MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
 """Units after a number that make it a size ("50 mL tube"), not a count."""
+_CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 
-def _derived(param: ParamInfo) -> list[str]:
-    """Words of a parameter's own name: ``max_steps`` / ``--max-steps`` -> "max steps"."""
-    names = {param.name.replace("_", " ")}
-    if param.flag:
-        names.add(param.flag.lstrip("-").replace("-", " "))
-    return sorted(n for n in names if n not in ("as json",)) + (["json"] if param.flag == "--json" else [])
+def _stems(text: str) -> str:
+    return " ".join(stem(w) for w in text.split())
 
 
 def _typed(param: ParamInfo, number: float) -> int | float:
@@ -108,16 +105,18 @@ class OfflineAgent:
         words = words_of(mentions.words)
         args: dict[str, Any] = {}
         try:
-            self._task(info, mentions.words, words, args)
+            self._task(info, mentions.words, words, args, [m.path for m in mentions.paths])
         except AgentError as exc:
             if problems is None:
                 raise
             problems.append(str(exc))
-        for address in mentions.addresses:
+        for address, raw in mentions.addresses:
             param = next((p for p in info.params.values() if p.address and is_empty(args.get(p.name))), None)
-            if param is None:
-                raise AgentError(f"'pipette {info.name}' takes no address like {address!r}")
-            args[param.name] = address
+            plain = next((p for p in info.params.values() if p.kind == "str" and "address" in p.names
+                          and is_empty(args.get(p.name))), None)  # "the ray cluster at host:port"
+            if param is None and plain is None:
+                raise AgentError(f"'pipette {info.name}' takes no address like {raw!r}")
+            args[param.name if param is not None else plain.name] = address if param is not None else raw
         paths = mentions.paths
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
@@ -134,7 +133,7 @@ class OfflineAgent:
         self._text(info, text, saved, mentions.words, words, args)
         return args
 
-    def _task(self, info: CommandInfo, raw: str, words: str, args: dict[str, Any]) -> None:
+    def _task(self, info: CommandInfo, raw: str, words: str, args: dict[str, Any], paths: list[str]) -> None:
         param = info.task_param()
         if param is None or info.name == "new-task":  # new-task's --id names the task to create
             return
@@ -143,7 +142,10 @@ class OfflineAgent:
             return
         unknown = self.index.unknown_name(raw)
         match = self.index.match(raw)
-        if match.explicit:
+        in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
+        if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
+            args[param.name] = in_file  # "my centrifuge demos in data/OpenCentrifugeLid.h5"
+        elif match.explicit:
             many = param.multiple or "comma" in param.help.lower()
             args[param.name] = list(match.explicit) if many else match.explicit[0]
         elif unknown:
@@ -182,10 +184,9 @@ class OfflineAgent:
             after, before = text[m.end():].lstrip(), text[:m.start()].rstrip()
             best: tuple[int, ParamInfo] | None = None
             for param in (p for p in numeric if p.name not in taken):
-                spec = self.vocab.words_for(param.name, info.name)
-                names = [*spec.names, *_derived(param)]
-                tests = ((3, spec.units, lambda p: phrase_pattern(p).match(after)),
-                         (2, spec.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),
+                names = param.names
+                tests = ((3, param.units, lambda p: phrase_pattern(p).match(after)),
+                         (2, param.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),
                          (1, names, lambda p: re.search(rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
                                                         before)))
                 for rank, phrases, matcher in tests:
@@ -217,7 +218,7 @@ class OfflineAgent:
                 m = re.search(rf"(?<![\w-]){re.escape(value.lower())}(?![\w-])", words)
                 if m:
                     found.append((m.start(), value))
-            names = "|".join(phrase_pattern(n).pattern for n in [*self.vocab.words_for(param.name, info.name).names, *_derived(param)])
+            names = "|".join(phrase_pattern(n).pattern for n in param.names)
             for value in param.hinted:
                 v = re.escape(value.lower())
                 if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
@@ -226,17 +227,17 @@ class OfflineAgent:
                     m = re.search(rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words)
                 if m:
                     found.append((m.start(), value))
-            if found:
-                args[param.name] = min(found)[1]
+            if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
+                args[param.name] = max(found)[1] if _CORRECTION.search(words) else min(found)[1]
 
     def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         for param in info.params.values():
             if not param.is_flag or param.name in ("yes",):
                 continue
-            spec = self.vocab.words_for(param.name, info.name)
-            if spec.off and find_phrase(spec.off, words):
+            stemmed = _stems(words)
+            if param.off_words and find_phrase([_stems(w) for w in param.off_words], stemmed):
                 args[param.name] = False
-            elif find_phrase([*spec.names, *_derived(param)], words):
+            elif find_phrase([_stems(w) for w in param.names], stemmed):  # "allow mixing" = allow mixed
                 args[param.name] = True
 
     def _text(self, info: CommandInfo, text: str, saved: list[str], raw: str, words: str, args: dict[str, Any]) -> None:
@@ -264,8 +265,7 @@ class OfflineAgent:
             if param.kind != "str" or param.values() or not is_empty(args.get(param.name)) or param.name in (
                     "description", "about", "asset_id", "backend", "model", "base_url"):
                 continue
-            names = [*self.vocab.words_for(param.name, info.name).names, *_derived(param)]
-            pattern = "|".join(phrase_pattern(n).pattern for n in names)
+            pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
             if m and m.group(1).lower() not in self.vocab.tasks.stop:
                 args[param.name] = m.group(1).strip("\"'")

@@ -59,6 +59,14 @@ def _longest_run(name: list[str], words: list[str]) -> int:
     return best
 
 
+def task_in_file_name(path: str, task_ids: list[str]) -> str | None:
+    """The registered task whose name a file name holds (``data/PickUpTestTube_augmented.h5``),
+    the longest such name if several."""
+    name = re.sub(r"[^a-z0-9]", "", path.rsplit("/", 1)[-1].lower())
+    named = [tid for tid in task_ids if short_name(tid).lower() in name]
+    return max(named, key=lambda tid: len(short_name(tid))) if named else None
+
+
 @dataclass(frozen=True)
 class TaskMatch:
     """A request's task: ``task`` (an id), or ``candidates`` when several fit equally well."""

@@ -24,7 +24,7 @@ from typing import Any
 from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo, AgentError, Unsupported, is_empty
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, StepRef
 from pipette_cli.agent.products import product_of
-from pipette_cli.agent.tasks import short_name
+from pipette_cli.agent.tasks import short_name, task_in_file_name
 from pipette_cli.agent.vocabulary import VocabularySpec
 from pipette_cli.errors import PipetteError, suggest
 from pipette_cli.registry import Registry
@@ -180,13 +180,22 @@ class Validator:
         wanted = {p: self.vocab.consumes[f"{info.name}.{p}"] for p in info.params
                   if f"{info.name}.{p}" in self.vocab.consumes and is_empty(args.get(p))
                   and (info.params[p].required or (p in choice and not chosen) or info.is_answer)}
-        for step in reversed(steps):
-            param = next((p for p, kind in wanted.items() if kind == step.product_kind), None)
-            if param is not None:
-                ref = StepRef(from_step=step.index)
-                args[param] = [ref] if info.params[param].multiple else ref
-                sets = self.vocab.products[step.command].sets
-                args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
+        for step in reversed(steps):  # what a step made, else the file it read ("inspect x.h5, then augment it")
+            offers: list[tuple[str | None, Any]] = [(step.product_kind, StepRef(from_step=step.index))]
+            offers += [(kind, step.args[p]) for key, kind in self.vocab.consumes.items()
+                       for command, _, p in [key.rpartition(".")]
+                       if command == step.command and isinstance(step.args.get(p), str | list)
+                       and not any(isinstance(v, StepRef) for v in (step.args[p] if isinstance(step.args[p], list) else []))]
+            for kind, value in offers:
+                param = next((p for p, wants in wanted.items() if wants == kind), None)
+                if param is None or kind is None:
+                    continue
+                many = info.params[param].multiple
+                args[param] = (value if isinstance(value, list) else [value]) if many else (
+                    value[0] if isinstance(value, list) else value)
+                if isinstance(value, StepRef):
+                    sets = self.vocab.products[step.command].sets
+                    args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
                 return
         for param, kind in wanted.items():
             if context and kind in context.products:
@@ -239,10 +248,9 @@ class Validator:
                         status = None
                     if status is not None and status.info is not None and status.info.task_id in self.registry.tasks:
                         return status.info.task_id
-                name = Path(path).name.lower()
-                named = [tid for tid in self.registry.ids() if short_name(tid).lower() in name]
+                named = task_in_file_name(path, self.registry.ids())
                 if named:
-                    return max(named, key=lambda tid: len(short_name(tid)))
+                    return named
         return None
 
     def _defaults(self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str]) -> None:

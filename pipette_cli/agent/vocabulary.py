@@ -116,12 +116,12 @@ def _item(token: str) -> str:
 
 
 def _words(text: str) -> str:
-    """Regex of a phrase: tokens joined by whitespace; ``...`` widens one gap to six words;
+    """Regex of a phrase: tokens joined by whitespace; ``...`` widens one gap to ten words;
     ``token?`` is optional (never the first token)."""
     out, gap = "", r"\s+"
     for token in re.findall(r"\([^)]*\)\??|\S+", text.strip()):
         if token == "...":
-            gap = r"\s+(?:\S+\s+){0,6}?"
+            gap = r"\s+(?:\S+\s+){0,10}?"
             continue
         optional = token.endswith("?") and len(token) > 1
         piece = _item(token[:-1] if optional else token)

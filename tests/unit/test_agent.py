@@ -67,6 +67,8 @@ def test_catalog_lists_every_leaf_command_of_the_cli() -> None:
     assert collect.params["source"].choices == ("scripted", "teleop") and collect.params["out"].writes
     assert CATALOG.get("train").params["policy"].choices == ("act", "smolvla", "pi0")
     assert CATALOG.get("convert").params["video"].off_flag == "--images"
+    assert "demos" in collect.params["episodes"].units and "max steps" in collect.params["max_steps"].names
+    assert "checkpoint" in CATALOG.get("train").params["pretrained_path"].names  # the words people use for it
     assert CATALOG.get("eval").params["endpoint"].address and CATALOG.get("eval report").params["folders"].multiple
 
 
