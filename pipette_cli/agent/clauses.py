@@ -22,9 +22,17 @@ from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, p
 ANSWER_PREFIX = "answer "
 
 
+_CONTRACTIONS = [(re.compile(r"\b(what|how|it|that|there|where|who|here)'s\b"), r"\1 is"), (re.compile(r"\blet's\b"), "let us"),
+                 (re.compile(r"n't\b"), " not"), (re.compile(r"'ll\b"), " will"), (re.compile(r"'re\b"), " are"),
+                 (re.compile(r"'ve\b"), " have"), (re.compile(r"\bi'm\b"), "i am"), (re.compile(r"\b(i|we|you)'d\b"), r"\1 would")]
+
+
 def words_of(text: str) -> str:
-    """Lowercased words for cue matching: punctuation other than ``' - . + %`` becomes space."""
+    """Lowercased words for cue matching: contractions spelled out ("what's" -> "what is"),
+    punctuation other than ``' - . + %`` turned into spaces."""
     lowered = text.lower().replace("’", "'").replace("“", '"').replace("”", '"')
+    for pattern, spelled in _CONTRACTIONS:
+        lowered = pattern.sub(spelled, lowered)
     return " ".join(re.sub(r"[^\w'.+%π-]+", " ", lowered).split()).replace(" .", " ").rstrip(".")
 
 
@@ -69,6 +77,14 @@ class Intents:
         words = words_of(find_mentions(text, self.names).words)
         spans = [m.group(0) for c, _, phrase in self.cues if c == command for m in [phrase_pattern(phrase).search(words)] if m]
         return {w for span in spans for w in span.split()}
+
+    def cue_tokens(self, text: str, command: str) -> set[str]:
+        """The first and last word of each cue of ``command`` in ``text`` ("record", "grab ...
+        demonstrations"): words that ask for the command, not for a task."""
+        words = words_of(find_mentions(text, self.names).words)
+        spans = [m.group(0).split() for c, _, phrase in self.cues if c == command
+                 for m in [phrase_pattern(phrase).search(words)] if m]
+        return {w for span in spans for w in (span[0], span[-1])}
 
     def best(self, text: str) -> tuple[str | None, int]:
         scores = self.scores(text)

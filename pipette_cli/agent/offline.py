@@ -86,7 +86,10 @@ class OfflineAgent:
             if command is None:
                 continue
             info = self.catalog.get(command)
-            steps.append(StepSpec(command=command, args=self.fill(info, clause.text, problems)))
+            args = self.fill(info, clause.text, problems)
+            both = self._both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            for value in both[1] if both else [None]:  # "convert both the raw and the augmented data"
+                steps.append(StepSpec(command=command, args={**args, both[0]: value} if both else args))
         if not steps:
             raise AgentError("cannot tell what to run from this request; say e.g. 'list the tasks', "
                              "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'")
@@ -141,7 +144,8 @@ class OfflineAgent:
             args[param.name] = "all"
             return
         unknown = self.index.unknown_name(raw)
-        match = self.index.match(raw)
+        cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
+        match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
         in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
         if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
             args[param.name] = in_file  # "my centrifuge demos in data/OpenCentrifugeLid.h5"
@@ -229,6 +233,19 @@ class OfflineAgent:
                     found.append((m.start(), value))
             if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
                 args[param.name] = max(found)[1] if _CORRECTION.search(words) else min(found)[1]
+
+    def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
+        """A parameter the clause gives two values joined by "and" ("the raw and the augmented
+        data"), for a command that takes one: the step is made once per value."""
+        for param in info.params.values():
+            if param.multiple or param.kind != "str":
+                continue
+            found = sorted((m.start(), m.end(), value) for value, phrases in self.vocab.values.get(param.name, {}).items()
+                           for m in [find_phrase(phrases, words)] if m)
+            values = list(dict.fromkeys(v for _, _, v in found))
+            if len(values) >= 2 and re.search(r"\b(?:and|&)\b", words[found[0][1]:found[1][0]]):
+                return param.name, values
+        return None
 
     def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         for param in info.params.values():

@@ -186,6 +186,9 @@ class Validator:
                        for command, _, p in [key.rpartition(".")]
                        if command == step.command and isinstance(step.args.get(p), str | list)
                        and not any(isinstance(v, StepRef) for v in (step.args[p] if isinstance(step.args[p], list) else []))]
+            sets = self.vocab.products[step.command].sets if step.command in self.vocab.products else {}
+            if any(not is_empty(args.get(k)) and args[k] != v for k, v in sets.items()):
+                offers = offers[1:]  # "convert the raw data": not what augment made
             for kind, value in offers:
                 param = next((p for p, wants in wanted.items() if wants == kind), None)
                 if param is None or kind is None:
@@ -194,7 +197,6 @@ class Validator:
                 args[param] = (value if isinstance(value, list) else [value]) if many else (
                     value[0] if isinstance(value, list) else value)
                 if isinstance(value, StepRef):
-                    sets = self.vocab.products[step.command].sets
                     args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
                 return
         for param, kind in wanted.items():
