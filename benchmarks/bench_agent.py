@@ -76,9 +76,10 @@ def llm_rows(url: str, model: str, attempts: int, cases: list[DevCaseSpec], verb
                 traces.append(list(agent.trace))
 
     row = score(f"llm ({model})", Traced(), cases, verbose=verbose)
-    outcomes = Counter(t[-1].split(": ", 1)[1].split(" ", 1)[0] if t and ": " in t[-1] else "none" for t in traces)
+    outcomes = Counter("valid plan" if t and "accepted" in t[-1] else "no valid plan" if t else "no request"
+                       for t in traces)
     row.update({"response_format": agent.client.form_used, "max_attempts": attempts,
-                "attempts_used": sum(len(t) for t in traces), "last_attempt": dict(outcomes)})
+                "attempts_used": sum(len(t) for t in traces), "outcomes": dict(outcomes)})
     return row
 
 
@@ -114,7 +115,7 @@ def main() -> None:
               f"{row['tracebacks']:>11}{row['seconds_per_request']:>11.3f}   {kinds}")
         if "response_format" in row:
             print(f"{'':<34}response format {row['response_format']}, {row['attempts_used']} attempts, "
-                  f"last attempt: {row['last_attempt']}")
+                  f"outcomes: {row['outcomes']}")
     args.out.write_text(json.dumps({"git_sha": git_state()[0], "dev_set": str(args.dev_set), "rows": rows,
                                     "wall_s": round(time.perf_counter() - started, 1)}, indent=2))
 

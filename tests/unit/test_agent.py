@@ -326,6 +326,20 @@ def test_cli_json_prints_the_plan_and_the_missing_values(run_cli) -> None:
     assert chained["steps"][1]["command_line"].startswith("pipette augment pipette/PickUpTestTube-v1 --input data/")
 
 
+@pytest.mark.parametrize("case", [next(c for c in CASES if c.kind == kind) for kind in
+                                  ("single", "chained", "inspection", "unsupported", "missing", "error")],
+                         ids=lambda c: c.kind)
+def test_cli_answers_every_kind_of_request_without_a_traceback(run_cli, case, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = run_cli("agent", case.request, "--json")
+    assert "Traceback" not in result.stderr
+    assert result.exit_code == (1 if case.error else 0), result.stderr
+    if case.error:
+        assert case.error.lower() in result.stderr.lower().replace("\n", " ")
+    else:
+        assert len(json.loads(result.stdout)["steps"]) == len(case.plan)
+
+
 def test_cli_names_the_missing_values_when_it_cannot_ask(run_cli) -> None:
     result = run_cli("agent", "evaluate the policy on the test tube task", "--yes")
     assert result.exit_code == 1
