@@ -103,7 +103,10 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
             count = sum(len(m) for m in plan.missing.values())
             raise AgentError(f"{needs}; add {'it' if count == 1 else 'them'} to the request")
         show_plan(plan)
-        plan = _ask_missing(agent, plan, context)
+        for _ in range(3):  # answers can reveal more (a task gives a default output; a bad value is re-asked)
+            plan = _ask_missing(agent, plan, context)
+            if not plan.missing:
+                break
     context.remember(plan)
     if as_json:
         print_json(plan_json(plan, agent.name))
