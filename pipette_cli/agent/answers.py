@@ -17,6 +17,7 @@ from typing import Annotated, Any
 import typer
 
 from pipette_cli.errors import DatasetError, PipetteError
+from pipette_cli.registry import Registry
 
 app = typer.Typer(add_completion=False)
 DEMOS_ROOT = Path("data")
@@ -41,12 +42,16 @@ def tasks(
 
     Example: answer tasks --about "piper"
     """
-    from pipette_cli.agent.tasks import TaskIndex
-    from pipette_cli.agent.vocabulary import load_vocabulary
-    from pipette_cli.cli.common import STATE
     from pipette_cli.registry import load_registry
 
-    registry = load_registry(STATE.registry_dirs)
+    return tasks_in(load_registry(), about)
+
+
+def tasks_in(registry: Registry, about: str | None = None) -> Answer:
+    """The tasks of ``registry`` about ``about`` (every task without it)."""
+    from pipette_cli.agent.tasks import TaskIndex
+    from pipette_cli.agent.vocabulary import load_vocabulary
+
     index = TaskIndex(registry, load_vocabulary())
     ids, _ = index.filter(about or "")
     terms = index.filter_words(about or "")
@@ -164,7 +169,10 @@ def score(
 ANSWERS = {"answer tasks": tasks, "answer demos": demos, "answer score": score}
 
 
-def answer(command: str, args: dict[str, Any]) -> Answer:
-    """Compute the answer of a checked plan step (``command`` is ``answer tasks`` etc.)."""
+def answer(command: str, args: dict[str, Any], registry: Registry | None = None) -> Answer:
+    """Compute the answer of a checked plan step (``command`` is ``answer tasks`` etc.);
+    ``registry`` is the one the plan was made with (default: the built-in one)."""
     values = {k: Path(v) if k in ("file", "folder") and v is not None else v for k, v in args.items()}
+    if command == "answer tasks" and registry is not None:
+        return tasks_in(registry, **values)
     return ANSWERS[command](**values)

@@ -30,6 +30,7 @@ from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeEl
 from pipette_cli.agent.answers import Answer, answer
 from pipette_cli.agent.catalog import AgentError, CommandCatalog
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep
+from pipette_cli.registry import Registry
 
 
 class StepFailed(AgentError):
@@ -64,8 +65,10 @@ class PlanRunner:
 
     def __init__(self, catalog: CommandCatalog, console: Console, *, global_args: Sequence[str] = (),
                  show_output: Callable[[str], None] | None = None, show_answer: Callable[[Answer], None] | None = None,
-                 background: dict[str, str] | None = None, python: str = sys.executable) -> None:
+                 background: dict[str, str] | None = None, registry: Registry | None = None,
+                 python: str = sys.executable) -> None:
         self.catalog = catalog
+        self.registry = registry
         self.background = background or {}
         """Commands that keep running (``serve``) -> the start of the output line that says they
         are ready; followed by more steps, they run beside them and are stopped at the end."""
@@ -97,7 +100,7 @@ class PlanRunner:
             label = f"step {step.index}/{total}"
             if self.catalog.get(step.command).is_answer:
                 started = time.perf_counter()
-                found = answer(step.command, plan.resolved_args(step))
+                found = answer(step.command, plan.resolved_args(step), self.registry)
                 results.append(StepResult(step.index, step.command, [step.command], 0,
                                           time.perf_counter() - started, answer=found))
                 if self.show_answer:

@@ -37,7 +37,7 @@ def command_text(plan: CheckedPlan, index: int) -> str:
     return shlex.join(["pipette", *info.path, *render_args(info, plan.resolved_args(step))])
 
 
-def plan_json(plan: CheckedPlan, backend: str) -> dict[str, Any]:
+def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
     steps = []
     reads_only = True
     for step in plan.steps:
@@ -48,10 +48,10 @@ def plan_json(plan: CheckedPlan, backend: str) -> dict[str, Any]:
         is_answer = load_catalog().get(step.command).is_answer
         reads_only = reads_only and is_answer
         if is_answer and reads_only and not step.missing:
-            found = answer(step.command, plan.resolved_args(step))
+            found = answer(step.command, plan.resolved_args(step), agent.registry)
             item["answer"] = {"text": found.text, **found.data}
         steps.append(item)
-    return {"request": plan.request, "backend": backend, "runnable": plan.runnable, "steps": steps}
+    return {"request": plan.request, "backend": agent.name, "runnable": plan.runnable, "steps": steps}
 
 
 def show_plan(plan: CheckedPlan) -> None:
@@ -109,7 +109,7 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
                 break
     context.remember(plan)
     if as_json:
-        print_json(plan_json(plan, agent.name))
+        print_json(plan_json(plan, agent))
         if not (yes and plan.runnable):
             return
     catalog = load_catalog()
@@ -126,7 +126,7 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
     global_args = [arg for d in STATE.registry_dirs for arg in ("--registry-dir", str(d))]
     runner = PlanRunner(catalog, err_console, global_args=global_args,
                         show_output=lambda text: out_console.print(text, end="", markup=False, highlight=False),
-                        show_answer=show_answer, background=agent.vocab.background)
+                        show_answer=show_answer, background=agent.vocab.background, registry=agent.registry)
     runner.run(plan)
 
 

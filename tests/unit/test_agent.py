@@ -340,6 +340,16 @@ def test_cli_answers_every_kind_of_request_without_a_traceback(run_cli, case, tm
         assert len(json.loads(result.stdout)["steps"]) == len(case.plan)
 
 
+def test_cli_answers_from_the_registry_the_command_was_given(run_cli, fixtures_dir, monkeypatch) -> None:
+    from pipette_cli.cli.common import STATE
+
+    monkeypatch.setattr(STATE, "registry_dirs", [])
+    result = run_cli("--registry-dir", fixtures_dir / "demos" / "registry", "agent", "how many tasks are there", "--json")
+    assert result.exit_code == 0, result.stderr
+    extra = len(load_registry([fixtures_dir / "demos" / "registry"]).ids())
+    assert json.loads(result.stdout)["steps"][0]["answer"]["count"] == extra > len(REGISTRY.ids())
+
+
 def test_cli_names_the_missing_values_when_it_cannot_ask(run_cli) -> None:
     result = run_cli("agent", "evaluate the policy on the test tube task", "--yes")
     assert result.exit_code == 1
