@@ -1,61 +1,119 @@
 """The CLI's own command schema, read from the typer app: what the agent may produce.
 
-The agent never writes shell: a plan names one command of this catalog and values for its
-parameters; :func:`CommandCatalog.argv` turns it into an argument list, and anything the
-catalog does not define is refused. A command joins the catalog by being registered in the CLI.
+Every leaf command of ``pipette`` (``eval report`` included), with each parameter's flag, type,
+choices, range, default and help, is read from the typer app when the catalog is first used,
+so the agent follows the CLI as it changes. The agent's read-only answers (``answer tasks``,
+``answer demos``, ``answer score``, :mod:`.answers`) are typer commands too and are read the
+same way. A plan names commands of this catalog and values for their parameters;
+:meth:`CommandCatalog.argv` turns a step into an argument list, and anything the catalog does
+not define is refused. The agent never writes shell.
 """
 
 from __future__ import annotations
 
+import enum
 import re
+import types
 import typing
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
 from functools import cache
 from pathlib import Path
 from typing import Any
 
 import typer
 
+from pipette_cli.agent.vocabulary import load_vocabulary
 from pipette_cli.errors import PipetteError, suggest
+
+TASK_PARAMS = ("task_id", "tasks", "task")
+"""Parameters that name registered tasks."""
+ANSWER = "answer"
+"""Prefix of the agent's own read-only commands."""
+
+
+class AgentError(PipetteError):
+    """A request cannot become a plan (unknown command or parameter, bad or missing values)."""
+
+
+class Unsupported(AgentError):
+    """The request asks for something Pipette does not do (e.g. a policy it cannot train);
+    asking an LLM again cannot fix it."""
+
+    final = True
 
 
 @dataclass(frozen=True)
 class ParamInfo:
+    """One parameter of a command, as the CLI defines it."""
+
     name: str
     flag: str | None
     """``--episodes`` for options, None for positional arguments."""
     required: bool
-    is_flag: bool
+    kind: str
+    """``int``, ``float``, ``bool``, ``str``, ``path`` or ``task``."""
     multiple: bool
     default: Any
     help: str = ""
-    path: bool = False
-    """Takes a file or folder (typed ``Path``, named ``*_path``, or "ids or files" in its help)."""
+    choices: tuple[str, ...] = ()
+    """Values the CLI accepts (a ``click.Choice``)."""
+    hinted: tuple[str, ...] = ()
+    """Values the help lists ("raw or augmented", "act, smolvla or pi0"); not enforced."""
+    minimum: float | None = None
+    maximum: float | None = None
+    off_flag: str | None = None
+    """``--images`` for ``--video/--images``."""
     writes: bool = False
-    """A path the command writes (``--out``, ``--output``, "file to create")."""
+    """A path the command writes (``--out``, "file to create")."""
+    address: bool = False
+    """A network endpoint (``tcp://host:port``)."""
+    names: tuple[str, ...] = ()
+    """Words people use for it: its own name ("max steps", "json") and the vocabulary's
+    ("checkpoint" for ``--pretrained-path``); they precede a number or switch a flag on."""
+    units: tuple[str, ...] = ()
+    """Words that follow a number meant for it ("demos" for ``--episodes``, "px")."""
+    off_words: tuple[str, ...] = ()
+    """Words that switch a flag off ("png images" for ``--video``)."""
+
+    @property
+    def is_flag(self) -> bool:
+        return self.kind == "bool"
+
+    @property
+    def path(self) -> bool:
+        return self.kind == "path"
+
+    def values(self) -> tuple[str, ...]:
+        return self.choices or self.hinted
 
 
 @dataclass(frozen=True)
 class CommandInfo:
+    """One leaf command: ``("data", "inspect")`` with its parameters in the CLI's order."""
+
     path: tuple[str, ...]
     params: dict[str, ParamInfo]
     help: str
+    example: str = ""
 
     @property
     def name(self) -> str:
         return " ".join(self.path)
 
+    @property
+    def is_answer(self) -> bool:
+        return self.path[0] == ANSWER
+
     def required(self) -> list[str]:
         return [p.name for p in self.params.values() if p.required]
 
+    def task_param(self) -> ParamInfo | None:
+        return next((self.params[p] for p in TASK_PARAMS if p in self.params), None)
 
-class AgentError(PipetteError):
-    """A request cannot become a command (unknown command or parameter, missing values)."""
 
-
-ONE_OF: dict[str, tuple[str, ...]] = {"eval": ("endpoint", "policy")}
-"""Options of which a command needs exactly one. The command checks this when it runs, so its
-signature cannot show it; a plan lacking all of them misses ``"endpoint|policy"``."""
+def is_empty(value: Any) -> bool:
+    return value is None or value == "" or value == []
 
 
 def say_missing(missing: list[str]) -> str:
@@ -66,6 +124,9 @@ def say_missing(missing: list[str]) -> str:
 @dataclass(frozen=True)
 class CommandCatalog:
     commands: dict[str, CommandInfo]
+    one_of: dict[str, tuple[str, ...]]
+    """Options of which a command needs exactly one (it checks this when it runs, so its
+    signature cannot show it); a step lacking all of them misses ``"endpoint|policy"``."""
 
     def get(self, name: str) -> CommandInfo:
         try:
@@ -76,45 +137,52 @@ class CommandCatalog:
     def __contains__(self, name: object) -> bool:
         return name in self.commands
 
-    def missing(self, name: str, params: dict[str, Any]) -> list[str]:
-        """Required parameters of ``name`` that ``params`` lacks; a missing choice of
-        :data:`ONE_OF` is one entry, its names joined by ``|``."""
-        missing = [p for p in self.get(name).required() if params.get(p) in (None, "", [])]
-        choice = ONE_OF.get(name, ())
-        if choice and all(params.get(p) in (None, "", []) for p in choice):
+    def missing(self, name: str, args: dict[str, Any]) -> list[str]:
+        """Required parameters of ``name`` that ``args`` lacks; a missing choice of
+        :attr:`one_of` is one entry, its names joined by ``|``."""
+        missing = [p for p in self.get(name).required() if is_empty(args.get(p))]
+        choice = self.one_of.get(name, ())
+        if choice and all(is_empty(args.get(p)) for p in choice):
             missing.append("|".join(choice))
         return missing
 
-    def argv(self, name: str, params: dict[str, Any]) -> list[str]:
-        """The argument list (without the program name) for ``pipette name`` with ``params``.
+    def argv(self, name: str, args: dict[str, Any]) -> list[str]:
+        """The argument list (without the program name) for ``pipette name`` with ``args``.
 
         Raises:
             AgentError: an unknown parameter, or a required one missing.
         """
         info = self.get(name)
-        for key in params:
+        for key in args:
             if key not in info.params:
                 raise AgentError(f"'pipette {name}' has no parameter {key!r}; {suggest(key, info.params)}")
-        missing = self.missing(name, params)
+        missing = self.missing(name, args)
         if missing:
             raise AgentError(f"'pipette {name}' needs {say_missing(missing)}")
-        args: list[str] = list(info.path)
-        for param in info.params.values():  # keep the CLI's own order
-            value = params.get(param.name)
-            if value is None or value is False:
-                continue
-            values = value if isinstance(value, list | tuple) else [value]
-            if param.flag is None:
-                args.extend(str(v) for v in values)
-            elif param.is_flag:
-                args.append(param.flag)
-            else:
-                for v in values:
-                    args.extend([param.flag, str(v)])
-        return args
+        return [*info.path, *render_args(info, args)]
 
 
-def _walk(command: Any, path: tuple[str, ...] = ()):
+def render_args(info: CommandInfo, args: dict[str, Any]) -> list[str]:
+    """``args`` as command-line words in the CLI's parameter order (values as given)."""
+    words: list[str] = []
+    for param in info.params.values():
+        value = args.get(param.name)
+        if value is None:
+            continue
+        values = value if isinstance(value, list | tuple) else [value]
+        if param.flag is None:
+            words.extend(str(v) for v in values)
+        elif param.is_flag:
+            flag = param.flag if value else param.off_flag
+            if flag:
+                words.append(flag)
+        else:
+            for v in values:
+                words.extend([param.flag, str(v)])
+    return words
+
+
+def _walk(command: Any, path: tuple[str, ...] = ()) -> Iterator[tuple[tuple[str, ...], Any]]:
     subs = getattr(command, "commands", None)
     if subs:
         for name, sub in subs.items():
@@ -125,42 +193,135 @@ def _walk(command: Any, path: tuple[str, ...] = ()):
             yield (*path, name), sub
 
 
-def _mentions_path(annotation: Any) -> bool:
-    """``Path``, ``Path | None``, ``list[Path]``, ..."""
-    return annotation is Path or any(_mentions_path(a) for a in typing.get_args(annotation))
+_HINTED = re.compile(r"^(?:[\w ]+:\s*)?([\w.:-]+(?:\s*\([^)]*\))?(?:,\s*[\w.:-]+(?:\s*\([^)]*\))?)*\s+or\s+[\w.:-]+)")
+
+
+def hinted_values(help_text: str) -> tuple[str, ...]:
+    """Values a help text starts by listing: "raw or augmented; ..." -> ("raw", "augmented")."""
+    m = _HINTED.match(help_text.strip())
+    if not m:
+        return ()
+    text = re.sub(r"\([^)]*\)", "", m.group(1))
+    return tuple(v.strip().rstrip(".:") for v in re.split(r",|\bor\b", text) if v.strip().rstrip(".:"))
+
+
+def _annotation(param: Any, hint: Any) -> tuple[Any, bool]:
+    """The parameter's Python type (``Optional`` and ``list`` taken off) and whether it is a list.
+
+    Typer >= 0.29 keeps the annotation on the parameter; older typer has click types, and the
+    callback's type hints say the same.
+    """
+    descriptor = getattr(param, "type_descriptor", None)
+    annotation = getattr(descriptor, "annotation", None) if descriptor is not None else None
+    annotation = annotation if annotation is not None else hint
+    is_list = False
+    while True:
+        origin, inner = typing.get_origin(annotation), [a for a in typing.get_args(annotation) if a is not type(None)]
+        if origin in (list, tuple, set) and inner:
+            annotation, is_list = inner[0], True
+        elif origin in (typing.Union, types.UnionType) and len(inner) == 1:
+            annotation = inner[0]
+        else:
+            return annotation, is_list
+
+
+def _kind_and_choices(param: Any, hint: Any) -> tuple[str, tuple[str, ...]]:
+    annotation, _ = _annotation(param, hint)
+    if param.name in TASK_PARAMS:
+        return "task", ()
+    if getattr(param, "is_flag", False) and not getattr(param, "count", False) or annotation is bool:
+        return "bool", ()
+    if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
+        return "str", tuple(str(m.value) for m in annotation)
+    if typing.get_origin(annotation) is typing.Literal:
+        return "str", tuple(str(v) for v in typing.get_args(annotation))
+    if annotation is Path or (param.name or "").endswith("_path"):
+        return "path", ()
+    kinds = {int: "int", float: "float", str: "str"}
+    if annotation in kinds:
+        return kinds[annotation], ()
+    click_type = getattr(param, "type", None)  # older typer: click types
+    choices = tuple(str(c) for c in getattr(click_type, "choices", None) or ())
+    name = getattr(click_type, "name", "")
+    return {"integer": "int", "integer range": "int", "float": "float", "float range": "float", "boolean": "bool",
+            "path": "path"}.get(name, "str"), choices
+
+
+def _param(p: Any, hint: Any) -> ParamInfo:
+    option = p.param_type_name == "option"
+    help_text = (getattr(p, "help", None) or "").strip()
+    kind, choices = _kind_and_choices(p, hint)
+    if kind == "str" and not choices and re.search(r"\bor\b[^.]*\b(?:files?|folders?|path)\b", help_text):
+        kind = "path"  # "Asset ids, .usda files or folders"
+    name = p.name or ""
+    long_flags = [o for o in p.opts if o.startswith("--")]
+    secondary = [o for o in getattr(p, "secondary_opts", []) if o.startswith("--")]
+    writes = kind == "path" and (name in ("out", "output", "output_root", "markdown", "report")
+                                 or bool(re.search(r"\b(?:to write|to create|write)\b", help_text, re.I)))
+    default = p.default if not callable(p.default) else None
+    if isinstance(default, enum.Enum):
+        default = default.value
+    address = kind == "str" and bool(re.search(r"tcp://|\bendpoint\b", f"{help_text} {default}", re.I))
+    limits = [getattr(p, attr, None) if getattr(p, attr, None) is not None else getattr(getattr(p, "type", None), attr, None)
+              for attr in ("min", "max")]
+    return ParamInfo(
+        name=name,
+        flag=(long_flags[0] if long_flags else p.opts[0]) if option else None,
+        required=bool(p.required),
+        kind=kind,
+        multiple=bool(p.multiple or (not option and p.nargs == -1)),
+        default=default,
+        help=help_text,
+        choices=choices,
+        hinted=() if choices or kind in ("bool", "path", "task") else hinted_values(help_text),
+        minimum=limits[0],
+        maximum=limits[1],
+        off_flag=secondary[0] if secondary else None,
+        writes=writes,
+        address=address,
+    )
+
+
+def own_names(param: ParamInfo) -> tuple[str, ...]:
+    """Words of a parameter's own name: ``max_steps`` / ``--max-steps`` -> "max steps"."""
+    names = {param.name.replace("_", " ")} - {"as json"}
+    if param.flag:
+        names.add(param.flag.lstrip("-").replace("-", " "))
+    return tuple(sorted(names))
+
+
+def _with_words(command: str, param: ParamInfo) -> ParamInfo:
+    spec = load_vocabulary().words_for(param.name, command)
+    return replace(param, names=(*spec.names, *own_names(param)), units=tuple(spec.units), off_words=tuple(spec.off))
+
+
+def _command(path: tuple[str, ...], command: Any) -> CommandInfo:
+    hints = typing.get_type_hints(command.callback, include_extras=False) if command.callback else {}
+    params = {p.name: _param(p, hints.get(p.name)) for p in command.params if p.name and p.name != "help"}
+    if path[-1].startswith("new") or path[-1].endswith("new-task"):  # the id of a task to create
+        params = {k: replace(v, kind="str") if v.kind == "task" else v for k, v in params.items()}
+    params = {k: _with_words(" ".join(path), v) for k, v in params.items()}
+    text = (command.help or "").strip()
+    example = next((line.split("Example:", 1)[1].strip() for line in text.splitlines() if "Example:" in line), "")
+    return CommandInfo(path, params, text.splitlines()[0] if text else "", example)
+
+
+def read_catalog(*apps: tuple[typer.Typer, tuple[str, ...]]) -> CommandCatalog:
+    """The catalog of the typer ``apps``, each with the prefix its commands get (``("answer",)``)."""
+    commands: dict[str, CommandInfo] = {}
+    for root, prefix in apps:
+        for path, command in _walk(typer.main.get_command(root), prefix):
+            if path[0] != "agent":  # the agent does not call itself
+                info = _command(path, command)
+                commands[info.name] = info
+    one_of = {k: tuple(v) for k, v in load_vocabulary().one_of.items() if k in commands}
+    return CommandCatalog(commands, one_of)
 
 
 @cache
 def load_catalog() -> CommandCatalog:
-    """Every leaf command of the ``pipette`` CLI with its parameters."""
+    """Every leaf command of the ``pipette`` CLI (but ``agent``) and the agent's answers."""
+    from pipette_cli.agent.answers import app as answers_app
     from pipette_cli.cli.main import app
 
-    commands: dict[str, CommandInfo] = {}
-    for path, command in _walk(typer.main.get_command(app)):
-        if path[0] == "agent":
-            continue  # the agent does not call itself
-        hints = typing.get_type_hints(command.callback) if command.callback else {}
-        params = {}
-        for p in command.params:
-            option = p.param_type_name == "option"
-            long_flags = [o for o in p.opts if o.startswith("--")]
-            help_text = getattr(p, "help", None) or ""
-            is_flag = bool(getattr(p, "is_flag", False))
-            takes_path = _mentions_path(hints.get(p.name)) or p.name.endswith("_path") or (
-                not is_flag and bool(re.search(r"\bor\b[^.]*\b(?:files?|folders?|path)\b", help_text))
-            )  # "Asset ids, .usda files or folders"
-            params[p.name] = ParamInfo(
-                name=p.name,
-                flag=(long_flags[0] if long_flags else p.opts[0]) if option else None,
-                required=bool(p.required),
-                is_flag=is_flag,
-                multiple=bool(getattr(p, "multiple", False) or (not option and getattr(p, "nargs", 1) == -1)),
-                default=p.default,
-                help=help_text,
-                path=takes_path,
-                writes=takes_path and (p.name in ("out", "output", "output_root")
-                                 or bool(re.search(r"\b(?:to write|to create|write)\b", help_text, re.I))),
-            )
-        info = CommandInfo(path, params, (command.help or "").strip().splitlines()[0] if command.help else "")
-        commands[info.name] = info
-    return CommandCatalog(commands)
+    return read_catalog((app, ()), (answers_app, (ANSWER,)))

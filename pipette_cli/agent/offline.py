@@ -1,332 +1,302 @@
-"""The offline agent: a deterministic parser from a request to a command of the CLI.
+"""The offline agent: a deterministic parser from a request to a :class:`PlanSpec`.
 
-Paths and addresses are taken out first (:mod:`.mentions`) and fill the command's path options;
-the remaining words give the intent (verbs and nouns) and the parameters (task ids matched
-against the registry or "all tasks", policy, dataset version, steps, episodes, seeds, sizes).
-Defaults come from the registry and from the command's own defaults, and what is still missing
-(a required value, or a required choice such as eval's endpoint or policy) is listed. It knows
-only commands the CLI defines (see :mod:`.catalog`).
+The request is split into clauses, one per command (:mod:`.clauses`). In each clause, paths and
+addresses are taken out first (:mod:`.mentions`) and fill the command's path and address
+options; the remaining words give the task (matched against the registry, :mod:`.tasks`), the
+policy, numbers next to the words of an option ("30 demos", "seed 3", "64 px"), values named
+by their words ("on the gpu", "augmented"), flags ("as json", "dry run") and free text. Every
+word list comes from the vocabulary and every option from the CLI's catalog, so an option added
+to the CLI is understood by the words of its own name. The plan then goes through the same
+:class:`.validate.Validator` as an LLM's.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
 from typing import Any
 
-from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo
+from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
+from pipette_cli.agent.clauses import Intents, split_clauses, words_of
 from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
-from pipette_cli.agent.plan import CommandPlanSpec
-from pipette_cli.errors import suggest
+from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
+from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
+from pipette_cli.agent.validate import Validator
+from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_vocabulary, phrase_pattern
 from pipette_cli.registry import Registry
 
-# intent -> (command, words that signal it); the first intent whose words appear wins
-INTENTS: list[tuple[str, str, tuple[str, ...]]] = [
-    ("new-task", "new-task", ("create a task", "new task", "make a task", "add a task", "register a task", "author a task")),
-    ("asset-new", "assets new", ("new asset", "make an asset", "create an asset", "generate an asset", "model a", "make a 3d")),
-    ("delete", "data delete-episode", ("delete episode", "remove episode", "drop episode")),
-    ("replay", "data replay", ("replay", "re-run episode", "verify episode", "check episode")),
-    ("stats", "data stats", ("dataset stats", "statistics", "stats")),
-    ("inspect", "data inspect", ("inspect", "what's in", "what is in", "look inside", "summarize the file", "summarise the file")),
-    ("train", "train", ("train", "fine-tune", "finetune")),
-    ("serve", "serve", ("serve", "policy server", "start a server", "host the policy")),
-    ("report", "eval report", ("report", "results table", "summary table")),
-    ("eval", "eval", ("evaluate", "evaluation", "eval ", "test the policy", "roll out the policy", "success rate of the policy")),
-    ("augment", "augment", ("augment", "augmentation", "perturb")),
-    ("convert", "convert", ("convert", "lerobot dataset", "to lerobot")),
-    ("experts", "experts check", ("expert", "scripted success", "success rate of the script")),
-    ("collect", "collect", ("collect", "record", "demonstration", "demos", "teleop", "gather")),
-    ("step-rate", "sim step-rate", ("step rate", "step-rate", "how fast", "real-time factor", "realtime factor", "fps")),
-    ("view", "sim view", ("viewer", "interactive", "open the scene", "view the")),
-    ("render", "sim render", ("render", "picture", "image of", "screenshot", "views of", "look like")),
-    ("validate-assets", "assets validate", ("validate the assets", "validate assets", "check the assets", "check assets")),
-    ("assets", "assets list", ("list assets", "list the assets", "which assets", "what assets", "show assets", "asset library")),
-    ("asset-show", "assets show", ("show asset", "describe asset", "details of asset", "asset details")),
-    ("validate", "tasks validate", ("validate", "check the yaml", "lint")),
-    ("list-all", "tasks list", ("all tasks", "which tasks", "what tasks", "available tasks", "list the tasks", "list tasks")),
-    ("show", "tasks show", ("show", "describe", "details", "what is the task", "explain")),
-    ("list", "tasks list", ("list", "which tasks", "what tasks", "all tasks", "available tasks")),
-]
-
-POLICIES = {"act": "act", "smolvla": "smolvla", "smol vla": "smolvla", "smol-vla": "smolvla", "pi0": "pi0", "pi 0": "pi0", "π0": "pi0", "pi-0": "pi0"}
-TASK_SYNONYMS = {
-    "tube": ("tube", "testtube", "falcon"), "test": ("test",), "centrifuge": ("centrifuge",), "lid": ("lid", "cover", "hatch"),
-    "balance": ("balance", "scale"), "pipette": ("pipette", "pipettor"), "petri": ("petri", "dish", "plate"),
-    "incubator": ("incubator",), "water": ("water",), "bath": ("bath",), "spectrophotometer": ("spectrophotometer", "spectro", "photometer"),
-    "flask": ("flask", "erlenmeyer"), "shaker": ("shaker",), "rack": ("rack", "stand"), "button": ("button",),
-    "pick": ("pick", "grab", "lift"), "place": ("place", "put"), "remove": ("remove", "take", "retriev"),
-    "open": ("open",), "close": ("close", "shut"), "press": ("press", "push"), "thermal": ("thermal", "pcr"), "cycler": ("cycler",),
-    "microcentrifuge": ("microcentrifuge",), "conical": ("conical",),
-}
-VERBS = {"pick", "place", "remove", "open", "close", "press"}
-"""Concepts that are actions: they weigh half an object noun when matching a task."""
+_NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
+_MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
+"""Units after a number that make it a size ("50 mL tube"), not a count."""
+_CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
+_QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 
-def _concepts(words: set[str]) -> set[str]:
-    """Concepts named by ``words``; synonyms of 4+ letters also match as word stems ("closing")."""
-    found = set()
-    for concept, syns in TASK_SYNONYMS.items():
-        for syn in syns:
-            if syn in words or (len(syn) >= 4 and any(w.startswith(syn) or (len(w) >= 5 and syn.startswith(w[:-3]) and w.endswith("ing") and len(w[:-3]) >= 3) for w in words)):
-                found.add(concept)
-                break
-    return found
-NUMBER_WORDS = {"one": 1, "two": 2, "three": 3, "four": 4, "five": 5, "six": 6, "eight": 8, "ten": 10, "twenty": 20,
-                "thirty": 30, "fifty": 50, "hundred": 100, "a hundred": 100}
+def _stems(text: str) -> str:
+    return " ".join(stem(w) for w in text.split())
 
 
-@dataclass
-class Context:
-    """What an interactive session remembers between requests ("now evaluate it ...")."""
-
-    task: str | None = None
-    file: str | None = None
-    dataset: str | None = None
-    policy_path: str | None = None
-    history: list[CommandPlanSpec] = field(default_factory=list)
-
-
-def _words(text: str) -> list[str]:
-    return re.findall(r"[a-z0-9π]+", text.lower())
-
-
-def _camel_words(name: str) -> list[str]:
-    return [w.lower() for w in re.findall(r"[A-Z][a-z0-9]*|[0-9]+", name)]
-
-
-def _number(text: str, *nouns: str) -> int | None:
-    """An integer just before one of ``nouns`` ("50 episodes", "5k steps", "fifty demos")."""
-    noun = "|".join(nouns)
-    m = re.search(rf"(\d+(?:[.,]\d+)?)\s*(k|thousand)?\s*(?:{noun})", text)
-    if m:
-        value = float(m.group(1).replace(",", ""))
-        return int(value * 1000) if m.group(2) else int(value)
-    for word, value in sorted(NUMBER_WORDS.items(), key=lambda kv: -len(kv[0])):
-        if re.search(rf"\b{word}\s+(?:{noun})", text):
-            return value
-    return None
-
-
-def match_task(text: str, registry: Registry) -> tuple[str | None, list[str]]:
-    """The registered task a request names: (id, []) or (None, closest candidates)."""
-    lowered = text.lower()
-    for tid in registry.ids():  # an explicit id or name wins
-        short = tid.split("/", 1)[1]
-        if tid.lower() in lowered or short.lower() in lowered or short.rsplit("-v", 1)[0].lower() in lowered.replace(" ", ""):
-            return tid, []
-    names = [t.split("/", 1)[1].rsplit("-v", 1)[0] for t in registry.ids()]
-    for token in re.findall(r"\b(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
-        raise AgentError(f"unknown task {token!r}; {suggest(token.split('/')[-1].rsplit('-v', 1)[0], names)}")
-    concepts = _concepts(set(_words(text)))
-    if not concepts:
-        return None, []
-    scores: dict[str, float] = {}
-    for tid in registry.ids():
-        spec = registry.get(tid)
-        words = set(_camel_words(tid.split("/", 1)[1].rsplit("-v", 1)[0])) | {t.replace("-", "") for t in spec.tags}
-        task_concepts = _concepts(words)
-        shared = concepts & task_concepts
-        if shared:
-            weight = sum(0.5 if c in VERBS else 1.0 for c in shared)
-            scores[tid] = weight + (0.25 if tid.startswith("pipette/") else 0.0)  # benchmark tasks first
-    if not scores:
-        return None, []
-    best = max(scores.values())
-    top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
-    if len(top) == 1:
-        return top[0], []
-    return None, top
-
-
-ALL_TASKS = re.compile(
-    r"\b(?:all|every|each)\b(?:\s+(?:of|the|\d+|registered|benchmark|paper|pipette|available|known))*\s+tasks?\b")
-"""'all tasks', 'every task', 'all benchmark tasks', 'all 12 tasks'."""
-NOT_TASK_WORDS = {
-    "the", "a", "an", "it", "my", "our", "this", "that", "same", "policy", "policies", "model", "checkpoint", "raw",
-    "augmented", "original", "unaugmented", "data", "dataset", "datasets", "demos", "demonstrations", "episodes",
-    "gpu", "cpu", "cuda", *POLICIES,
-}
-"""Words a request uses around a task that never name one ("train act on the augmented data")."""
-
-
-def _category(words: str) -> str | None:
-    """The asset category a request names ("the instruments", "consumable assets")."""
-    from pipette_cli.assets.library import CATEGORIES
-
-    return next((c for c in CATEGORIES if re.search(rf"\b{c.removesuffix('s')}s?\b", words)), None)
+def _typed(param: ParamInfo, number: float) -> int | float:
+    return int(number) if param.kind == "int" and number == int(number) else number
 
 
 class OfflineAgent:
-    """Deterministic request parser over the CLI catalog and the task registry."""
+    """Deterministic request parser over the CLI catalog, the registry and the vocabulary."""
 
     name = "offline"
 
-    def __init__(self, catalog: CommandCatalog, registry: Registry) -> None:
+    def __init__(self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec | None = None) -> None:
         self.catalog = catalog
         self.registry = registry
+        self.vocab = vocab or load_vocabulary()
+        self.index = TaskIndex(registry, self.vocab)
+        self.validator = Validator(catalog, registry, self.vocab)
+        self.intents = Intents(self.vocab, catalog, registry.ids())
 
-    def intent(self, text: str) -> tuple[str, str]:
-        """(intent, command) from the words of ``text``; paths and addresses do not count."""
-        lowered = f" {find_mentions(text, self.registry.ids()).words.lower()} "
-        for intent, command, cues in INTENTS:
-            if any(re.search(rf"(?<![a-z]){re.escape(cue.strip())}", lowered) for cue in cues):
-                return intent, command
-        if _category(lowered):  # "which tools are there"
-            return "assets", "assets list"
-        raise AgentError(
-            "cannot tell what to run from this request; say e.g. 'list the tasks', 'collect 20 demos of "
-            "PickUpTestTube', 'inspect data/x.h5'"
-        )
-
-    def _task(self, words: str, info: CommandInfo, param: str, context: Context, notes: list[str]) -> str | None:
-        """The task value for ``param`` of ``info``: a registered id, ``all``, or None (missing).
+    def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
+        """The checked plan for ``text``.
 
         Raises:
-            AgentError: an unknown or ambiguous task, or "all tasks" for a command that runs one.
+            Unsupported: the request asks for something Pipette does not do (this comes first:
+                "train diffusion on the lid task" says diffusion is not supported, not which lid).
+            AgentError: nothing to run can be read from ``text``, a task is unknown or
+                ambiguous, or a value is wrong (see :class:`.validate.Validator`).
         """
-        lowered = words.lower()
-        option = info.params[param]
-        if ALL_TASKS.search(lowered):
-            if "`all`" in option.help:
-                return "all"
-            if option.required:
-                raise AgentError(f"'pipette {info.name}' runs one task at a time; name the task")
-            return None  # the command's default covers every task
-        task, candidates = match_task(words, self.registry)
-        if task is None and re.search(r"\b(it|that task|the same task|this task)\b", lowered) and context.task:
-            notes.append(f"task from context: {context.task}")
-            return context.task
-        if candidates:
-            raise AgentError(f"the request could mean several tasks: {', '.join(candidates)}; name one")
-        if task is None and option.required:
-            named = re.search(
-                r"(?:task|on|of|for)\s+(?:the\s+)?([A-Za-z][\w-]+(?:\s+[a-z]+){0,3}?)(?:\s+task|$|\s+with|\s+for)", words)
-            if named and set(named.group(1).lower().split()) - NOT_TASK_WORDS:
-                names = [t.split("/", 1)[1].rsplit("-v", 1)[0] for t in self.registry.ids()]
-                raise AgentError(f"unknown task {named.group(1)!r}; {suggest(named.group(1).replace(' ', ''), names)}")
-        return task
+        spec, problems = self._read(text)
+        if problems:
+            try:
+                self.validator.check(spec, request=text, context=context)
+            except Unsupported:
+                raise
+            except AgentError:
+                pass
+            raise AgentError(problems[0])
+        return self.validator.check(spec, request=text, context=context)
 
-    def plan(self, text: str, context: Context | None = None) -> CommandPlanSpec:
-        """The command for ``text``; required values the request lacks are listed in ``missing``."""
-        context = context or Context()
+    def draft(self, text: str) -> PlanSpec:
+        """The plan as read from the words, before validation."""
+        spec, problems = self._read(text)
+        if problems:
+            raise AgentError(problems[0])
+        return spec
+
+    def _read(self, text: str) -> tuple[PlanSpec, list[str]]:
+        steps, problems = [], []
+        for clause in split_clauses(text, self.intents):
+            command = clause.command or self._policy_only(clause.text)
+            if command is None:
+                continue
+            info = self.catalog.get(command)
+            args = self.fill(info, clause.text, problems)
+            both = self._both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            for value in both[1] if both else [None]:  # "convert both the raw and the augmented data"
+                steps.append(StepSpec(command=command, args={**args, both[0]: value} if both else args))
+        if not steps:
+            raise AgentError("cannot tell what to run from this request; say e.g. 'list the tasks', "
+                             "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'")
+        return PlanSpec(steps=steps), problems
+
+    def _policy_only(self, text: str) -> str | None:
+        """A clause naming a policy and no command asks to train it ("use VQ-BeT on the tube task")."""
+        return "train" if "train" in self.catalog and self._policy(words_of(text)) else None
+
+    # -- filling one step ---------------------------------------------------------------------
+
+    def fill(self, info: CommandInfo, text: str, problems: list[str] | None = None) -> dict[str, Any]:
+        """Arguments of ``info`` that ``text`` gives; a task that is unknown or ambiguous is
+        added to ``problems`` (raised at once without it)."""
         mentions = find_mentions(text, self.registry.ids())
-        words = mentions.words  # what is read as words: paths and addresses are values, not words
-        lowered = words.lower()
-        intent, command = self.intent(words)
-        if command not in self.catalog:
-            available = ", ".join(sorted({c.split()[0] for c in self.catalog.commands}))
-            raise AgentError(f"'pipette {command}' is not available in this version (commands: {available})")
-        category = _category(lowered)
-        if command in ("tasks list", "tasks show") and (
-            "asset" in lowered or (category and not re.search(r"\btasks?\b", lowered))
-        ):
-            # "list the instruments", "show the consumables": a category, no single asset -> the list
-            command = "assets show" if command == "tasks show" and self._asset_id(lowered) else "assets list"
-        params: dict[str, Any] = {}
-        notes: list[str] = []
-        info = self.catalog.get(command)
-
-        def want(name: str) -> bool:
-            return name in info.params
-
-        # new-task's --id names the task to create: never filled from the registry
-        task_param = None if command == "new-task" else next((p for p in ("task_id", "tasks", "task") if want(p)), None)
-        if task_param:
-            task = self._task(words, info, task_param, context, notes)
-            if task is not None:
-                params[task_param] = [task] if info.params[task_param].multiple else task
-                if task != "all":
-                    context.task = task
-        for address in mentions.addresses:
-            key = next((k for k in ("endpoint", "bind") if want(k)), None)
-            if key is None:
-                raise AgentError(f"'pipette {command}' takes no address like {address!r}")
-            params[key] = address
+        words = words_of(mentions.words)
+        args: dict[str, Any] = {}
+        try:
+            self._task(info, mentions.words, words, args, [m.path for m in mentions.paths])
+        except AgentError as exc:
+            if problems is None:
+                raise
+            problems.append(str(exc))
+        for address, raw in mentions.addresses:
+            param = next((p for p in info.params.values() if p.address and is_empty(args.get(p.name))), None)
+            plain = next((p for p in info.params.values() if p.kind == "str" and "address" in p.names
+                          and is_empty(args.get(p.name))), None)  # "the ray cluster at host:port"
+            if param is None and plain is None:
+                raise AgentError(f"'pipette {info.name}' takes no address like {raw!r}")
+            args[param.name if param is not None else plain.name] = address if param is not None else raw
         paths = mentions.paths
-        if want("description"):  # free text: only "save it to PATH" is a path, the rest describes
+        if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
-        assign_paths(info, paths, params)
-        file_param = next((p for p in ("file", "input", "inputs") if want(p) and info.params[p].required), None)
-        if file_param and not params.get(file_param) and context.file:
-            params[file_param] = [context.file] if info.params[file_param].multiple else context.file
-            notes.append(f"file from context: {context.file}")
-        if want("episodes"):
-            n = _number(lowered, "episodes?", "demos?", "demonstrations?", "rollouts?", "trials?", "runs?", "seeds?")
-            if n is not None:
-                params["episodes"] = n
-        if want("episode") and command != "data delete-episode":
-            m = re.search(r"episode\s+#?(\d+)", lowered)
-            if m:
-                params["episode"] = int(m.group(1))
-        if command == "data delete-episode":
-            m = re.search(r"episode\s+#?(\d+)", lowered)
-            params["index"] = int(m.group(1)) if m else None
-        if command == "data replay":
-            params["check"] = True
-        for key, pattern in (("seed", r"seed\s*(?:=|of|:)?\s*(\d+)"), ("image_size", r"(\d+)\s*(?:px|pixels?)\b|(\d+)\s*x\s*\2"),
-                             ("workers", r"(\d+)\s*(?:workers?|processes|cores)"), ("steps", r"(\d+(?:[.,]\d+)?)\s*(k)?\s*(?:training\s+)?steps?")):
-            if want(key):
-                m = re.search(pattern, lowered)
+        assign_paths(info, paths, args, self.catalog)
+        saved = [m.path for m in paths]
+        policy = self._policy(words)
+        if policy:
+            param = next((p for p in info.params.values() if set(p.values()) & set(self.vocab.policies)), None)
+            if param is not None:
+                args[param.name] = policy
+        self._numbers(info, words, args)
+        self._values(info, words, args)
+        self._flags(info, words, args)
+        self._text(info, text, saved, mentions.words, words, args)
+        return args
+
+    def _task(self, info: CommandInfo, raw: str, words: str, args: dict[str, Any], paths: list[str]) -> None:
+        param = info.task_param()
+        if param is None or info.name == "new-task":  # new-task's --id names the task to create
+            return
+        if self.index.all_tasks(words):
+            args[param.name] = "all"
+            return
+        unknown = self.index.unknown_name(raw)
+        cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
+        match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
+        in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
+        if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
+            args[param.name] = in_file  # "my centrifuge demos in data/OpenCentrifugeLid.h5"
+        elif match.explicit:
+            many = param.multiple or "comma" in param.help.lower()
+            args[param.name] = list(match.explicit) if many else match.explicit[0]
+        elif unknown:
+            raise AgentError(f"unknown task {unknown!r}; {self.index.suggest_name(short_name(unknown))}")
+        elif match.task:
+            args[param.name] = match.task
+        elif match.candidates:
+            raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
+        elif param.required or info.is_answer:
+            named = re.search(r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b",
+                              words)
+            stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
+            if named and not {stem(w) for w in named.group(1).split()} <= stop | {"new", "same", "last", "previous",
+                                                                                 "first", "next", "one", "which", "what"}:
+                raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
+
+    def _policy(self, words: str) -> str | None:
+        for word, key in self.vocab.policy_words():
+            if re.search(rf"(?<![\w-]){re.escape(word)}(?![\w-])", words):
+                return key
+        return None
+
+    def _numbers(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
+        """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
+        before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
+        numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
+        if not numeric:
+            return
+        text = re.sub(r"\b(\d+)\s*[x×]\s*\1\b", r"\1 px", words)  # 64x64 images
+        for word, value in sorted(self.vocab.numbers.items(), key=lambda kv: -len(kv[0])):
+            text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
+        taken: set[str] = set()
+        bare: list[float] = []
+        for m in _NUMBER.finditer(text):
+            number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
+            after, before = text[m.end():].lstrip(), text[:m.start()].rstrip()
+            best: tuple[int, ParamInfo] | None = None
+            for param in (p for p in numeric if p.name not in taken):
+                names = param.names
+                tests = ((3, param.units, lambda p: phrase_pattern(p).match(after)),
+                         (2, param.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),
+                         (1, names, lambda p: re.search(rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
+                                                        before)))
+                for rank, phrases, matcher in tests:
+                    if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
+                        best = (rank, param)
+            if best is not None:
+                args[best[1].name] = _typed(best[1], number)
+                taken.add(best[1].name)
+            elif not m.group(3) and not _MEASURE.match(after):
+                bare.append(number)
+        fallback = info.params.get(self.vocab.bare_number)
+        if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
+            args[fallback.name] = _typed(fallback, bare[0])
+
+    def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
+        """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
+        the help lists only next to the option's name ("wrist camera")."""
+        for param in info.params.values():
+            if not is_empty(args.get(param.name)) or param.kind in ("bool", "path", "task"):
+                continue
+            if set(param.values()) & set(self.vocab.policies):
+                continue  # policies are read by _policy
+            found: list[tuple[int, str]] = []
+            for value, phrases in self.vocab.values.get(param.name, {}).items():
+                m = find_phrase(phrases, words)
                 if m:
-                    value = next(g for g in m.groups() if g and g[0].isdigit())
-                    number = float(value.replace(",", ""))
-                    if key == "steps" and len(m.groups()) > 1 and m.group(2):
-                        number *= 1000
-                    params[key] = int(number)
-        if want("source"):
-            if re.search(r"\b(teleop|keyboard|by hand|manually|myself)\b", lowered):
-                params["source"] = "teleop"
-        # a policy *name* (act, smolvla, pi0) goes to the option that takes one: train's --policy,
-        # eval's --policy-type; eval's and serve's --policy take a folder
-        policy_key = next((k for k in ("policy", "policy_type") if want(k) and not info.params[k].path), None)
-        if policy_key:
-            for word, policy in POLICIES.items():
-                if re.search(rf"(?<![a-z]){re.escape(word)}(?![a-z])", lowered):
-                    params[policy_key] = policy
-                    break
-        if want("dataset_version"):
-            if "augment" in lowered:
-                params["dataset_version"] = "augmented"
-            elif re.search(r"\braw\b|original|unaugmented|un-augmented", lowered):
-                params["dataset_version"] = "raw"
-        if want("device"):
-            if re.search(r"\b(gpu|cuda)\b", lowered):
-                params["device"] = "cuda"
-            elif re.search(r"\bcpu\b", lowered):
-                params["device"] = "cpu"
-        if want("as_json") and re.search(r"\bjson\b", lowered):
-            params["as_json"] = True
-        if want("tag") and command == "tasks list":
-            for tag in ("hatch_control", "placement_relocation", "consumable_handling", "paper-benchmark", "generated",
-                        "agilex_piper", "piper", "lid", "pick", "place", "press"):
-                if tag.replace("_", " ") in lowered or tag in lowered:
-                    params["tag"] = {"piper": "agilex_piper"}.get(tag, tag)
-                    break
-            if "lid" in lowered or "hatch" in lowered:
-                params["tag"] = "hatch_control"
-        if want("category") and category:
-            params["category"] = category
-        if want("description"):
+                    found.append((m.start(), value))
+            for value in param.choices:
+                m = re.search(rf"(?<![\w-]){re.escape(value.lower())}(?![\w-])", words)
+                if m:
+                    found.append((m.start(), value))
+            names = "|".join(phrase_pattern(n).pattern for n in param.names)
+            for value in param.hinted:
+                v = re.escape(value.lower())
+                if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
+                    m = re.search(rf"(?<![\w-]){v}(?![\w-])", words)
+                else:
+                    m = re.search(rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words)
+                if m:
+                    found.append((m.start(), value))
+            if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
+                args[param.name] = max(found)[1] if _CORRECTION.search(words) else min(found)[1]
+
+    def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
+        """A parameter the clause gives two values joined by "and" ("the raw and the augmented
+        data"), for a command that takes one: the step is made once per value."""
+        for param in info.params.values():
+            if param.multiple or param.kind != "str":
+                continue
+            found = sorted((m.start(), m.end(), value) for value, phrases in self.vocab.values.get(param.name, {}).items()
+                           for m in [find_phrase(phrases, words)] if m)
+            values = list(dict.fromkeys(v for _, _, v in found))
+            if len(values) >= 2 and re.search(r"\b(?:and|&)\b", words[found[0][1]:found[1][0]]):
+                return param.name, values
+        return None
+
+    def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
+        for param in info.params.values():
+            if not param.is_flag or param.name in ("yes",):
+                continue
+            stemmed = _stems(words)
+            if param.off_words and find_phrase([_stems(w) for w in param.off_words], stemmed):
+                args[param.name] = False
+            elif find_phrase([_stems(w) for w in param.names], stemmed):  # "allow mixing" = allow mixed
+                args[param.name] = True
+
+    def _text(self, info: CommandInfo, text: str, saved: list[str], raw: str, words: str, args: dict[str, Any]) -> None:
+        """Free text: a description, an asset, what to list tasks about, named strings."""
+        if "description" in info.params and is_empty(args.get("description")):
             said = text
-            for m in paths:  # "... and save it to x.yaml" is not part of the description
-                said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(m.path)}\S*", "", said)
-            quoted = re.search(r"[\"“'](.+?)[\"”']", said)
-            rest = re.sub(r"^.*?\b(?:where|in which|that|:|for|to)\s+", "", said, count=1)
-            params["description"] = quoted.group(1) if quoted else rest.strip()
-        if want("asset_id") and command == "assets show" and not params.get("asset_id"):
-            params["asset_id"] = self._asset_id(lowered)
-        if command == "collect" and not params.get("out") and params.get("task_id"):
-            short = str(params["task_id"]).split("/", 1)[1].rsplit("-v", 1)[0]
-            params["out"] = f"data/{short}.h5"
-            notes.append(f"default output data/{short}.h5")
-        if command == "collect" and params.get("out"):
-            context.file = str(params["out"])
-        missing = self.catalog.missing(command, params)
-        return CommandPlanSpec(command=command, params={k: v for k, v in params.items() if v is not None},
-                               missing=missing, notes=notes)
+            for path in saved:  # "... and save it to x.yaml" is not part of the description
+                said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(path)}\S*", "", said)
+            quoted = _QUOTED.search(said)
+            cues = self.vocab.intents[info.name] if info.name in self.vocab.intents else None
+            cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
+            rest = said[cue.end():] if cue else said
+            rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)
+            if quoted or rest.strip(" ."):
+                args["description"] = quoted.group(1) if quoted else rest.strip(" .")
+        if "about" in info.params and is_empty(args.get("about")):
+            about = self.index.filter_words(words)
+            if about:
+                args["about"] = " ".join(about)
+        if "asset_id" in info.params and info.params["asset_id"].required and is_empty(args.get("asset_id")):
+            asset = self._asset(words)
+            if asset:
+                args["asset_id"] = asset
+        for param in info.params.values():
+            if param.kind != "str" or param.values() or not is_empty(args.get(param.name)) or param.name in (
+                    "description", "about", "asset_id", "backend", "model", "base_url"):
+                continue
+            pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
+            m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
+            if m and m.group(1).lower() not in self.vocab.tasks.stop:
+                args[param.name] = m.group(1).strip("\"'")
 
-    @staticmethod
-    def _asset_id(lowered: str) -> str | None:
-        from pipette_cli.assets.library import load_asset_library
+    def _asset(self, words: str) -> str | None:
+        from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
 
-        return next((a for a in load_asset_library().ids() if a in lowered.replace(" ", "_")), None)
+        assets = load_asset_words()
+        squashed = words.replace(" ", "_")
+        explicit = next((a for a in sorted(assets.assets, key=len, reverse=True) if a in squashed), None)
+        if explicit:
+            return explicit
+        for alias in assets.aliases():
+            if re.search(rf"(?<![\w-]){re.escape(alias)}(?![\w-])", words):
+                return assets.kinds[assets.alias_to_kind[alias]].default
+        return None
+

@@ -1,6 +1,6 @@
 """What a backend produces from a description: a :class:`TaskDraftSpec`, never YAML or code.
 
-An LLM fills this model through JSON-schema structured output (:func:`strict_json_schema`);
+An LLM fills this model through JSON-schema structured output (:func:`pipette_cli.llm.strict_json_schema`);
 the offline parser fills it by parsing. Deterministic code (:mod:`.compose`) then checks it
 against the asset library, lays the scene out and renders the registry YAML.
 """
@@ -106,23 +106,3 @@ def role_problems(draft: TaskDraftSpec) -> list[str]:
     return problems
 
 
-def strict_json_schema(model: type[Spec]) -> dict[str, Any]:
-    """The model's JSON schema in the subset strict structured output accepts.
-
-    Every property is listed as required (optional ones are nullable), objects forbid extra
-    keys, and ``default``/``title`` keywords are dropped.
-    """
-    schema = model.model_json_schema()
-
-    def walk(node: Any) -> Any:
-        if isinstance(node, dict):
-            out = {k: walk(v) for k, v in node.items() if k not in ("default", "title")}
-            if out.get("type") == "object" and "properties" in out:
-                out["required"] = list(out["properties"])
-                out["additionalProperties"] = False
-            return out
-        if isinstance(node, list):
-            return [walk(v) for v in node]
-        return node
-
-    return walk(schema)

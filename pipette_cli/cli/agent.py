@@ -1,90 +1,157 @@
-"""``pipette agent``: turn a request into the right ``pipette`` command, show it, run it."""
+"""``pipette agent``: a request in words -> a checked plan of ``pipette`` commands, shown, then run."""
 
 from __future__ import annotations
 
 import shlex
-import subprocess
 import sys
 from typing import Annotated, Any
 
 import typer
 from rich.markup import escape
+from rich.table import Table
 
-from pipette_cli.agent.catalog import AgentError, load_catalog, say_missing
-from pipette_cli.agent.offline import Context, OfflineAgent
-from pipette_cli.agent.plan import CommandPlanSpec
+from pipette_cli.agent.answers import Answer, answer
+from pipette_cli.agent.catalog import AgentError, load_catalog, render_args, say_missing
+from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec, StepRef, plain
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 
 
 def make_agent(backend: str, model: str | None = None, base_url: str | None = None):
+    """The offline parser, or an LLM agent on an ``openai`` / ``ollama`` server."""
     catalog, registry = load_catalog(), load_registry(STATE.registry_dirs)
     if backend == "offline":
+        from pipette_cli.agent.offline import OfflineAgent
+
         return OfflineAgent(catalog, registry)
     from pipette_cli.agent.llm import LLMAgent
 
     return LLMAgent(backend, catalog, registry, model=model, base_url=base_url)
 
 
-def command_line(plan: CommandPlanSpec) -> list[str]:
-    return ["pipette", *load_catalog().argv(plan.command, dict(plan.params))]
+def command_text(plan: CheckedPlan, index: int) -> str:
+    """Step ``index`` (1-based) as a command line, earlier steps' outputs filled in."""
+    step = plan.steps[index - 1]
+    info = load_catalog().get(step.command)
+    return shlex.join(["pipette", *info.path, *render_args(info, plan.resolved_args(step))])
 
 
-def _ask_missing(plan: CommandPlanSpec) -> CommandPlanSpec:
+def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
+    steps = []
+    reads_only = True
+    for step in plan.steps:
+        item: dict[str, Any] = {"step": step.index, "command": step.command,
+                                "args": {k: plain(v) for k, v in step.args.items()},
+                                "command_line": command_text(plan, step.index), "missing": step.missing,
+                                "output": step.product, "notes": step.notes}
+        is_answer = load_catalog().get(step.command).is_answer
+        reads_only = reads_only and is_answer
+        if is_answer and reads_only and not step.missing:
+            found = answer(step.command, plan.resolved_args(step), agent.registry)
+            item["answer"] = {"text": found.text, **found.data}
+        steps.append(item)
+    return {"request": plan.request, "backend": agent.name, "runnable": plan.runnable, "steps": steps}
+
+
+def show_plan(plan: CheckedPlan) -> None:
+    table = Table(title="plan", title_justify="left", show_lines=False)
+    for column in ("step", "command", "notes"):
+        table.add_column(column, overflow="fold")
+    for step in plan.steps:
+        notes = [f"[red]needs {escape(say_missing(step.missing))}[/red]"] if step.missing else []
+        refs = [r for v in step.args.values() for r in (v if isinstance(v, list) else [v]) if isinstance(r, StepRef)]
+        notes += [f"input: output of step {r.from_step}" for r in refs]
+        notes += [escape(n) for n in step.notes]
+        table.add_row(str(step.index), escape(command_text(plan, step.index)), "\n".join(notes))
+    out_console.print(table)
+
+
+def show_answer(found: Answer) -> None:
+    out_console.print(found.text, markup=False, highlight=False)
+    if found.rows:
+        table = Table(*found.columns, show_header=True)
+        for row in found.rows:
+            table.add_row(*(escape(cell) for cell in row))
+        out_console.print(table)
+
+
+def _ask_missing(agent: Any, plan: CheckedPlan, context: Context) -> CheckedPlan:
     """Prompt for each missing value; a missing choice ("endpoint|policy") first asks which one."""
-    params: dict[str, Any] = dict(plan.params)
-    for name in plan.missing:
-        options = name.split("|")
-        while name not in options:
-            name = typer.prompt(f"'pipette {plan.command}' needs one of {', '.join(options)}; which").strip()
-        params[name] = typer.prompt(f"{name.replace('_', ' ')}")
-    return plan.model_copy(update={"params": params, "missing": []})
+    steps = []
+    for step in plan.steps:
+        args: dict[str, Any] = {k: plain(v) for k, v in step.args.items()}
+        for name in step.missing:
+            options = name.split("|")
+            while name not in options:
+                name = typer.prompt(f"step {step.index} ('pipette {step.command}') needs one of "
+                                    f"{', '.join(options)}; which").strip()
+            args[name] = typer.prompt(f"step {step.index} {name.replace('_', ' ')}")
+        steps.append(StepSpec(command=step.command, args=args))
+    return agent.validator.check(PlanSpec(steps=steps), request=plan.request, context=context)
 
 
-def _handle(agent, request: str, context: Context, *, as_json: bool, yes: bool, interactive: bool) -> int:
+def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: bool, interactive: bool) -> None:
+    from pipette_cli.agent.run import PlanRunner
+
     plan = agent.plan(request, context)
-    if plan.missing and as_json:
-        print_json({"command": plan.command, "params": plan.params, "missing": plan.missing, "notes": plan.notes})
-        return 0
-    if plan.missing:
-        if not sys.stdin.isatty() and not interactive:
-            raise AgentError(f"'pipette {plan.command}' needs {say_missing(plan.missing)}; add them to the request")
-        plan = _ask_missing(plan)
-    argv = command_line(plan)
-    context.history.append(plan)
+    can_ask = interactive or (sys.stdin.isatty() and not yes)
+    if plan.missing and not as_json:
+        if not can_ask:
+            needs = "; ".join(f"step {i} (pipette {plan.steps[i - 1].command}) needs {say_missing(m)}"
+                              for i, m in plan.missing.items())
+            count = sum(len(m) for m in plan.missing.values())
+            raise AgentError(f"{needs}; add {'it' if count == 1 else 'them'} to the request")
+        show_plan(plan)
+        for _ in range(3):  # answers can reveal more (a task gives a default output; a bad value is re-asked)
+            plan = _ask_missing(agent, plan, context)
+            if not plan.missing:
+                break
+    context.remember(plan)
     if as_json:
-        print_json({"command": shlex.join(argv), "argv": argv, "params": plan.params, "missing": [], "notes": plan.notes})
-    else:
-        for note in plan.notes:
-            err_console.print(f"[dim]{escape(note)}[/dim]")
-        out_console.print(shlex.join(argv), markup=False, highlight=False)
-    if not yes and (as_json or not typer.confirm("Run it?", default=False, err=True)):
-        return 0
-    # the CLI itself, never a shell: argv comes from the catalog
-    return subprocess.call([sys.executable, "-m", "pipette_cli.cli.main", *argv[1:]])
+        print_json(plan_json(plan, agent))
+        if not (yes and plan.runnable):
+            return
+    catalog = load_catalog()
+    answers_only = all(catalog.get(s.command).is_answer for s in plan.steps)
+    if not as_json and not answers_only:
+        show_plan(plan)
+    if not answers_only and not yes:
+        if not (interactive or sys.stdin.isatty()):
+            err_console.print(f"[dim]add --yes to run {'it' if len(plan.steps) == 1 else 'them'}[/dim]")
+            return
+        if not typer.confirm(f"Run {'it' if len(plan.steps) == 1 else f'these {len(plan.steps)} steps'}?",
+                             default=False, err=True):
+            return
+    global_args = [arg for d in STATE.registry_dirs for arg in ("--registry-dir", str(d))]
+    runner = PlanRunner(catalog, err_console, global_args=global_args,
+                        show_output=lambda text: out_console.print(text, end="", markup=False, highlight=False),
+                        show_answer=show_answer, background=agent.vocab.background, registry=agent.registry)
+    runner.run(plan)
 
 
 def agent(
     request: Annotated[str | None, typer.Argument(help="What you want done, in words.")] = None,
     backend: Annotated[str, typer.Option("--backend", "-b", help="offline, openai or ollama.")] = "offline",
-    yes: Annotated[bool, typer.Option("--yes", "-y", help="Run without asking.")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the plan (or the missing fields) as JSON.")] = False,
+    yes: Annotated[bool, typer.Option("--yes", "-y", help="Run the plan without asking.")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the plan (and answers) as JSON; run it only with --yes.")] = False,
     interactive: Annotated[bool, typer.Option("--interactive", "-i", help="A small REPL that keeps context.")] = False,
     model: Annotated[str | None, typer.Option("--model", help="LLM model for openai/ollama.")] = None,
     base_url: Annotated[str | None, typer.Option("--base-url", help="LLM server URL.")] = None,
 ) -> None:
-    """Turn a request into the exact `pipette` command, print it and run it after confirmation.
+    """Turn a request into a plan of `pipette` commands, show it as a table, and run it step by
+    step after confirmation (or --yes); questions about tasks, demos and scores are answered.
 
-    Example: pipette agent "collect 20 demos of the test tube task with 64 pixel images"
+    Example: pipette agent "record 20 demos of the test tube task, augment them, convert and train ACT"
     """
     agent_impl = make_agent(backend, model, base_url)
     context = Context()
     if not interactive:
         if not request:
             raise AgentError("give a request, or --interactive")
-        code = _handle(agent_impl, request, context, as_json=as_json, yes=yes, interactive=False)
-        raise typer.Exit(code)
-    err_console.print("pipette agent — say what to do; 'quit' ends. It remembers the last task and file.")
+        _handle(agent_impl, request, context, as_json=as_json, yes=yes, interactive=False)
+        return
+    err_console.print("pipette agent — say what to do; 'quit' ends. It remembers the last task and outputs.")
     while True:
         try:
             line = input("agent> ").strip()
@@ -96,5 +163,5 @@ def agent(
             continue
         try:
             _handle(agent_impl, line, context, as_json=as_json, yes=yes, interactive=True)
-        except AgentError as exc:
+        except PipetteError as exc:
             err_console.print(f"[red]error:[/red] {escape(str(exc))}")

@@ -127,6 +127,12 @@ def dataset_root(task_id: str, version: DatasetVersion, base: Path = DEFAULT_DAT
     return base / slug(task_id) / version.value
 
 
+def run_dir(task_id: str, policy: Policy, version: DatasetVersion, output_root: Path = DEFAULT_OUTPUT_ROOT) -> Path:
+    """Where ``lerobot-train`` writes one run: ``<output_root>/<policy>/<task>_<version>``; the
+    policy to serve or evaluate is its :data:`LAST_CHECKPOINT`."""
+    return output_root / policy.value / f"{slug(task_id)}_{version.value}"
+
+
 def has_dataset(root: Path) -> bool:
     return (root / "meta" / "info.json").is_file()
 
@@ -171,7 +177,7 @@ def policy_flags(options: TrainOptions) -> list[str]:
 def train_argv(task_id: str, options: TrainOptions, *, resume: bool = False, executable: str = "lerobot-train") -> list[str]:
     """The full ``lerobot-train`` argument list for one task."""
     name = f"{slug(task_id)}_{options.dataset_version.value}"
-    output_dir = options.output_root / options.policy.value / name
+    output_dir = run_dir(task_id, options.policy, options.dataset_version, options.output_root)
     if resume:
         config = output_dir / LAST_CHECKPOINT / "train_config.json"
         more = [f"--steps={options.steps}"] if options.steps else []
@@ -246,7 +252,7 @@ def plan(task_ids: Sequence[str], options: TrainOptions, *, executable: str = "l
     problems: list[str] = []
     for task_id in task_ids:
         name = f"{slug(task_id)}_{options.dataset_version.value}"
-        output_dir = options.output_root / options.policy.value / name
+        output_dir = run_dir(task_id, options.policy, options.dataset_version, options.output_root)
         action = "train"
         if output_dir.exists():
             if options.if_exists is IfExists.skip:

@@ -1,311 +1,385 @@
-"""The offline agent: requests as users write them -> the exact command, or what is missing."""
+"""`pipette agent`: the development set, the catalog read from typer, the one validator, the LLM
+path through the same validator, answers computed from data, and the CLI around them."""
 
 from __future__ import annotations
 
+import enum
 import json
-import shlex
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Annotated
 
+import httpx
+import numpy as np
 import pytest
+import typer
 
-from pipette_cli.agent.catalog import AgentError, load_catalog
-from pipette_cli.agent.offline import Context, OfflineAgent
-from pipette_cli.cli.agent import command_line
+from pipette_cli.agent.answers import answer
+from pipette_cli.agent.catalog import AgentError, Unsupported, load_catalog, read_catalog
+from pipette_cli.agent.devset import canonical, load_dev_set, run_case, step_lines
+from pipette_cli.agent.llm import LLMAgent, plan_schema
+from pipette_cli.agent.offline import OfflineAgent
+from pipette_cli.agent.plan import Context, PlanSpec, StepRef
+from pipette_cli.agent.validate import Validator
+from pipette_cli.agent.vocabulary import load_vocabulary
+from pipette_cli.errors import BackendError
+from pipette_cli.llm import forget_formats
 from pipette_cli.registry import load_registry
 
-AGENT = OfflineAgent(load_catalog(), load_registry())
-
-# request -> the command line it must become
-COMMANDS = {
-    "list the tasks": "pipette tasks list",
-    "which tasks are there?": "pipette tasks list",
-    "show me all tasks as json": "pipette tasks list --json",
-    "list the lid tasks": "pipette tasks list --tag hatch_control",
-    "what tasks use the piper arm": "pipette tasks list --tag agilex_piper",
-    "show the water bath task": "pipette tasks show pipette/OpenWaterBathLid-v1",
-    "describe PickUpTestTube": "pipette tasks show pipette/PickUpTestTube-v1",
-    "explain the pipette rack task": "pipette tasks show pipette/PlacePipetteInRack-v1",
-    "details of the flask on shaker task please": "pipette tasks show pipette/PlaceFlaskOnShaker-v1",
-    "validate registry/pick_up_test_tube.yaml": "pipette tasks validate registry/pick_up_test_tube.yaml",
-    "collect 20 demos of the test tube task": "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 20",
-    "record fifty demonstrations for PlaceTubeOnBalance into runs/balance.h5":
-        "pipette collect pipette/PlaceTubeOnBalance-v1 --out runs/balance.h5 --episodes 50",
-    "gather 10 episodes of closing the centrifuge lid with 64 px images":
-        "pipette collect pipette/CloseCentrifugeLid-v1 --out data/CloseCentrifugeLid.h5 --episodes 10 --image-size 64",
-    "collect 30 demos of the petri dish retrieval with 2 workers starting at seed 100":
-        "pipette collect pipette/RemovePetriDishFromIncubator-v1 --out data/RemovePetriDishFromIncubator.h5 --episodes 30 --seed 100 --workers 2",
-    "I want to teleop 5 demos of opening the water bath lid":
-        "pipette collect pipette/OpenWaterBathLid-v1 --out data/OpenWaterBathLid.h5 --source teleop --episodes 5",
-    "record demonstrations by hand of pressing the centrifuge button, 3 episodes":
-        "pipette collect pipette/OpenCentrifugeLid-v1 --out data/OpenCentrifugeLid.h5 --source teleop --episodes 3",
-    "inspect data/PickUpTestTube.h5": "pipette data inspect data/PickUpTestTube.h5",
-    "what's in runs/balance.h5? give me json": "pipette data inspect runs/balance.h5 --json",
-    "replay episode 3 of data/x.h5": "pipette data replay data/x.h5 --episode 3 --check",
-    "verify episode 0 in demos/tube.h5 replays exactly": "pipette data replay demos/tube.h5 --episode 0 --check",
-    "delete episode 7 from data/x.h5": "pipette data delete-episode data/x.h5 7",
-    "render the spectrophotometer task": "pipette sim render pipette/CloseSpectrophotometerLid-v1",
-    "what does the incubator placement task look like with seed 4": "pipette sim render pipette/PlacePetriDishInIncubator-v1 --seed 4",
-    "take a picture of the balance removal task and save it to out/balance.png":
-        "pipette sim render pipette/RemoveTubeFromBalance-v1 --out out/balance.png",
-    "how fast does the test tube task simulate?": "pipette sim step-rate pipette/PickUpTestTube-v1",
-    "open the viewer on the shaker task": "pipette sim view pipette/PlaceFlaskOnShaker-v1",
-    "how good is the scripted expert on the pipette rack task over 20 episodes":
-        "pipette experts check pipette/PlacePipetteInRack-v1 --episodes 20",
-    "list assets": "pipette assets list",
-    "which instruments are in the asset library": "pipette assets list --category instruments",
-    "list the consumable assets": "pipette assets list --category consumables",
-    "show asset centrifuge_benchtop": "pipette assets show centrifuge_benchtop",
-    "validate the assets": "pipette assets validate",
-    "create a task where the robot puts the 15 mL conical tube into the tube rack":
-        "pipette new-task 'the robot puts the 15 mL conical tube into the tube rack'",
-    "new task: \"Close the lid of the thermal cycler\"": "pipette new-task 'Close the lid of the thermal cycler'",
-    "make an asset: 'a 300 mL Erlenmeyer flask'": "pipette assets new 'a 300 mL Erlenmeyer flask'",
-    "train SmolVLA on the close centrifuge lid task with the augmented data":
-        "pipette train --tasks pipette/CloseCentrifugeLid-v1 --policy smolvla --dataset-version augmented",
-    "train act for 2k steps on the test tube task with the raw demos on the gpu":
-        "pipette train --tasks pipette/PickUpTestTube-v1 --policy act --dataset-version raw --steps 2000 --device cuda",
-    "evaluate the policy at tcp://127.0.0.1:5555 on the water bath task for 50 episodes":
-        "pipette eval pipette/OpenWaterBathLid-v1 --endpoint tcp://127.0.0.1:5555 --episodes 50",
-    # every task: train takes `all`; dataset-version words are never a task
-    "train act on the augmented data for all tasks":
-        "pipette train --tasks all --policy act --dataset-version augmented",
-    "train smolvla on every task with the raw demos":
-        "pipette train --tasks all --policy smolvla --dataset-version raw",
-    "train pi0 on all benchmark tasks for 5k steps": "pipette train --tasks all --policy pi0 --steps 5000",
-    "check the scripted expert on every task": "pipette experts check",
-    # paths fill path options and are not read as words (no `train` intent, no `act` policy, no task)
-    "serve the policy in ckpt/pretrained_model": "pipette serve --policy ckpt/pretrained_model",
-    "serve outputs/train/act/x/checkpoints/last/pretrained_model":
-        "pipette serve --policy outputs/train/act/x/checkpoints/last/pretrained_model",
-    "serve outputs/train/act/x/checkpoints/last/pretrained_model on tcp://0.0.0.0:6000":
-        "pipette serve --policy outputs/train/act/x/checkpoints/last/pretrained_model --bind tcp://0.0.0.0:6000",
-    "evaluate outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model on the water bath task":
-        "pipette eval pipette/OpenWaterBathLid-v1 --policy "
-        "outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model",
-    "evaluate the policy in ckpt/smolvla on the test tube task and save the results to evals/smolvla":
-        "pipette eval pipette/PickUpTestTube-v1 --policy ckpt/smolvla --out evals/smolvla",
-    "evaluate tcp://127.0.0.1:5555 on the test tube task with results in evals/act":  # endpoint given: not --policy
-        "pipette eval pipette/PickUpTestTube-v1 --endpoint tcp://127.0.0.1:5555 --out evals/act",
-    "evaluate the smolvla policy at tcp://127.0.0.1:5555 on the test tube task":
-        "pipette eval pipette/PickUpTestTube-v1 --endpoint tcp://127.0.0.1:5555 --policy-type smolvla",
-    "train act on the test tube task fine-tuning from checkpoint ckpt/act_base":
-        "pipette train --tasks pipette/PickUpTestTube-v1 --policy act --pretrained-path ckpt/act_base",
-    "augment data/raw.h5 into data/aug.h5 for the test tube task":
-        "pipette augment pipette/PickUpTestTube-v1 --input data/raw.h5 --output data/aug.h5",
-    "collect 5 demos of pipette/PickUpTestTube-v1":  # a task id holds a `/` but is no path
-        "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 5",
-    "validate the assets in assets/tools/a.usda and assets/tools/b.usda":
-        "pipette assets validate assets/tools/a.usda assets/tools/b.usda",
-    "show asset assets/tools/a.usda": "pipette assets show assets/tools/a.usda",
-    # asset categories (tools, equipment, consumables, instruments) are assets, not tasks
-    "list the instruments": "pipette assets list --category instruments",
-    "show the consumables": "pipette assets list --category consumables",
-    "which tools are there": "pipette assets list --category tools",
-    # `eval report` is reached through `eval`'s first argument; "from" names its input, not --out
-    "make a results table from evals/raw": "pipette eval report evals/raw",
-    "make a results table from evals/raw and save it to tables/act": "pipette eval report evals/raw --out tables/act",
-}
-
-# request -> (command, missing fields)
-MISSING = {
-    "collect demos": ("collect", ["task_id", "out"]),
-    "record some demonstrations please": ("collect", ["task_id", "out"]),
-    "inspect the file": ("data inspect", ["file"]),
-    "replay an episode": ("data replay", ["file"]),
-    "render a task": ("sim render", ["task_id"]),
-    "delete episode 2": ("data delete-episode", ["file"]),
-    "make a results table": ("eval report", ["folders"]),
-    "train act on the augmented data": ("train", ["tasks"]),
-    # eval needs --endpoint or --policy: one missing choice, never a command that cannot run
-    "evaluate the policy for 10 episodes": ("eval", ["task_id", "endpoint|policy"]),
-    "evaluate the policy on the test tube task": ("eval", ["endpoint|policy"]),
-}
+DEV_SET = Path(__file__).parents[1] / "fixtures" / "agent" / "dev_set.yaml"
+CATALOG = load_catalog()
+REGISTRY = load_registry()
+AGENT = OfflineAgent(CATALOG, REGISTRY)
+CASES = load_dev_set(DEV_SET)
 
 
-@pytest.mark.parametrize("request_text", sorted(COMMANDS), ids=lambda r: r[:50])
-def test_request_becomes_the_expected_command(request_text: str) -> None:
-    plan = AGENT.plan(request_text)
-    assert plan.missing == []
-    assert shlex.join(command_line(plan)) == COMMANDS[request_text]
+@pytest.mark.parametrize("case", CASES, ids=[c.request[:60] for c in CASES])
+def test_dev_set_request_becomes_the_expected_plan(case) -> None:
+    result = run_case(AGENT, case, CATALOG)
+    assert not result.crashed, result.error
+    assert result.right, f"got {result.got} missing={result.missing} error={result.error}"
 
 
-@pytest.mark.parametrize("request_text", sorted(MISSING), ids=lambda r: r[:50])
-def test_incomplete_request_lists_the_missing_fields(request_text: str) -> None:
-    plan = AGENT.plan(request_text)
-    assert (plan.command, plan.missing) == MISSING[request_text]
+def test_dev_set_is_large_and_covers_every_kind() -> None:
+    kinds = {c.kind for c in CASES}
+    assert len(CASES) >= 60 and kinds == {"single", "chained", "inspection", "unsupported", "missing", "error"}
+    assert sum(c.kind == "chained" for c in CASES) >= 10 and len({c.request for c in CASES}) == len(CASES)
 
 
-def test_there_are_at_least_forty_requests() -> None:
-    assert len(COMMANDS) + len(MISSING) >= 40
+# -- the catalog is the typer app ---------------------------------------------------------------
+
+def test_catalog_lists_every_leaf_command_of_the_cli() -> None:
+    from pipette_cli.cli.main import app
+
+    def leaves(command, path=()):
+        subs = getattr(command, "commands", None)
+        if subs:
+            return [leaf for name, sub in subs.items() for leaf in leaves(sub, (*path, name))]
+        return [" ".join(path), *(" ".join((*path, n)) for n in getattr(command, "subcommands", {}))]
+
+    cli = set(leaves(typer.main.get_command(app))) - {"agent"}
+    assert cli == {n for n in CATALOG.commands if not n.startswith("answer ")}
+    collect = CATALOG.get("collect")
+    assert (collect.params["episodes"].kind, collect.params["episodes"].default, collect.params["episodes"].minimum) == (
+        "int", 10, 0)
+    assert collect.params["source"].choices == ("scripted", "teleop") and collect.params["out"].writes
+    assert CATALOG.get("train").params["policy"].choices == ("act", "smolvla", "pi0")
+    assert CATALOG.get("convert").params["video"].off_flag == "--images"
+    assert "demos" in collect.params["episodes"].units and "max steps" in collect.params["max_steps"].names
+    assert "checkpoint" in CATALOG.get("train").params["pretrained_path"].names  # the words people use for it
+    assert CATALOG.get("eval").params["endpoint"].address and CATALOG.get("eval report").params["folders"].multiple
 
 
-def test_unknown_task_gets_the_closest_registered_ones() -> None:
-    with pytest.raises(AgentError, match="unknown task 'PickUpTestTub'; did you mean 'PickUpTestTube'"):
-        AGENT.plan("collect 5 demos of PickUpTestTub")
+class Robot(str, enum.Enum):
+    panda = "panda"
+    ur5e = "ur5e"
+    piper = "piper"
 
 
-def test_ambiguous_task_lists_the_candidates() -> None:
-    with pytest.raises(AgentError, match="several tasks: .*CloseCentrifugeLid.*OpenCentrifugeLid"):
-        AGENT.plan("collect 5 demos of the centrifuge lid task")
+def test_an_option_added_to_the_cli_is_understood_by_its_own_words() -> None:
+    """Other engineers add options (`--robot`, `--suite`) while the agent exists: the catalog is
+    read from the app, and the agent fills the new option from its choices and name."""
+    app = typer.Typer()
+
+    @app.command("collect")
+    def collect(
+        task_id: Annotated[str, typer.Argument(help="Task id.")],
+        out: Annotated[Path, typer.Option("--out", help="HDF5 file to create.")],
+        episodes: Annotated[int, typer.Option("--episodes", min=1, help="Episodes.")] = 10,
+        robot: Annotated[Robot, typer.Option("--robot", help="Arm to use.")] = Robot.panda,
+        suite_size: Annotated[int, typer.Option("--suite-size", help="Tasks in the suite.")] = 3,
+    ) -> None:
+        """Record."""
+
+    @app.command("render")
+    def render(task_id: Annotated[str, typer.Argument(help="Task id.")]) -> None:
+        """Render."""
+
+    catalog = read_catalog((app, ()))
+    assert catalog.get("collect").params["robot"].choices == ("panda", "ur5e", "piper")
+    plan = OfflineAgent(catalog, REGISTRY).plan("collect 7 demos of the test tube task on the ur5e with suite size 4")
+    assert plan.steps[0].args == {"task_id": "pipette/PickUpTestTube-v1", "episodes": 7, "robot": "ur5e",
+                                  "suite_size": 4, "out": "data/PickUpTestTube.h5"}
+    with pytest.raises(AgentError, match="must be one of panda, ur5e, piper, not 'kuka'"):
+        Validator(catalog, REGISTRY, load_vocabulary()).check(
+            PlanSpec.model_validate({"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube",
+                                                                               "robot": "kuka"}}]}))
 
 
-def test_commands_the_cli_does_not_define_are_refused() -> None:
-    with pytest.raises(AgentError, match="no command 'pipette shell' in this version"):
-        load_catalog().get("shell")
-    with pytest.raises(AgentError, match="cannot tell what to run"):
-        AGENT.plan("rm -rf /")
+def test_every_vocabulary_entry_names_a_command_or_option_of_the_cli() -> None:
+    vocab = load_vocabulary()
+    params = {p for info in CATALOG.commands.values() for p in info.params}
+    assert set(vocab.intents) <= set(CATALOG.commands)
+    for key in [*vocab.options, *vocab.values, *vocab.carry_to]:
+        command, _, param = key.rpartition(".")
+        assert param in (CATALOG.get(command).params if command else params), key
+    for key in [*vocab.defaults, *vocab.consumes]:
+        command, _, param = key.rpartition(".")
+        assert param in CATALOG.get(command).params, key
+    assert set(vocab.products) <= set(CATALOG.commands) and set(vocab.one_of) <= set(CATALOG.commands)
+    assert vocab.bare_number in params
 
 
-def test_catalog_refuses_parameters_the_command_does_not_have() -> None:
-    with pytest.raises(AgentError, match="has no parameter 'shell'"):
-        load_catalog().argv("tasks list", {"shell": "rm -rf /"})
+# -- one validator for every plan -----------------------------------------------------------------
+
+VALIDATOR = Validator(CATALOG, REGISTRY, load_vocabulary())
 
 
-def test_context_carries_the_task_and_file_between_requests() -> None:
+def check(*steps: dict):
+    return VALIDATOR.check(PlanSpec.model_validate({"steps": list(steps)}))
+
+
+def test_validator_types_values_and_resolves_task_names() -> None:
+    plan = check({"command": "collect", "args": {"task_id": "PickUpTestTube", "--episodes": "20", "image-size": 64.0}})
+    assert plan.steps[0].args == {"task_id": "pipette/PickUpTestTube-v1", "episodes": 20, "image_size": 64,
+                                  "out": "data/PickUpTestTube.h5"}
+    assert plan.steps[0].product == "data/PickUpTestTube.h5" and plan.runnable
+
+
+@pytest.mark.parametrize(("step", "message"), [
+    ({"command": "shell", "args": {}}, "no command 'pipette shell'"),
+    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "cmd": "rm -rf /"}}, "has no parameter 'cmd'"),
+    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": "lots"}}, "takes an int, not 'lots'"),
+    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "image_size": 4}}, "must be >= 16"),
+    ({"command": "collect", "args": {"task_id": "PickUpTestTub"}}, "unknown task 'PickUpTestTub'"),
+    ({"command": "train", "args": {"tasks": "all", "policy": "diffusion"}}, "Diffusion Policy is not supported"),
+    ({"command": "eval", "args": {"task_id": "all", "endpoint": "tcp://h:1"}}, "runs one task at a time"),
+    ({"command": "augment", "args": {"task_id": "PickUpTestTube", "input": {"from_step": 1}}},
+     "can only use an earlier step's output"),
+], ids=["command", "parameter", "type", "range", "task", "policy", "all", "reference"])
+def test_validator_refuses_with_one_clear_line(step, message) -> None:
+    with pytest.raises(AgentError, match=message):
+        check(step)
+
+
+def test_unsupported_is_final_and_lists_what_is_supported() -> None:
+    with pytest.raises(Unsupported) as info:
+        check({"command": "eval", "args": {"task_id": "PickUpTestTube", "endpoint": "tcp://h:1", "policy_type": "VQ-BeT"}})
+    assert str(info.value) == "VQ-BeT is not supported; supported are ACT, SmolVLA, pi0" and info.value.final
+
+
+def test_validator_links_outputs_carries_values_and_lists_missing() -> None:
+    plan = check({"command": "collect", "args": {"task_id": "OpenWaterBathLid", "image_size": 32}},
+                 {"command": "augment", "args": {}},
+                 {"command": "convert", "args": {}},
+                 {"command": "train", "args": {"policy": "act"}},
+                 {"command": "eval", "args": {"episodes": 5}},
+                 {"command": "data stats", "args": {}})
+    s = plan.steps
+    assert s[1].args["input"] == StepRef(from_step=1) and s[2].args["inputs"] == [StepRef(from_step=2)]
+    assert s[2].args["dataset_version"] == "augmented" and s[3].args["dataset_version"] == "augmented"
+    assert s[3].product == "outputs/train/act/pipette_OpenWaterBathLid-v1_augmented/checkpoints/last/pretrained_model"
+    assert s[4].args["policy"] == StepRef(from_step=4) and s[4].args["image_size"] == 32
+    assert s[5].args["root"] == StepRef(from_step=3) and s[2].product == "datasets/pipette_OpenWaterBathLid-v1/augmented"
+    assert plan.runnable and plan.resolved_args(s[1])["input"] == "data/OpenWaterBathLid.h5"
+    incomplete = check({"command": "augment", "args": {"input": "runs/x.h5"}}, {"command": "serve", "args": {}})
+    assert incomplete.missing == {1: ["task_id", "output"], 2: ["policy"]}
+
+
+def test_context_carries_the_task_and_outputs_between_requests() -> None:
     context = Context()
     first = AGENT.plan("collect 10 demos of the test tube task", context)
-    assert first.params["out"] == "data/PickUpTestTube.h5"
+    context.remember(first)
+    assert context.task == "pipette/PickUpTestTube-v1" and context.products == {"demos": "data/PickUpTestTube.h5"}
     again = AGENT.plan("now render it with seed 3", context)
-    assert shlex.join(command_line(again)) == "pipette sim render pipette/PickUpTestTube-v1 --seed 3"
-    inspect = AGENT.plan("inspect the file", context)
-    assert shlex.join(command_line(inspect)) == "pipette data inspect data/PickUpTestTube.h5"
+    assert step_lines(again, CATALOG) == ["sim render pipette/PickUpTestTube-v1 --seed 3"]
+    assert step_lines(AGENT.plan("inspect the file", context), CATALOG) == ["data inspect data/PickUpTestTube.h5"]
 
 
-def test_cli_json_returns_missing_fields(run_cli) -> None:
-    result = run_cli("agent", "collect demos", "--json")
-    assert result.exit_code == 0, result.stderr
-    assert json.loads(result.stdout) == {"command": "collect", "params": {}, "missing": ["task_id", "out"], "notes": []}
+def test_canonical_form_ignores_defaults_and_option_order() -> None:
+    assert canonical("collect T --episodes 10 --out x.h5 --seed 0", CATALOG) == "collect T --out x.h5"
+    assert canonical("convert a.h5 --video --images", CATALOG) == "convert a.h5 --images"
 
 
-def test_cli_runs_the_command_after_yes(run_cli) -> None:
-    result = run_cli("agent", "list the lid tasks as json", "--yes")
-    assert result.exit_code == 0, result.stderr
-    assert result.stdout.splitlines()[0] == "pipette tasks list --tag hatch_control --json"
+# -- the LLM path: same plan model, same validator -----------------------------------------------
 
-
-def test_cli_refuses_without_a_terminal_when_values_are_missing(run_cli) -> None:
-    result = run_cli("agent", "render a task")
-    assert result.exit_code == 1 and "needs task_id" in result.stderr
-
-
-def test_llm_agent_output_is_checked_against_the_cli_and_re_asked() -> None:
-    """An OpenAI-compatible backend (httpx MockTransport) first names a command the CLI lacks,
-    then a valid one; the agent re-asks with the error and accepts only the second."""
-    import httpx
-
-    from pipette_cli.agent.llm import LLMAgent
-
-    answers = [
-        {"command": "shell", "params": {"cmd": "rm -rf /"}, "missing": [], "notes": []},
-        {"command": "collect", "params": {"task_id": "pipette/PickUpTestTube-v1", "episodes": 5}, "missing": [], "notes": []},
-    ]
-    seen: list[dict] = []
+def llm_agent(replies: list[dict], seen: list[dict]) -> LLMAgent:
+    forget_formats()
 
     def reply(request: httpx.Request) -> httpx.Response:
-        body = json.loads(request.content)
-        seen.append(body)
-        content = json.dumps(answers[len(seen) - 1])
+        seen.append(json.loads(request.content))
+        content = json.dumps(replies[min(len(seen), len(replies)) - 1])
         return httpx.Response(200, json={"choices": [{"message": {"role": "assistant", "content": content}}]})
 
-    agent = LLMAgent("openai", load_catalog(), load_registry(), base_url="http://llm.test/v1", model="m",
-                     transport=httpx.MockTransport(reply))
-    plan = agent.plan("collect five demos of the test tube task")
-    assert plan.command == "collect" and plan.missing == ["out"]
-    assert len(seen) == 2 and "no command 'pipette shell'" in json.dumps(seen[1]["messages"])
-    assert seen[0]["response_format"]["type"] == "json_schema"
+    return LLMAgent("openai", CATALOG, REGISTRY, base_url="http://llm.test/v1", model="m", max_attempts=3,
+                    transport=httpx.MockTransport(reply))
 
 
-def test_interactive_session_keeps_context() -> None:
-    """`pipette agent --interactive` in a real process: the second request says "it"."""
-    import os
-    import subprocess
-    import sys
-
-    lines = "collect 10 demos of the test tube task\nn\nnow render it with seed 3\nn\nquit\n"
-    result = subprocess.run(
-        [sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"],
-        input=lines, capture_output=True, text=True, timeout=120, env={**os.environ},
-    )
-    assert result.returncode == 0, result.stderr
-    out = [line.replace("agent>", "").strip() for line in result.stdout.splitlines()]  # prompts share the lines
-    assert "pipette collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 10" in out
-    assert "pipette sim render pipette/PickUpTestTube-v1 --seed 3" in out
-
-
-def test_all_tasks_for_a_command_that_runs_one_is_refused() -> None:
-    with pytest.raises(AgentError, match="'pipette eval' runs one task at a time"):
-        AGENT.plan("evaluate the policy at tcp://127.0.0.1:5555 on all tasks")
+def test_llm_plan_is_validated_and_re_asked_with_the_error() -> None:
+    seen: list[dict] = []
+    agent = llm_agent([
+        {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "demos": 5}}]},
+        {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": 5}},
+                   {"command": "augment", "args": {"input": {"from_step": 1}}}]},
+    ], seen)
+    plan = agent.plan("record five demos of the test tube task and augment them")
+    assert step_lines(plan, CATALOG) == [
+        "collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 5",
+        "augment pipette/PickUpTestTube-v1 --input @1 --output data/PickUpTestTube_augmented.h5"]
+    assert len(seen) == 2 and "has no parameter 'demos'" in seen[1]["messages"][-1]["content"]
+    schema = seen[0]["response_format"]["json_schema"]["schema"]
+    shapes = schema["properties"]["steps"]["items"]["anyOf"]
+    collect = next(s for s in shapes if s["properties"]["command"]["enum"] == ["collect"])
+    assert "pipette/PickUpTestTube-v1" in collect["properties"]["args"]["properties"]["task_id"]["enum"]
+    assert collect["properties"]["args"]["additionalProperties"] is False
 
 
-def test_catalog_refuses_eval_without_endpoint_or_policy() -> None:
-    with pytest.raises(AgentError, match="'pipette eval' needs endpoint or policy"):
-        load_catalog().argv("eval", {"task_id": "pipette/PickUpTestTube-v1", "episodes": 10})
+def test_llm_unsupported_policy_ends_at_once_and_bad_plans_never_pass() -> None:
+    seen: list[dict] = []
+    with pytest.raises(Unsupported, match="Diffusion Policy is not supported"):
+        llm_agent([{"steps": [{"command": "train", "args": {"tasks": "all", "policy": "diffusion"}}]}], seen).plan(
+            "train diffusion on everything")
+    assert len(seen) == 1
+    seen = []
+    with pytest.raises(BackendError) as info:
+        llm_agent([{"steps": [{"command": "shell", "args": {"cmd": "rm -rf /"}}]}], seen).plan("wipe the disk")
+    assert len(seen) == 3 and "no command 'pipette shell'" in " ".join(info.value.problems)
 
 
-def test_a_path_that_fits_no_option_is_refused_not_dropped() -> None:
-    with pytest.raises(AgentError, match="cannot tell what 'ckpt/x' is for in 'pipette train' .*--pretrained-path"):
-        AGENT.plan("train act on the test tube task with ckpt/x")
-    with pytest.raises(AgentError, match="'pipette tasks list' takes no file or folder, but the request names 'x/y'"):
-        AGENT.plan("list the tasks in x/y")
+def test_llm_schema_narrows_parameters_of_the_commands_the_request_points_to() -> None:
+    schema = plan_schema(CATALOG, {"train"}, REGISTRY.ids())
+    shapes = schema["properties"]["steps"]["items"]["anyOf"]
+    train = shapes[0]["properties"]["args"]["properties"]
+    assert train["policy"]["enum"] == ["act", "smolvla", "pi0"] and "all" in train["tasks"]["enum"]
+    assert "train" not in shapes[1]["properties"]["command"]["enum"]
 
 
-def test_names_on_disk_are_paths_plain_words_are_not(tmp_path, monkeypatch) -> None:
-    """A bare name that exists counts as a path when it does not read as a word; `data` stays a
-    word although a data/ folder exists."""
-    (tmp_path / "data").mkdir()
-    (tmp_path / "pretrained_model").mkdir()
+# -- answers from the data --------------------------------------------------------------------------
+
+def record(path: Path, task_id: str, outcomes: list[bool]) -> None:
+    """A real episode file written by the project's recorder (synthetic content, no simulation)."""
+    from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
+    from pipette_cli.demos.store import pack, part_path
+    from pipette_cli.evaluators.base import Verdict
+    from pipette_cli.sim.env import Observation
+
+    info = DatasetInfo(task_id=task_id, embodiment="franka_panda", instruction="x", image_height=4, image_width=4,
+                       cameras=("top",), physics_hz=600, control_hz=30, vision_hz=10, state_dim=8, action_dim=8,
+                       sim_state_size=3)
+    for i, ok in enumerate(outcomes):
+        writer = EpisodeWriter(part_path(path, i), info, index=i, seed=i, source="scripted")
+        obs = Observation({"top": np.zeros((4, 4, 3), np.uint8)}, np.zeros(8, np.float32), True, 0, 0.0, 0.0, 1, "x")
+        writer.add(obs, np.zeros(8), np.zeros(3))
+        writer.close(Verdict(success=ok, failed=not ok, reason=None if ok else "dropped", metrics={}), np.zeros(8),
+                     np.zeros(3))
+        writer.commit()
+    pack(path)
+
+
+def test_answers_count_demos_in_hdf5_files(tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
-    assert shlex.join(command_line(AGENT.plan("serve pretrained_model"))) == "pipette serve --policy pretrained_model"
-    assert shlex.join(command_line(AGENT.plan("evaluate pretrained_model on the test tube task"))) == (
-        "pipette eval pipette/PickUpTestTube-v1 --policy pretrained_model")
-    assert shlex.join(command_line(AGENT.plan("train act on the augmented data for all tasks"))) == (
-        "pipette train --tasks all --policy act --dataset-version augmented")
-    assert AGENT.plan("serve the policy in pretrained-model").missing == ["policy"]  # not on disk: a word
+    record(Path("data/tube.h5"), "pipette/PickUpTestTube-v1", [True, True, False])
+    record(Path("data/bath.h5"), "pipette/OpenWaterBathLid-v1", [True])
+    one = answer("answer demos", AGENT.plan("how many demos are in data/tube.h5").steps[0].args)
+    assert one.text == "data/tube.h5 holds 3 demos of pipette/PickUpTestTube-v1: 2 successful, 1 failed"
+    by_task = answer("answer demos", AGENT.plan("how many demos do I have of the water bath task").steps[0].args)
+    assert by_task.data["total"] == 1 and by_task.data["files"][0]["file"] == "data/bath.h5"
+    assert answer("answer demos", {}).data["total"] == 4
 
 
-def test_cli_json_lists_the_missing_choice(run_cli) -> None:
-    result = run_cli("agent", "evaluate the policy for 10 episodes", "--json")
+def test_answers_read_the_last_evaluation(tmp_path, monkeypatch) -> None:
+    from dataclasses import asdict
+
+    from pipette_cli.lerobot.evaluate import EpisodeLog
+
+    monkeypatch.chdir(tmp_path)
+    old, new = Path("evals/old"), Path("evals/PickUpTestTube")
+    old.mkdir(parents=True)
+    (old / "summary.json").write_text(json.dumps({"task": "pipette/OpenWaterBathLid-v1", "policy_type": "act",
+                                                  "episodes": 4, "successes": 1, "success_rate": 0.25,
+                                                  "dataset_version": "raw"}))
+    os.utime(old / "summary.json", (1, 1))
+    new.mkdir(parents=True)
+    for i, ok in enumerate([True, False, True]):  # an interrupted run: episode files, no summary yet
+        log = EpisodeLog(task="pipette/PickUpTestTube-v1", episode=i, seed=i, success=ok, failure_reason=None,
+                         runtime_s=1.0, sim_time_s=1.0, control_steps=30, control_hz=30.0, policy_queries=10,
+                         policy_hz=10.0, failed_queries=0, safe_hold=False, policy_type="smolvla",
+                         gripper_thresholds={})
+        (new / f"episode_{i:04d}.json").write_text(json.dumps(asdict(log)))
+    last = answer("answer score", AGENT.plan("what did the last eval score").steps[0].args)
+    assert last.text.startswith("evals/PickUpTestTube: pipette/PickUpTestTube-v1 with smolvla") and "2/3 = 67 %" in last.text
+    water = answer("answer score", AGENT.plan("how did the last evaluation of the water bath task go").steps[0].args)
+    assert water.data["last"]["success_rate"] == 0.25
+    with pytest.raises(AgentError):
+        AGENT.plan("what did the last eval score on the foo task")  # unknown names are not silently ignored
+
+
+def test_answers_list_tasks_from_the_registry() -> None:
+    piper = answer("answer tasks", AGENT.plan("which tasks use the piper arm").steps[0].args)
+    assert piper.data["tasks"] == ["pipette/PlaceFlaskOnShaker-v1"]
+    lids = answer("answer tasks", AGENT.plan("list every task that has a lid").steps[0].args).data["tasks"]
+    assert "pipette/CloseCentrifugeLid-v1" in lids and "pipette/PickUpTestTube-v1" not in lids
+    assert answer("answer tasks", {}).data["count"] == len(REGISTRY.ids())
+
+
+# -- the command -------------------------------------------------------------------------------
+
+def test_cli_json_prints_the_plan_and_the_missing_values(run_cli) -> None:
+    result = run_cli("agent", "collect demos", "--json")
     assert result.exit_code == 0, result.stderr
-    assert json.loads(result.stdout) == {"command": "eval", "params": {"episodes": 10},
-                                         "missing": ["task_id", "endpoint|policy"], "notes": []}
+    data = json.loads(result.stdout)
+    assert data["runnable"] is False and data["steps"][0]["missing"] == ["task_id", "out"]
+    chained = json.loads(run_cli("agent", "record 3 demos of the test tube task and augment them", "--json").stdout)
+    assert chained["steps"][1]["args"]["input"] == {"from_step": 1}
+    assert chained["steps"][1]["command_line"].startswith("pipette augment pipette/PickUpTestTube-v1 --input data/")
 
 
-def test_cli_refuses_eval_without_a_policy_when_it_cannot_ask(run_cli) -> None:
-    result = run_cli("agent", "evaluate the policy on the test tube task for 10 episodes", "--yes")
+@pytest.mark.parametrize("case", [next(c for c in CASES if c.kind == kind) for kind in
+                                  ("single", "chained", "inspection", "unsupported", "missing", "error")],
+                         ids=lambda c: c.kind)
+def test_cli_answers_every_kind_of_request_without_a_traceback(run_cli, case, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = run_cli("agent", case.request, "--json")
+    assert "Traceback" not in result.stderr
+    assert result.exit_code == (1 if case.error else 0), result.stderr
+    if case.error:
+        assert case.error.lower() in result.stderr.lower().replace("\n", " ")
+    else:
+        assert len(json.loads(result.stdout)["steps"]) == len(case.plan)
+
+
+def test_cli_answers_from_the_registry_the_command_was_given(run_cli, fixtures_dir, monkeypatch) -> None:
+    from pipette_cli.cli.common import STATE
+
+    monkeypatch.setattr(STATE, "registry_dirs", [])
+    result = run_cli("--registry-dir", fixtures_dir / "demos" / "registry", "agent", "how many tasks are there", "--json")
+    assert result.exit_code == 0, result.stderr
+    extra = len(load_registry([fixtures_dir / "demos" / "registry"]).ids())
+    assert json.loads(result.stdout)["steps"][0]["answer"]["count"] == extra > len(REGISTRY.ids())
+
+
+def test_cli_names_the_missing_values_when_it_cannot_ask(run_cli) -> None:
+    result = run_cli("agent", "evaluate the policy on the test tube task", "--yes")
     assert result.exit_code == 1
-    assert "'pipette eval' needs endpoint or policy; add them to the request" in result.stderr
+    assert "step 1 (pipette eval) needs endpoint or policy; add it to the request" in result.stderr
 
 
-def test_interactive_session_asks_which_policy_source_and_its_value() -> None:
-    """The missing task is asked for, then which of --endpoint/--policy (a wrong answer is asked
-    again), then its value; the command is built from the answers."""
-    import os
-    import subprocess
-    import sys
+def test_cli_answers_questions_without_running_anything(run_cli) -> None:
+    result = run_cli("agent", "which tasks involve the centrifuge?")
+    assert result.exit_code == 0 and result.stdout.startswith("2 tasks about centrifuge")
 
-    lines = "evaluate the policy for 10 episodes\nPickUpTestTube\nserver\npolicy\nckpt/act\nn\nquit\n"
-    result = subprocess.run(
-        [sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"],
-        input=lines, capture_output=True, text=True, timeout=120, env={**os.environ},
-    )
+
+def test_cli_runs_steps_and_stops_at_the_first_failure(run_cli, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    record(Path("data/tube.h5"), "pipette/PickUpTestTube-v1", [True])
+    ok = run_cli("agent", "inspect data/tube.h5 then validate registry/none.yaml and then show the water bath task",
+                 "--yes")
+    assert ok.exit_code == 1
+    assert "step 2 (pipette tasks validate registry/none.yaml) failed with exit code 1" in ok.stderr
+    assert "steps 3-3 did not run" in ok.stderr and "pipette/PickUpTestTube-v1" in ok.stdout  # step 1 ran
+    assert "Lift the lid off" not in ok.stdout  # step 3 (tasks show) did not run
+
+
+def test_interactive_session_asks_for_missing_values_and_keeps_context(tmp_path) -> None:
+    lines = ("evaluate the policy for 10 episodes\nPickUpTestTube\nserver\npolicy\nckpt/act\nn\n"
+             "collect 4 demos of the water bath task\nn\nnow render it with seed 3\nn\nquit\n")
+    result = subprocess.run([sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"], input=lines,
+                            capture_output=True, text=True, timeout=180, env={**os.environ, "COLUMNS": "200"},
+                            cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert result.stdout.count("needs one of endpoint, policy; which") == 2  # "server" is asked again
-    assert "pipette eval PickUpTestTube --policy ckpt/act --episodes 10" in result.stdout
-
-
-def test_llm_agent_accepts_train_on_all_tasks() -> None:
-    import httpx
-
-    from pipette_cli.agent.llm import LLMAgent
-
-    answer = {"command": "train", "params": {"tasks": "all", "policy": "act"}, "missing": [], "notes": []}
-    calls: list[int] = []
-
-    def reply(request: httpx.Request) -> httpx.Response:
-        calls.append(1)
-        message = {"role": "assistant", "content": json.dumps(answer)}
-        return httpx.Response(200, json={"choices": [{"message": message}]})
-
-    agent = LLMAgent("openai", load_catalog(), load_registry(), base_url="http://llm.test/v1", model="m",
-                     transport=httpx.MockTransport(reply))
-    plan = agent.plan("train act on every task")
-    assert shlex.join(command_line(plan)) == "pipette train --tasks all --policy act" and len(calls) == 1
+    out = " ".join(result.stdout.split())
+    assert "pipette eval pipette/PickUpTestTube-v1 --policy ckpt/act --episodes 10" in out
+    assert "pipette sim render pipette/OpenWaterBathLid-v1 --seed 3" in out

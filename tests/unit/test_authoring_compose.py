@@ -7,11 +7,12 @@ import math
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.draft import TaskDraftSpec, strict_json_schema
+from pipette_cli.authoring.draft import TaskDraftSpec
 from pipette_cli.authoring.measure import measure_asset
 from pipette_cli.authoring.parser import parse_description
 from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.authoring.workflow import draft_task
+from pipette_cli.llm import strict_json_schema
 
 
 def drafted(text: str):

@@ -1,0 +1,64 @@
+"""What a step makes: the path a later step's ``{"from_step": N}`` stands for.
+
+Most commands name their output in an option (``collect --out``, ``augment --output``, see
+``products`` in the vocabulary); for the others the path is computed with the library's own
+layout functions: ``convert`` writes ``datasets/<task>/<version>`` unless ``--root`` is given,
+``train`` leaves its policy in ``<output_root>/<policy>/<task>_<version>/checkpoints/last/pretrained_model``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from pipette_cli.agent.catalog import CommandInfo
+from pipette_cli.agent.plan import StepRef
+from pipette_cli.agent.vocabulary import VocabularySpec
+
+
+def _arg(info: CommandInfo, args: dict[str, Any], name: str) -> Any:
+    value = args.get(name)
+    return info.params[name].default if value is None and name in info.params else value
+
+
+def _convert(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | None:
+    from pipette_cli.lerobot.convert import DatasetVersion, default_root
+
+    version = _arg(info, args, "dataset_version")
+    if task is None or version not in {v.value for v in DatasetVersion}:
+        return None
+    return default_root(task, DatasetVersion(version))
+
+
+def _train(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | None:
+    from pipette_cli.lerobot.convert import DatasetVersion
+    from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, LAST_CHECKPOINT, Policy, run_dir
+
+    tasks, policy = args.get("tasks"), args.get("policy")
+    version = _arg(info, args, "dataset_version")
+    if not isinstance(tasks, str) or "," in tasks or tasks == "all" or policy not in {p.value for p in Policy}:
+        return None
+    if version not in {v.value for v in DatasetVersion}:
+        return None
+    root = Path(_arg(info, args, "output_root") or DEFAULT_OUTPUT_ROOT)
+    return run_dir(tasks, Policy(policy), DatasetVersion(version), root) / LAST_CHECKPOINT
+
+
+RULES: dict[str, Callable[[CommandInfo, dict[str, Any], str | None], Path | None]] = {
+    "convert": _convert,
+    "train": _train,
+}
+
+
+def product_of(info: CommandInfo, args: dict[str, Any], task: str | None,
+               vocab: VocabularySpec) -> tuple[str | None, str | None]:
+    """(path, kind) of what the step makes, or (None, None)."""
+    spec = vocab.products.get(info.name)
+    if spec is None:
+        return None, None
+    value = _arg(info, args, spec.param) if spec.param in info.params else None
+    if value is None or isinstance(value, StepRef):
+        rule = RULES.get(info.name)
+        value = rule(info, args, task) if rule else None
+    return (str(value), spec.kind) if value not in (None, "") else (None, None)

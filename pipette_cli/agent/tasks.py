@@ -1,0 +1,256 @@
+"""Which registered task a request means, from the registry's own words.
+
+Each task is described by terms with weights: its name's words (1.0), the asset kinds of its
+objects as the asset library names them (1.0; "falcon tube" is a conical tube), its category,
+tags and robot (0.7), and its instruction's words (0.4). A request's words are stemmed and
+mapped through the vocabulary's synonyms ("shut" -> close, "scale" -> balance); each shared
+term adds ``weight x idf`` (terms many tasks share count less), and a small bonus for how much
+of the task's name the request covers breaks ties toward the task named most completely. An
+explicit id or name always wins; equal best scores are reported as ambiguous, never guessed.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from functools import cached_property
+
+from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase
+from pipette_cli.errors import suggest
+from pipette_cli.registry import Registry
+
+WEIGHTS = {"name": 1.0, "kind": 1.0, "tag": 0.7, "instruction": 0.4}
+ACTIONS = {"pick", "place", "remove", "open", "close", "press", "insert", "position", "transfer"}
+"""Action words weigh half an object's: "close the lid" names many tasks, "the incubator" few."""
+_SUFFIXES = ("ing", "ed", "es", "s", "e")
+
+
+def stem(word: str) -> str:
+    """A crude stem, the same for a word's usual forms (close, closes, closing, closed -> clos)."""
+    for _ in range(2):
+        for suffix in _SUFFIXES:
+            if word.endswith(suffix) and len(word) - len(suffix) >= 3:
+                word = word[: -len(suffix)]
+                break
+    return word
+
+
+def camel_words(name: str) -> list[str]:
+    """``PickUpTestTube`` -> ``["pick", "up", "test", "tube"]``."""
+    return [w.lower() for w in re.findall(r"[A-Z][a-z]*|[0-9]+[a-z]*", name)]
+
+
+def short_name(task_id: str) -> str:
+    """``pipette/PickUpTestTube-v1`` -> ``PickUpTestTube``."""
+    return task_id.split("/", 1)[-1].rsplit("-v", 1)[0]
+
+
+def _longest_run(name: list[str], words: list[str]) -> int:
+    """Length of the longest run of ``name``'s words that ``words`` repeat in order
+    ("tube on balance" in PlaceTubeOnBalance: 3)."""
+    best = 0
+    for i in range(len(words)):
+        for j in range(len(name)):
+            k = 0
+            while i + k < len(words) and j + k < len(name) and words[i + k] == name[j + k]:
+                k += 1
+            best = max(best, k)
+    return best
+
+
+def task_in_file_name(path: str, task_ids: list[str]) -> str | None:
+    """The registered task whose name a file name holds (``data/PickUpTestTube_augmented.h5``),
+    the longest such name if several."""
+    name = re.sub(r"[^a-z0-9]", "", path.rsplit("/", 1)[-1].lower())
+    named = [tid for tid in task_ids if short_name(tid).lower() in name]
+    return max(named, key=lambda tid: len(short_name(tid))) if named else None
+
+
+@dataclass(frozen=True)
+class TaskMatch:
+    """A request's task: ``task`` (an id), or ``candidates`` when several fit equally well."""
+
+    task: str | None
+    candidates: tuple[str, ...] = ()
+    explicit: tuple[str, ...] = ()
+    """Ids or names written out in the request, in order."""
+
+
+@dataclass
+class TaskIndex:
+    """Term weights of every registered task (see the module docstring)."""
+
+    registry: Registry
+    vocab: VocabularySpec
+    terms: dict[str, dict[str, float]] = field(default_factory=dict)
+    name_terms: dict[str, set[str]] = field(default_factory=dict)
+    name_words: dict[str, list[str]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
+
+        assets = load_asset_words()
+        for tid in self.registry.ids():
+            spec = self.registry.get(tid)
+            terms: dict[str, float] = {}
+
+            def add(words: list[str], kind: str) -> None:
+                for w in self.concepts(" ".join(words)):
+                    weight = WEIGHTS[kind] * (0.5 if w in self._actions else 1.0)
+                    terms[w] = max(terms.get(w, 0.0), weight)
+
+            names = camel_words(short_name(tid))
+            add(names, "name")
+            add([spec.category.replace("_", " "), *(t.replace("-", " ").replace("_", " ") for t in spec.tags),
+                 spec.embodiment.robot.replace("_", " ")], "tag")
+            add(re.findall(r"[a-z0-9]+", spec.instruction.lower()), "instruction")
+            for obj in spec.scene.objects:
+                info = assets.assets.get(obj.asset)
+                for kind in info.kinds if info else ():
+                    terms[f"kind:{kind}"] = WEIGHTS["kind"]
+            self.terms[tid] = terms
+            self.name_terms[tid] = self.concepts(" ".join(names)) - self._stop
+            self.name_words[tid] = [stem(w) for w in names]
+        self._aliases = assets.aliases()
+        self._alias_kind = assets.alias_to_kind
+
+    @cached_property
+    def _stop(self) -> set[str]:
+        return {stem(w) for w in self.vocab.tasks.stop}
+
+    @cached_property
+    def _actions(self) -> set[str]:
+        return {stem(w) for w in ACTIONS}
+
+    @cached_property
+    def _synonyms(self) -> list[tuple[re.Pattern[str], str]]:
+        """(phrase, canonical word), longest phrase first."""
+        pairs = [(syn.lower(), word) for word, syns in self.vocab.tasks.synonyms.items() for syn in syns]
+        pairs.sort(key=lambda p: -len(p[0]))
+        return [(re.compile(rf"(?<![\w-]){re.escape(s)}(?![\w-])"), w) for s, w in pairs]
+
+    @cached_property
+    def _idf(self) -> dict[str, float]:
+        df: dict[str, int] = {}
+        for terms in self.terms.values():
+            for t in terms:
+                df[t] = df.get(t, 0) + 1
+        n = max(len(self.terms), 1)
+        return {t: math.log(1 + n / d) for t, d in df.items()}
+
+    def concepts(self, text: str) -> set[str]:
+        """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out."""
+        lowered = text.lower()
+        for pattern, word in self._synonyms:
+            lowered = pattern.sub(f" {word} ", lowered)
+        return {stem(w) for w in re.findall(r"[a-z0-9]+", lowered)} - self._stop
+
+    def request_terms(self, text: str) -> set[str]:
+        """Concepts and asset kinds (``kind:conical tube``) a request names."""
+        lowered = f" {text.lower()} "
+        kinds: set[str] = set()
+        for alias in self._aliases:  # longest first; a multi-word alias is used up
+            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
+            if re.search(pattern, lowered):
+                kinds.add(f"kind:{self._alias_kind[alias]}")
+                if " " in alias:
+                    lowered = re.sub(pattern, " ", lowered)
+        return self.concepts(lowered) | kinds
+
+    def explicit(self, text: str) -> list[str]:
+        """Task ids and names written out in ``text`` ("PickUpTestTube", "pick up test tube"),
+        in the order they appear."""
+        lowered = text.lower()
+        squashed = re.sub(r"[^a-z0-9]+", "", lowered)
+        found: list[tuple[float, str]] = []
+        for tid in self.registry.ids():
+            short = short_name(tid).lower()
+            for needle in (tid.lower(), tid.split("/", 1)[1].lower(), short):
+                m = re.search(rf"(?<![\w/]){re.escape(needle)}(?!\w)", lowered)
+                if m:
+                    found.append((m.start() / max(len(lowered), 1), tid))
+                    break
+            else:
+                if len(short) > 10 and short in squashed:  # "pick up test tube"
+                    found.append((squashed.index(short) / max(len(squashed), 1), tid))
+        return [tid for _, tid in sorted(found)]
+
+    def unknown_name(self, text: str) -> str | None:
+        """A CamelCase word that looks like a task name but is none ("PickUpTestTub"); policy
+        names (SmolVLA, VQ-BeT) are not task names."""
+        known = {short_name(t).lower() for t in self.registry.ids()}
+        policies = {w for w, _ in self.vocab.policy_words()}
+        for m in re.finditer(r"(?<![\w-])(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
+            token = m.group(0)
+            word = re.match(r"[\w-]*", text[m.start():]).group(0).lower()
+            if short_name(token).lower() not in known and token.lower() not in policies and word not in policies:
+                return token
+        return None
+
+    def scores(self, text: str) -> dict[str, float]:
+        """Each task's score for ``text`` (tasks sharing no object term are left out)."""
+        said = self.request_terms(text)
+        request_words = [stem(w) for w in re.findall(r"[a-z0-9]+", text.lower())]
+        out: dict[str, float] = {}
+        for tid, terms in self.terms.items():
+            shared = said & terms.keys()
+            if not any(terms[t] > WEIGHTS["instruction"] for t in shared - self._actions):
+                continue  # an object, tag or robot must match, not only an action or the instruction
+            score = sum(terms[t] * self._idf[t] for t in shared)
+            names = self.name_terms[tid]
+            run = _longest_run(self.name_words[tid], request_words)
+            out[tid] = score + 0.2 * len(names & said) / max(len(names), 1) + 0.3 * max(run - 1, 0)
+        return out
+
+    def match(self, text: str) -> TaskMatch:
+        """The task ``text`` names (see the module docstring)."""
+        explicit = self.explicit(text)
+        if explicit:
+            return TaskMatch(explicit[0], (), tuple(explicit))
+        scores = self.scores(text)
+        if not scores:
+            return TaskMatch(None)
+        best = max(scores.values())
+        top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
+        return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
+
+    def all_tasks(self, text: str) -> bool:
+        """"all tasks", "every task", "the whole benchmark"."""
+        return find_phrase(self.vocab.tasks.all, text.lower()) is not None
+
+    def _strong(self, term: str) -> set[str]:
+        """Tasks whose name, tags, robot or objects carry ``term``."""
+        return {tid for tid, terms in self.terms.items() if terms.get(term, 0) > WEIGHTS["instruction"]}
+
+    def filter(self, text: str) -> tuple[list[str], list[str]]:
+        """Tasks having every term of ``text`` that some task's name, tags, robot or objects
+        carry (instruction words do not filter; several actions mean any of them), and those terms."""
+        wanted = {t: self._strong(t) for t in self.request_terms(text)}
+        wanted = {t: tids for t, tids in wanted.items() if tids}
+        hits = set(self.terms)
+        for t, tids in wanted.items():
+            if t not in self._actions:
+                hits &= tids
+        actions = [tids for t, tids in wanted.items() if t in self._actions]
+        if actions:
+            hits &= set().union(*actions)
+        return sorted(hits), sorted(t.removeprefix("kind:") for t in wanted)
+
+    def filter_words(self, text: str) -> list[str]:
+        """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words)."""
+        lowered, out = f" {text.lower()} ", []
+        for alias in self._aliases:
+            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
+            if " " in alias and re.search(pattern, lowered) and self._strong(f"kind:{self._alias_kind[alias]}"):
+                out.append(alias)
+                lowered = re.sub(pattern, " ", lowered)
+        for word in re.findall(r"[a-z0-9]+", lowered):
+            terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
+            if any(self._strong(t) for t in terms) and word not in out:
+                out.append(word)
+        return out
+
+    def suggest_name(self, phrase: str) -> str:
+        names = [short_name(t) for t in self.registry.ids()]
+        return suggest(phrase.replace(" ", ""), names)

@@ -1,0 +1,147 @@
+"""The agent's vocabulary (``vocabulary.yaml`` beside this module): how people name commands,
+options, values, policies and tasks, as data.
+
+Phrases use a small syntax (see the YAML's header) compiled to regular expressions by
+:func:`phrase_pattern`; they are matched against a request's words (lowercased, paths and
+addresses already taken out).
+"""
+
+from __future__ import annotations
+
+import re
+from functools import cache
+from pathlib import Path
+
+from pydantic import Field, ValidationError
+
+from pipette_cli.specs.base import Spec
+from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
+from pipette_cli.errors import SpecError
+
+VOCABULARY_FILE = Path(__file__).with_name("vocabulary.yaml")
+WEIGHTS = {"phrases": 3, "verbs": 2, "nouns": 1}
+
+
+class IntentCuesSpec(Spec):
+    """Phrases that ask for one command (weights in :data:`WEIGHTS`)."""
+
+    phrases: list[str] = Field(default_factory=list)
+    verbs: list[str] = Field(default_factory=list)
+    nouns: list[str] = Field(default_factory=list)
+
+
+class ChainSpec(Spec):
+    strong: list[str]
+    """Words that always start a new step ("then", "after that")."""
+
+
+class OptionWordsSpec(Spec):
+    """Words for one parameter: ``units`` follow a number, ``names`` precede one or switch a
+    flag on, ``off`` switch a flag off."""
+
+    units: list[str] = Field(default_factory=list)
+    names: list[str] = Field(default_factory=list)
+    off: list[str] = Field(default_factory=list)
+
+
+class PolicySpec(Spec):
+    name: str
+    words: list[str]
+
+
+class TaskWordsSpec(Spec):
+    all: list[str]
+    synonyms: dict[str, list[str]]
+    stop: list[str]
+
+
+class ProductSpec(Spec):
+    """What a command makes: the option naming it (or a rule in :mod:`.products`), its kind, and
+    values a step consuming it takes over (an augmented file -> ``dataset_version: augmented``)."""
+
+    param: str | None = None
+    kind: str
+    sets: dict[str, str] = Field(default_factory=dict)
+
+
+class VocabularySpec(Spec):
+    intents: dict[str, IntentCuesSpec]
+    questions: list[str]
+    chain: ChainSpec
+    options: dict[str, OptionWordsSpec]
+    values: dict[str, dict[str, list[str]]]
+    numbers: dict[str, int]
+    bare_number: str
+    policies: dict[str, PolicySpec]
+    tasks: TaskWordsSpec
+    defaults: dict[str, str]
+    carry: list[str]
+    carry_to: dict[str, list[str]]
+    one_of: dict[str, list[str]]
+    background: dict[str, str]
+    products: dict[str, ProductSpec]
+    consumes: dict[str, str]
+
+    def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
+        """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
+        return self.options.get(f"{command}.{param}") or self.options.get(param, OptionWordsSpec())
+
+    def policy_words(self) -> list[tuple[str, str]]:
+        """(word, policy) pairs, longest word first ("pi0.5" before "pi0")."""
+        pairs = [(w.lower(), key) for key, p in self.policies.items() for w in [key, *p.words]]
+        return sorted(set(pairs), key=lambda pair: -len(pair[0]))
+
+
+@cache
+def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
+    """Read and validate the vocabulary file.
+
+    Raises:
+        SpecError: ``file:line: field: message`` for each problem.
+    """
+    doc = read_yaml(path)
+    raw = to_plain(doc)
+    try:
+        return VocabularySpec.model_validate(raw)
+    except ValidationError as exc:
+        raise SpecError(validation_problems(exc, VocabularySpec, raw, doc, str(path))) from None
+
+
+def _item(token: str) -> str:
+    if token.startswith("(") and token.endswith(")"):
+        return "(?:" + "|".join(_words(alt) for alt in token[1:-1].split("|")) + ")"
+    if token.endswith("*"):
+        return re.escape(token[:-1]) + r"[\w'-]*"
+    return re.escape(token)
+
+
+def _words(text: str) -> str:
+    """Regex of a phrase: tokens joined by whitespace; ``...`` widens one gap to ten words;
+    ``token?`` is optional (never the first token)."""
+    out, gap = "", r"\s+"
+    for token in re.findall(r"\([^)]*\)\??|\S+", text.strip()):
+        if token == "...":
+            gap = r"\s+(?:\S+\s+){0,10}?"
+            continue
+        optional = token.endswith("?") and len(token) > 1
+        piece = _item(token[:-1] if optional else token)
+        if not out:
+            out = piece
+        elif optional:
+            out += f"(?:{gap}{piece})?"
+        else:
+            out += gap + piece
+        gap = r"\s+"
+    return out
+
+
+@cache
+def phrase_pattern(phrase: str) -> re.Pattern[str]:
+    """The regular expression of a vocabulary phrase, bounded by non-word characters."""
+    return re.compile(rf"(?<![\w-]){_words(phrase)}(?![\w-])")
+
+
+def find_phrase(phrases: list[str], text: str) -> re.Match[str] | None:
+    """The first match of any of ``phrases`` in ``text`` (earliest position)."""
+    found = [m for m in (phrase_pattern(p).search(text) for p in phrases) if m]
+    return min(found, key=lambda m: (m.start(), -len(m.group(0)))) if found else None
