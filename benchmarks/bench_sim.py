@@ -28,7 +28,7 @@ if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pipette_cli.demos.experts.base import make_expert  # noqa: E402
+from pipette_cli.demos.experts.base import expert_failure, find_expert  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.sim.world import World  # noqa: E402
@@ -42,10 +42,10 @@ def bench_task(task, episodes: int) -> dict:
     steps = successes = 0
     for seed in range(episodes):
         world.reset(seed)
-        expert = make_expert(task.id)
+        expert = find_expert(task)[1]
         expert.reset(world, np.random.default_rng(seed))
         verdict = world.verdict
-        while not verdict.done:
+        while not verdict.done and expert_failure(expert) is None:
             t0 = time.perf_counter()
             action = expert.act(world)
             t1 = time.perf_counter()

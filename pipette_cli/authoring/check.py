@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipette_cli.demos.experts.base import FAMILY_EXPERTS, find_expert, task_family
+from pipette_cli.demos.experts.base import find_expert
 from pipette_cli.errors import PipetteError
 from pipette_cli.specs.task import TaskSpec
 
@@ -119,37 +119,26 @@ def check_task(task: TaskSpec, episodes: int = 2, *, solve: bool = True) -> Chec
 
 
 def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
-    """Run the scripted expert of ``task_spec`` (its own, or its family's) for ``episodes`` seeds.
+    """Run the task's scripted expert (its skill program, or one read off its criterion) for
+    ``episodes`` seeds.
 
-    Returns ``status="not_checked"`` when no expert is registered for the task or its family.
+    Returns ``status="not_checked"`` when the task has no program and none can be derived.
     """
+    from pipette_cli.demos.check import run_expert_episode
     from pipette_cli.sim.world import World
 
-    family = task_family(task_spec)
     try:
         name, expert = find_expert(task_spec)
-    except PipetteError:
-        tried = ", ".join(FAMILY_EXPERTS.get(family or "", ())) or "none"
-        return SolveReport("not_checked", detail=f"no scripted expert for this task or its family "
-                                                 f"'{family}' (tried: {tried})")
+    except PipetteError as exc:
+        return SolveReport("not_checked", detail=str(exc))
     world = World(task_spec)
     report = SolveReport("unsolved", expert=name, episodes=episodes)
     for seed in range(episodes):
-        world.reset(seed)
-        try:
-            expert.reset(world, np.random.default_rng(seed))
-            verdict = world.verdict
-            for _ in range(_episode_steps(task_spec, world) + 30):
-                verdict = world.step(expert.act(world))
-                if verdict.done:
-                    break
-        except PipetteError as exc:
-            report.reasons.append(f"expert error: {exc}")
-            continue
+        verdict, failure = run_expert_episode(world, seed, _episode_steps(task_spec, world) + 30, expert=expert)
         if verdict.success:
             report.successes += 1
         else:
-            report.reasons.append(verdict.reason or "not done")
+            report.reasons.append(failure or verdict.reason or "not done")
     if report.successes == episodes:
         report.status = "solved"
     return report

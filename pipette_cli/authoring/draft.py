@@ -13,7 +13,9 @@ from pydantic import Field, model_validator
 
 from pipette_cli.errors import SpecError
 from pipette_cli.specs.base import Spec
-from pipette_cli.specs.task import Robot
+from pipette_cli.specs.robot import robot_names
+
+Robot = Literal.__getitem__(tuple(robot_names()))  # the robots of registry/robots/, as an enum for the LLM schema
 
 Intent = Literal["pick", "place", "insert", "open", "close", "press", "transfer", "position"]
 INTENTS: tuple[str, ...] = ("pick", "place", "insert", "open", "close", "press", "transfer", "position")

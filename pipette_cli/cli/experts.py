@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import Annotated
 
@@ -9,8 +10,7 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.demos.check import ExpertReport, check_expert
-from pipette_cli.demos.experts.base import expert_names
+from pipette_cli.demos.check import ExpertReport, check_expert, step_of
 from pipette_cli.registry import load_registry
 
 app = typer.Typer(help="Scripted experts.\n\nExample: pipette experts check PickUpTestTube --episodes 50", no_args_is_help=True)
@@ -26,7 +26,7 @@ def markdown_table(reports: list[ExpertReport]) -> str:
 
 @app.command("check")
 def check(
-    tasks: Annotated[list[str] | None, typer.Argument(help="Task ids (default: every task with an expert).")] = None,
+    tasks: Annotated[list[str] | None, typer.Argument(help="Task ids (default: every registered task).")] = None,
     episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="Seeds per task.")] = 50,
     seed: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
     markdown: Annotated[Path | None, typer.Option("--markdown", help="Also write the table as markdown here.")] = None,
@@ -37,12 +37,13 @@ def check(
     Example: pipette experts check --episodes 50 --markdown docs/experts_table.md
     """
     registry = load_registry(STATE.registry_dirs)
-    known = set(expert_names())
-    ids = [registry.get(t).id for t in tasks] if tasks else [t for t in registry.ids() if t.rsplit("-v", 1)[0] in known]
+    ids = [registry.get(t).id for t in tasks] if tasks else registry.ids()
     reports = []
     for task_id in ids:
         report = check_expert(registry.get(task_id), episodes, seed)
-        err_console.print(f"{task_id}: {report.successes}/{report.episodes} in {report.seconds:.0f} s")
+        err_console.print(f"{task_id}: {report.successes}/{report.episodes} in {report.seconds:.0f} s", soft_wrap=True, markup=False)
+        for failed_seed, why in report.expert_failures.items():
+            err_console.print(f"  seed {failed_seed}: {why}", soft_wrap=True, markup=False)
         reports.append(report)
     if markdown:
         markdown.parent.mkdir(parents=True, exist_ok=True)
@@ -50,7 +51,10 @@ def check(
     if as_json:
         print_json([
             {"task": r.task_id, "episodes": r.episodes, "successes": r.successes, "success_rate": r.success_rate,
-             "failures": dict(r.failures), "failed_seeds": r.failed_seeds, "seconds": r.seconds}
+             "failures": dict(r.failures), "failed_seeds": r.failed_seeds, "seconds": r.seconds,
+             "median_episode_s": r.median_seconds,
+             "expert_failures": {str(k): v for k, v in r.expert_failures.items()},
+             "failed_steps": dict(Counter(step_of(v) for v in r.expert_failures.values()))}
             for r in reports
         ])
         return

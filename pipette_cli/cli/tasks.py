@@ -75,11 +75,29 @@ def show_task(
     Example: pipette tasks show PickUpTestTube
     """
     entry = _registry().entry(task_id)
+    program, source = _program(entry.spec)
     if as_json:
-        print_json({"path": str(entry.path), **entry.spec.model_dump(mode="json")})
+        print_json({"path": str(entry.path), **entry.spec.model_dump(mode="json", by_alias=True),
+                    "expert_program": {"source": source, "steps": program}})
         return
     out_console.print(f"# {entry.path}", style="dim")
     out_console.print(entry.path.read_text(encoding="utf-8"), markup=False, highlight=False, end="")
+    if source != "task":
+        out_console.print(f"# expert program in use ({source}):", style="dim")
+        out_console.print(dump_yaml({"expert": program}) if program else "# (none)\n", markup=False, highlight=False, end="")
+
+
+def _program(spec) -> tuple[list[dict], str]:
+    """The expert program a task runs, as plain data, and where it comes from (``task``, ``derived``,
+    or why there is none)."""
+    from pipette_cli.demos.experts.base import expert_program
+
+    try:
+        steps, source = expert_program(spec)
+    except PipetteError as exc:
+        return [], f"none: {exc}"
+    data = [{"skill": s.skill, **s.model_dump(mode="json", by_alias=True, exclude_defaults=True)} for s in steps]
+    return data, "task" if source == "task" else "derived from the success criterion"
 
 
 @app.command("validate")

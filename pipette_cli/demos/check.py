@@ -2,15 +2,20 @@
 
 from __future__ import annotations
 
+import re
 import time
 from collections import Counter
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipette_cli.demos.experts.base import find_expert, make_expert
+from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
+from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
+
+EXPERT_FAILED = "expert_failed"
+"""Failure reason of an episode whose expert gave up (a skill step could not do its job)."""
 
 
 @dataclass
@@ -22,28 +27,42 @@ class ExpertReport:
     successes: int = 0
     failures: Counter[str] = field(default_factory=Counter)
     failed_seeds: list[int] = field(default_factory=list)
+    expert_failures: dict[int, str] = field(default_factory=dict)
+    """Seed -> the one-line reason the expert stopped (which step, why)."""
     mean_steps: float = 0.0
     seconds: float = 0.0
+    episode_seconds: list[float] = field(default_factory=list)
 
     @property
     def success_rate(self) -> float:
         return self.successes / self.episodes if self.episodes else 0.0
 
+    @property
+    def median_seconds(self) -> float:
+        return float(np.median(self.episode_seconds)) if self.episode_seconds else 0.0
 
-def run_expert_episode(world: World, task_id: str | None, seed: int, max_steps: int | None = None):
-    """Reset ``world`` to ``seed`` and let the expert act until the evaluator decides.
 
-    ``task_id`` names the expert; ``None`` picks the world's task's own or family expert
-    (:func:`~pipette_cli.demos.experts.base.find_expert`).
-    """
+def step_of(failure: str) -> str:
+    """``step 2 (place_on dish): ...`` -> ``place_on``."""
+    match = re.match(r"step \d+ \((\w+)", failure)
+    return match.group(1) if match else "unknown"
+
+
+def run_expert_episode(world: World, seed: int, max_steps: int | None = None,
+                       expert: Expert | None = None) -> tuple[Verdict, str | None]:
+    """Reset ``world`` to ``seed`` and let the task's expert act until the evaluator decides or the
+    expert gives up. Returns the verdict and, if the expert gave up, why."""
     world.reset(seed)
-    expert = make_expert(task_id) if task_id is not None else find_expert(world.task)[1]
-    expert.reset(world, np.random.default_rng(seed))
+    expert = expert if expert is not None else find_expert(world.task)[1]
+    expert.reset(world, np.random.default_rng([seed, 1]))
     verdict = world.verdict
     limit = max_steps or int(1e6)
     while not verdict.done and world.step_count < limit:
         verdict = world.step(expert.act(world))
-    return verdict
+        failure = expert_failure(expert)
+        if failure is not None and not verdict.done:
+            return Verdict(failed=True, reason=EXPERT_FAILED, metrics=verdict.metrics), failure
+    return verdict, expert_failure(expert)
 
 
 def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
@@ -53,7 +72,9 @@ def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
     start = time.perf_counter()
     steps = 0
     for k in range(episodes):
-        verdict = run_expert_episode(world, None, seed + k)
+        began = time.perf_counter()
+        verdict, failure = run_expert_episode(world, seed + k)
+        report.episode_seconds.append(time.perf_counter() - began)
         report.episodes += 1
         steps += world.step_count
         if verdict.success:
@@ -61,6 +82,8 @@ def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
         else:
             report.failures[verdict.reason or "unknown"] += 1
             report.failed_seeds.append(seed + k)
+            if failure is not None:
+                report.expert_failures[seed + k] = failure
     report.seconds = time.perf_counter() - start
     report.mean_steps = steps / max(1, report.episodes)
     return report

@@ -15,6 +15,7 @@ the number of workers.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import pickle
@@ -29,7 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.demos.experts.base import Expert, find_expert
+from pipette_cli.demos.check import EXPERT_FAILED
+from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
 from pipette_cli.demos.provenance import model_sha256, provenance
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeSummary, EpisodeWriter, commit_tmp, sim_state
 from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan
@@ -88,6 +90,11 @@ def record_episode(
         obs, verdict = env.step(action)
         if verdict.done:
             break
+        failure = expert_failure(policy)
+        if failure is not None:  # the expert gave up: record why, do not wait for the timeout
+            log.info("episode %d: %s", writer.seed, failure)
+            verdict = Verdict(failed=True, reason=f"{EXPERT_FAILED}: {failure}", metrics=verdict.metrics)
+            break
     return writer.close(verdict, env.world.state(), sim_state(env.world.model, env.world.data))
 
 
@@ -117,6 +124,10 @@ class EpisodeRunner:
         self.info = DatasetInfo.from_env(self.env)
         expert_name = f"{type(self.expert).__module__}.{type(self.expert).__qualname__}"
         self.attrs = {**attrs, "model_sha256": model_sha256(self.env.world.model), "expert": expert_name}
+        steps = getattr(self.expert, "steps", None)
+        if steps:  # the skill program the demonstrations follow, for provenance
+            self.attrs["expert_program"] = json.dumps(
+                [step.model_dump(mode="json", by_alias=True, exclude_defaults=True) | {"skill": step.skill} for step in steps])
         self.max_steps = max_steps
         self.source = source
 

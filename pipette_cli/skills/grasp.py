@@ -18,11 +18,12 @@ the robot in steps until it can.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from pipette_cli.skills.frames import UP, down_frame, horizontal, pitched_frame, tool_frame, unit
+from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame, unit
 from pipette_cli.skills.runtime import SkillContext, SkillFailure
 from pipette_cli.skills.scene import Shape
 
@@ -59,18 +60,27 @@ def semantics(ctx: SkillContext, name: str) -> dict:
     return load_asset_library().get(ctx.world.objects[name].asset).semantics()
 
 
+FollowThrough = Callable[["Grasp"], list[tuple[np.ndarray, np.ndarray]]]
+
+
 def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
-               height: float | None = None, toward: np.ndarray | None = None) -> Grasp:
+               height: float | None = None, toward: np.ndarray | None = None,
+               then: FollowThrough | None = None) -> Grasp:
     """The first reachable grasp of ``name`` (see the module docstring). ``toward`` is the horizontal
     direction the hand should point for what comes next (into an enclosure): pinches and pitched
-    grasps try it first."""
+    grasps try it first. ``then`` gives the tool poses the hand must reach after the grasp, in straight
+    lines (pulling a handle along its arc): a grasp the arm cannot follow through with is not taken."""
     shape = ctx.scene.shape(name)
     opening = ctx.robot.gripper.max_opening
     half = shape.world_half()
     size = 2 * half
     low = size[2] < FLAT
     if mode == "pinch" or (mode == "auto" and at is None and low):
-        return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch")
+        return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then=then)
+    if mode == "side":
+        if at is None:
+            raise SkillFailure(f"a side grasp of {name!r} needs a site to grasp at ('at:')")
+        return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then=then)
     axis_obj = shape.axes[:, shape.vertical_axis()]
     lying = abs(axis_obj[2]) < 0.7 or (at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and not low)
     point, closing, width = _grasp_point(ctx, name, shape, at, height, lying)
@@ -78,7 +88,8 @@ def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str
         raise SkillFailure(f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
                            f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm")
     round_ = not lying and bool(np.allclose(closing, horizontal(point - ctx.base)))
-    return _first_reachable(ctx, name, _top_candidates(ctx, point, closing, shape, width, lying, round_), "across" if lying else "axis")
+    return _first_reachable(ctx, name, _top_candidates(ctx, point, closing, shape, width, lying, round_),
+                            "across" if lying else "axis", then=then)
 
 
 def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None,
@@ -88,7 +99,7 @@ def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, hei
     base = ctx.world.position(name)
     if at is not None:
         point = ctx.world.position(at)
-        closing, width = _local_closing(ctx, name, point, shape)
+        closing, width = _local_closing(ctx, name, point, shape, site=at)
         return point, closing, width
     if lying:
         long_axis = horizontal(shape.long_axis())
@@ -149,31 +160,63 @@ def _narrow_side(shape: Shape, radial: np.ndarray, vertical: int) -> tuple[np.nd
     return horizontal(shape.axes[:, narrow]), widths[narrow]
 
 
-def _local_closing(ctx: SkillContext, name: str, point: np.ndarray, shape: Shape) -> tuple[np.ndarray, float]:
-    """At a named site (a handle bar, a neck): close across the geometry within 3 cm of it."""
+def _grip_geom(ctx: SkillContext, name: str, point: np.ndarray, site: str | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Centre and half-size of the smallest collision geom of the site's body (of the object, without a
+    site) that reaches within a centimetre of ``point``: a grip or a neck, not the lid it sticks out of."""
     w = ctx.world
     m, d = w.model, w.data
-    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
-    for body in ctx.scene.bodies(name):
+    bodies = {int(m.site_bodyid[w.site_id(site)])} if site is not None else ctx.scene.bodies(name)
+    best = None
+    for body in bodies:
         for g in np.flatnonzero(m.geom_bodyid == body):
             if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
                 continue
             center = d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ m.geom_aabb[g, :3]
             half = np.abs(d.geom_xmat[g].reshape(3, 3)) @ m.geom_aabb[g, 3:]
-            if np.all(np.abs(center - point) <= half + 0.03) and np.all(np.abs(center - point)[:2] <= 0.03 + half[:2]):
-                if np.any(2 * half[:2] > 0.25):
-                    continue  # a plate or a wall, not the part to hold
-                lo, hi = np.minimum(lo, center - half), np.maximum(hi, center + half)
+            if np.all(np.abs(center - point) <= half + 0.01):
+                volume = float(np.prod(half))
+                if best is None or volume < best[0]:
+                    best = (volume, center, half)
+    return None if best is None else (best[1], best[2])
+
+
+def _local_closing(ctx: SkillContext, name: str, point: np.ndarray, shape: Shape, site: str | None = None) -> tuple[np.ndarray, float]:
+    """At a named site (a handle bar, a neck): close across the grip there (:func:`_grip_geom`)."""
+    grip = _grip_geom(ctx, name, point, site)
     radial = horizontal(point - ctx.base)
-    if not np.all(np.isfinite(lo)):
+    if grip is None:
         return radial, 0.0
-    size = hi - lo
+    size = 2 * grip[1]
     if abs(size[0] - size[1]) < 0.004:
         return radial, float(min(size[0], size[1]))
     # a bar: close across it
     if size[0] > size[1]:
         return np.array([0.0, 1.0, 0.0]), float(size[1])
     return np.array([1.0, 0.0, 0.0]), float(size[0])
+
+
+def _side_candidates(ctx: SkillContext, name: str, at: str) -> list[Grasp]:
+    """A handle on a vertical face (a door's bar, a drawer's grip), taken from in front of the face,
+    the hand level, closing across the handle."""
+    point = ctx.world.position(at)
+    grip = _grip_geom(ctx, name, point, at)
+    normal = ctx.scene.face_normal(point, name, prefer=ctx.base - point)
+    normal[2] = 0.0
+    if np.linalg.norm(normal) < 0.5:
+        normal = -horizontal(point - ctx.base)
+    normal = normal / np.linalg.norm(normal)
+    across = np.cross(UP, -normal)
+    if grip is not None and grip[1][2] < abs(grip[1] @ across):
+        closing = UP.copy()  # a grip wider than tall (a lid's front lip): the fingers close above and below it
+    else:
+        closing = across  # a bar standing up (a door's handle): the fingers close round it sideways
+    center = point if grip is None else grip[0]
+    out = []
+    for tilt in (0.0, 20.0, -20.0):
+        approach = np.cos(np.deg2rad(tilt)) * -normal - np.sin(np.deg2rad(tilt)) * UP
+        rot = tool_frame(approach, closing)
+        out.append(Grasp("side", center.copy(), rot, [center - 0.10 * approach, center - 0.04 * approach], 0.0))
+    return out
 
 
 def _top_candidates(ctx: SkillContext, point: np.ndarray, closing: np.ndarray, shape: Shape, width: float,
@@ -197,7 +240,8 @@ def _top_candidates(ctx: SkillContext, point: np.ndarray, closing: np.ndarray, s
 
 def _pinch_candidates(ctx: SkillContext, name: str, shape: Shape, toward: np.ndarray | None) -> list[Grasp]:
     out = []
-    directions = [horizontal(shape.center - ctx.base)]
+    radial = horizontal(shape.center - ctx.base)
+    directions = [radial, *(axis_rotation(UP, np.deg2rad(a)) @ radial for a in (35.0, -35.0))]
     if toward is not None:
         directions.insert(0, horizontal(toward))
     for radial in directions:
@@ -225,18 +269,26 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> 
         c, depth = across, 0.0
     height = shape.top - shape.bottom
     out = []
-    for pitch in PINCH_PITCHES:
-        pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
-        rot = pitched_frame(radial, pitch)
-        over = pinch + (height * 0.5 + 0.015) * UP
-        out.append(Grasp("pinch", pinch, rot, [over - 0.12 * radial, over], c))
+    for rise in (height * 0.5 + 0.015, 0.004):
+        for pitch in PINCH_PITCHES:
+            pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
+            rot = pitched_frame(radial, pitch)
+            # over the rim and down onto the chord; or (under a shelf) level, where the open fingers slide
+            # in until the rim itself stops them at the chord
+            over = pinch + rise * UP
+            out.append(Grasp("pinch", pinch, rot, [over - 0.12 * radial, over], c))
     return out
 
 
-def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: set[int] = frozenset()) -> Grasp:
+def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: set[int] = frozenset(),
+                     then: FollowThrough | None = None) -> Grasp:
     touch = set(touch) | ctx.scene.bodies(name) | _support_of(ctx, name)
-    chosen = ctx.choose(candidates, lambda g: [(p, g.rot) for p in (*g.approach, g.pos, g.pos + LIFT_CHECK * UP)], touch=touch,
-                        via=lambda g: (g.approach[0], g.rot))
+
+    def poses(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
+        after = then(g) if then is not None else [(g.pos + LIFT_CHECK * UP, g.rot)]
+        return [(p, g.rot) for p in (*g.approach, g.pos)] + after
+
+    chosen = ctx.choose(candidates, poses, touch=touch, via=lambda g: (g.approach[0], g.rot, ctx.scene.bodies(name)))
     if chosen is not None:
         return chosen
     distance = float(np.linalg.norm(ctx.world.position(name)[:2] - ctx.base[:2]))

@@ -14,6 +14,7 @@ arm's joints move (every other degree of freedom has no cost but damping and sta
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import mink
 import mujoco
@@ -27,6 +28,8 @@ DAMPING = 1e-3
 SOLVER = "daqp"
 CONVERGED = 2e-4
 """Metres (and tenths of a radian) of tool error at which a careful solve stops early."""
+COMFORTABLE = 0.3
+"""Radians from every joint limit at which the nearest solution is kept without trying the seeds."""
 HOPELESS = 0.05
 """Metres of tool error after 25 iterations at which a careful solve gives up."""
 
@@ -92,14 +95,52 @@ class ArmIK:
         rot_err = float(np.linalg.norm(error[3:] if not yaw_free else error[3:5]))
         return IKSolution(self.configuration.q[self._adr].copy(), float(np.linalg.norm(error[:3])), rot_err)
 
+    @cached_property
+    def seeds(self) -> list[np.ndarray]:
+        """Arm configurations a stuck solve restarts from: home (hand down) and the hand pointing
+        forward level and pitched, in front of the robot (found once per world from home)."""
+        w = self.world
+        home = w.robot.home()
+        base = np.asarray(w.task.embodiment.base.pos, dtype=float)
+        out = [home]
+        for pitch, height in ((0.0, 0.15), (45.0, 0.2)):
+            th = np.deg2rad(pitch)
+            approach = np.array([np.cos(th), 0.0, -np.sin(th)])
+            y = np.array([0.0, 1.0, 0.0])
+            rot = np.column_stack([np.cross(y, approach), y, approach])
+            target = base + np.array([0.55 * w.robot.reach, 0.0, height])
+            solution = self.solve(target, rot, home, iterations=120, dt=0.1, careful=True)
+            if solution.ok(0.01, 0.1):
+                out.append(solution.qpos)
+        return out
+
     def reachable(self, pos: np.ndarray, rot: np.ndarray, q_start: np.ndarray, *, yaw_free: bool = False) -> IKSolution:
         """A careful solve (many iterations) to decide whether a pose can be reached at all: from
         ``q_start``, and again from the robot's home configuration when that gets stuck."""
         first = self.solve(pos, rot, q_start, iterations=60, yaw_free=yaw_free, dt=0.1, careful=True)
-        if first.ok() or first.position_error > HOPELESS:
+        if first.ok():
             return first
-        again = self.solve(pos, rot, self.world.robot.home(), iterations=40, yaw_free=yaw_free, dt=0.1, careful=True)
-        return again if again.ok() else first
+        for seed in self.seeds:
+            again = self.solve(pos, rot, seed, iterations=40, yaw_free=yaw_free, dt=0.1, careful=True)
+            if again.ok():
+                return again
+        return first
+
+    def best(self, pos: np.ndarray, rot: np.ndarray, q_start: np.ndarray, tolerance: float = 0.004) -> IKSolution:
+        """Of the solutions from ``q_start`` and from every seed, the one with the most room to its
+        joint limits (a free move may change arm configuration; a straight move cannot)."""
+        low, high = self.world.arm_range[:, 0], self.world.arm_range[:, 1]
+        found: list[tuple[float, IKSolution]] = []
+        for seed in (q_start, *self.seeds):
+            solution = self.solve(pos, rot, seed, iterations=60, dt=0.1, careful=True)
+            if solution.ok(tolerance):
+                margin = float(np.min(np.minimum(solution.qpos - low, high - solution.qpos)))
+                if seed is q_start and margin >= COMFORTABLE:
+                    return solution  # the nearest solution is comfortable: no need to look further
+                found.append((margin - 0.05 * float(np.max(np.abs(solution.qpos - q_start))), solution))
+        if not found:
+            return self.reachable(pos, rot, q_start)
+        return max(found, key=lambda f: f[0])[1]
 
     def self_collision(self, q_arm: np.ndarray) -> float:
         """Smallest distance (negative: penetration) between the arm's far and near links at ``q_arm``."""

@@ -10,6 +10,7 @@ the IK); a skill that cannot do its job raises :class:`SkillFailure` with a one-
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -22,6 +23,8 @@ from pipette_cli.skills.frames import UP, rotation_angle, slerp
 from pipette_cli.skills.ik import ArmIK, IKSolution
 from pipette_cli.skills.scene import SceneQuery
 from pipette_cli.sim.world import World
+
+log = logging.getLogger(__name__)
 
 OPEN, CLOSED = 1.0, 0.0
 TRANSIT_SPEED = 0.30
@@ -48,8 +51,12 @@ CLEARANCE = 0.04
 FINAL_APPROACH = 0.04
 """Metres of the last descent onto a target done as a straight tool line (the rest through free space)."""
 HAND_HEIGHT = 0.15
+COVER_ROOM = 0.4
+"""Metres: something overhead closer than this (a shelf, a roof) means a place is reached level, not from above."""
 """Metres the hand stands above its tcp (pointing down): the band a path must keep free."""
 COMFORT = 0.25
+ENOUGH = 3
+"""Feasible but uncomfortable candidates looked at before taking the best of them."""
 """Radians every arm joint should keep from its limits for a pose to count as comfortable."""
 
 
@@ -209,20 +216,22 @@ class SkillContext:
                 return again
         return solution
 
-    def solve_flip(self, pos: np.ndarray, rot: np.ndarray, q: np.ndarray, *, yaw_free: bool = False) -> tuple[np.ndarray, Any]:
+    def solve_flip(self, pos: np.ndarray, rot: np.ndarray, q: np.ndarray, *, yaw_free: bool = False,
+                   best: bool = False) -> tuple[np.ndarray, Any]:
         """Solve for ``rot`` and (empty hand) its half-turn flip; keep the solution whose joints move
-        least from ``q`` among those that reach the pose."""
+        least from ``q`` among those that reach the pose. With ``best`` (a move through free space) each
+        is the most comfortable arm configuration for the pose, not the nearest."""
         options = [rot] if self.held is not None else [rot, rot @ FLIP]
-        best = None
+        best_found = None
         for option in options:
-            solution = self.solve(pos, option, q, yaw_free=yaw_free)
+            solution = self.ik.best(pos, option, q) if best else self.solve(pos, option, q, yaw_free=yaw_free)
             cost = float(np.sum(np.abs(solution.qpos - q))) + (0.0 if solution.ok() else 1e3)
-            if best is None or cost < best[0]:
-                best = (cost, option, solution)
+            if best_found is None or cost < best_found[0]:
+                best_found = (cost, option, solution)
             if cost < EASY_TRAVEL:
                 break  # close enough to where the arm is: the flip cannot be much better
-        assert best is not None
-        return best[1], best[2]
+        assert best_found is not None
+        return best_found[1], best_found[2]
 
     def straight_line(self, start: Leg, point: np.ndarray, rot: np.ndarray, tolerance: float) -> np.ndarray | None:
         """Joints at ``point``/``rot`` reached along a straight tool line from ``start`` (the way a straight
@@ -319,19 +328,22 @@ class SkillContext:
         return worst
 
     def choose(self, candidates: list[Any], poses: Callable[[Any], list[tuple[np.ndarray, np.ndarray]]],
-               comfortable: float = COMFORT, via: Callable[[Any], tuple[np.ndarray, np.ndarray]] | None = None,
+               comfortable: float = COMFORT, via: Callable[[Any], tuple[Any, ...]] | None = None,
                touch: set[int] = frozenset()) -> Any | None:
         """The first candidate whose poses the arm reaches with ``comfortable`` radians to spare at
         every joint, else the one with the most to spare; ``None`` when none is reachable. The poses
         may touch ``touch`` (the part being pushed or pressed). With ``via``, the hand first goes to the
-        pose ``via`` gives (a transit that touches nothing) and from there to each pose in a straight line."""
+        pose ``via`` gives (a transit that touches nothing; a third item names bodies the transit ignores)
+        and from there to each pose in a straight line."""
         best, best_margin = None, -np.inf
+        feasible = 0
         for candidate in candidates:
             margin = self.margin(poses(candidate), touch)  # cheap first: each pose on its own
             if margin is None:
                 continue
             if via is not None:
-                legs = self.plan_transit(*via(candidate))
+                target = via(candidate)
+                legs = self.plan_transit(target[0], target[1], exclude=target[2] if len(target) > 2 else frozenset())
                 if legs is None:
                     continue
                 start = legs[-1] if legs else Leg(self.pos, self.rot, self.q, APPROACH_SPEED)
@@ -340,8 +352,11 @@ class SkillContext:
                     continue
             if margin >= comfortable:
                 return candidate
+            feasible += 1
             if margin > best_margin:
                 best, best_margin = candidate, margin
+            if feasible >= ENOUGH:
+                break  # a few feasible ones, none comfortable: the best of them will do
         return best
 
     # ------------------------------------------------------------------ holding
@@ -435,6 +450,7 @@ class SkillContext:
         if np.linalg.norm(first[:2] - start.pos[:2]) > 0.01:
             crossing = self._route(start, first, rot, skip, radius, hang, precise=len(route) == 1)
             if crossing is None:
+                log.debug("no route to %s", fmt(first))
                 return None
             legs += crossing
         else:
@@ -445,6 +461,7 @@ class SkillContext:
         for point in route[1:]:  # level through the mouth of the enclosure
             leg = self._reach(legs[-1], point, rot, APPROACH_SPEED, 0.004, keep=True)
             if leg is None:
+                log.debug("no way through the mouth to %s", fmt(point))
                 return None
             legs.append(leg)
         return legs
@@ -532,12 +549,17 @@ class SkillContext:
                 turned, q, current = True, reached, target
                 out.append(Leg(point, target, q, TRANSIT_SPEED, straight=True))
                 continue
-            options = [(True, current)] if turned else [(False, rot), (True, current)] if last else [(True, current), (False, rot)]
+            if final:  # the goal: in the rotation asked for, whatever happened on the way
+                options = [(False, rot)]
+            elif turned:
+                options = [(True, current)]
+            else:
+                options = [(False, rot), (True, current)] if last else [(True, current), (False, rot)]
             for keep, target in options:
                 if keep:
                     solution = self.solve(point, target, q)
                 else:
-                    target, solution = self.solve_flip(point, target, q)
+                    target, solution = self.solve_flip(point, target, q, best=True)
                 if solution.ok(tolerance) and self.clear_path(q, solution.qpos):
                     turned = turned or not keep
                     q, current = solution.qpos, target
@@ -548,7 +570,7 @@ class SkillContext:
                 return None
         return out
 
-    def covered(self, point: np.ndarray, exclude: set[int], room: float = 0.25) -> bool:
+    def covered(self, point: np.ndarray, exclude: set[int], room: float = COVER_ROOM) -> bool:
         """Whether something overhead (a shelf, a roof) is within ``room`` metres above ``point``."""
         return self.scene.clearance_above(np.asarray(point, float) + 0.01 * UP, exclude) < room
 

@@ -151,6 +151,22 @@ class SceneQuery:
                 return float(s)
         return 1.0
 
+    def face_normal(self, point: np.ndarray, owner: str | None = None, prefer: np.ndarray | None = None) -> np.ndarray:
+        """The outward normal of the face a site sits on: of the horizontal directions and up, the one
+        with free space in front of the site and the owner's geometry right behind it (the one facing
+        ``prefer`` when several are)."""
+        up = np.array([0.0, 0.0, 1.0])
+        best, best_score = up, -np.inf
+        hint = np.zeros(3) if prefer is None else np.asarray(prefer, float) / (np.linalg.norm(prefer) + 1e-12)
+        for direction in (np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 1.0, 0]), up):
+            free, _ = self.ray(point + 0.003 * direction, direction)
+            behind, body = self.ray(point + 0.003 * direction, -direction)
+            solid = np.isfinite(behind) and behind < 0.03 and (owner is None or self.owner(body) == owner)
+            score = min(free, 0.3) + (0.3 if solid else 0.0) + 0.05 * float(direction @ hint)
+            if score > best_score:
+                best, best_score = direction, score
+        return best
+
     # ------------------------------------------------------------------ shapes
     def shape(self, name: str) -> Shape:
         """Oriented box around the collision geometry of object ``name``'s root body."""

@@ -21,19 +21,22 @@ TASK = "testlab/HoldTube-v1"
 
 @pytest.fixture
 def wiggle(monkeypatch: pytest.MonkeyPatch) -> None:
-    experts.expert_names()  # load the built-in experts first
-    monkeypatch.setitem(experts._EXPERTS, "testlab/HoldTube", demo_experts.Wiggle)
+    monkeypatch.setitem(experts._CUSTOM, "testlab/HoldTube", demo_experts.Wiggle)
 
 
 def _collect(run_cli, out: Path, *extra: str):
     return run_cli("--registry-dir", REGISTRY, "collect", TASK, "--out", out, "--image-size", "16", *extra)
 
 
-def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path) -> None:
+def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from pipette_cli.skills import derive
+
+    monkeypatch.delitem(derive._DERIVERS, "lift_and_hold")  # no program in its YAML, none derivable
     out = tmp_path / "x.h5"
     result = _collect(run_cli, out, "--episodes", "1")
     assert result.exit_code == 1
-    assert result.stderr.strip().startswith("error: no scripted expert for task 'testlab/HoldTube-v1'")
+    assert result.stderr.strip().startswith("error: testlab/HoldTube-v1: no expert program can be read off a "
+                                            "'lift_and_hold' criterion")
     assert "Traceback" not in result.stderr and not out.exists()
 
 

@@ -1,4 +1,4 @@
-"""``--check``: trivial tasks and unstable layouts are caught; experts are looked up by family."""
+"""``--check``: trivial tasks and unstable layouts are caught; the task's expert program is run."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.check import FAMILY_EXPERTS, check_task, solve_check
+from pipette_cli.authoring.check import check_task, solve_check
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.demos.experts import base as experts
 from pipette_cli.specs.task import TaskSpec
@@ -38,19 +38,20 @@ class StandStill:
 
 
 @pytest.fixture
-def no_family_experts(monkeypatch):
-    experts._load_builtins()
-    for names in FAMILY_EXPERTS.values():
-        for name in names:
-            monkeypatch.delitem(experts._EXPERTS, name, raising=False)
+def no_program(monkeypatch, plate_task):
+    """The drafted task without an expert program, and none derivable from its criterion."""
+    from pipette_cli.skills import derive
+
+    monkeypatch.delitem(derive._DERIVERS, plate_task.success.type)
+    return plate_task.model_copy(update={"expert": None})
 
 
-def test_a_drafted_task_passes_the_idle_checks(plate_task, no_family_experts) -> None:
-    report = check_task(plate_task, episodes=2)
+def test_a_drafted_task_passes_the_idle_checks(no_program) -> None:
+    report = check_task(no_program, episodes=2)
     assert report.ok, report.problems
     assert report.idle_steps >= 2 * 15 * 30  # the whole 15 s time limit was rolled out, twice
     assert report.max_drift_m < 0.005
-    assert report.solve.status == "not_checked" and "no scripted expert" in report.solve.summary()
+    assert report.solve.status == "not_checked" and "no expert program can be read off" in report.solve.summary()
 
 
 def test_a_task_solved_by_doing_nothing_is_refused(plate_task) -> None:
@@ -65,10 +66,10 @@ def test_an_object_that_does_not_rest_is_reported(plate_task) -> None:
     assert any("plate moved" in p for p in report.problems) and report.max_drift_m > 0.05
 
 
-def test_solve_check_uses_the_family_expert(plate_task, monkeypatch, no_family_experts) -> None:
-    monkeypatch.setitem(experts._EXPERTS, "place", StandStill)
+def test_solve_check_runs_the_tasks_expert(plate_task, monkeypatch) -> None:
+    monkeypatch.setitem(experts._CUSTOM, plate_task.id.rsplit("-v", 1)[0], StandStill)
     report = solve_check(plate_task, episodes=2)
-    assert report.status == "unsolved" and report.expert == "place" and report.successes == 0
+    assert report.status == "unsolved" and report.expert.endswith("StandStill") and report.successes == 0
     assert report.reasons == ["out_of_region", "out_of_region"]
     easy = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3})
     solved = solve_check(easy, episodes=2)

@@ -94,7 +94,7 @@ def incubator() -> AssetDef:
     for side, y in (("left", -w / 2 + t / 2), ("right", w / 2 - t / 2)):
         p.solid_box(base, f"side_{side}", (d - t, t, h - 0.06 - t), (-t / 2, y, (h + 0.06 - t) / 2), CASE)
     p.visual(base, "chamber_liner", g.box((0.002, w - 2 * t, h - 0.06 - t), (x1 - t - 0.001, 0, (h + 0.06 - t) / 2)), p.STEEL)
-    shelves = (0.20, 0.46)  # 0.26 m apart: a robot's wrist fits above a dish on the lower shelf
+    shelves = (0.20, 0.50)  # 0.30 m apart: a robot's wrist fits above a dish on the lower shelf
     for k, top in enumerate(shelves):
         p.solid_box(base, f"shelf_{k}", (d - t - 0.03, w - 2 * t - 0.004, 0.006), (-t / 2 - 0.005, 0, top - 0.003), p.STEEL)
         p.site(base, f"shelf_{k}_center", (-0.03, 0, top))
@@ -321,9 +321,11 @@ def microplate_reader() -> AssetDef:
                             ("lip_yn", (0.13, 0.004, 0.006), (0.073, -0.0455, 0.009)), ("lip_yp", (0.13, 0.004, 0.006), (0.073, 0.0455, 0.009))):
         p.solid_box(drawer, name, size, pos, p.DARK_PLASTIC)
     p.site(drawer, "drawer_center", (0.073, 0, 0.006))
+    p.solid_box(drawer, "handle_grip", (0.025, 0.015, 0.034), (-0.0225, 0, 0.02), p.DARK_PLASTIC)  # a finger grip to pull it by
+    p.site(drawer, "drawer_handle", (-0.0225, 0, 0.02))
     joint = Joint("drawer_slide", "prismatic", "base", "drawer", anchor=(-d / 2, 0, 0.05), axis="-x", lower=0.0, upper=0.16, damping=5.0)
     drive = PositionDrive("drawer_drive", "drawer_slide", kp=400.0, kv=40.0, max_force=40.0, ctrl_range=(0.0, 0.16))
-    return _asset("microplate_reader", "Absorbance microplate reader with a motorised plate-carrier drawer (drawer_slide, opens positive toward -x, 0-0.16 m).",
+    return _asset("microplate_reader", "Absorbance microplate reader with a plate-carrier drawer (drawer_slide, opens positive toward -x, 0-0.16 m) and a grip on its front.",
                   [base, drawer], joints=[joint], drives=[drive], extra={"drawer_open": 0.16, "plate_pocket": (0.13, 0.087)})
 
 

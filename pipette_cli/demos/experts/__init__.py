@@ -1,8 +1,2 @@
-"""Scripted experts, one module per task family; importing this package registers them all."""
-
-import importlib
-import pkgutil
-
-for _module in pkgutil.iter_modules(__path__):
-    if _module.name != "base":
-        importlib.import_module(f"{__name__}.{_module.name}")
+"""Scripted experts: a task's skill program (its ``expert:`` section, or one read off its success
+criterion), run by :class:`~pipette_cli.skills.program.ProgramExpert`."""

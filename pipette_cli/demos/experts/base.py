@@ -1,26 +1,29 @@
-"""The scripted-expert contract: a policy over the simulation state, one action per control step.
+"""The scripted-expert contract and how a task gets its expert.
 
-Experts see the :class:`~pipette_cli.sim.world.World` (object poses, joints, the robot) —
-privileged state a learned policy never gets — and return the same 8-D (or 7-D) action a
-policy or a teleoperator produces: arm joint targets plus a gripper command (1 open, 0 closed).
+An expert sees the :class:`~pipette_cli.sim.world.World` (object poses, joints, the robot) —
+privileged state a learned policy never gets — and returns the same action a policy or a
+teleoperator produces: arm joint targets plus a gripper command (1 open, 0 closed).
+
+A task's expert is data: the skill program in its YAML (``expert:``), or, without one, the program
+read off its success criterion (:func:`~pipette_cli.skills.derive.derive_program`). Python experts
+can still be registered by task id (a task pack's own controller, a test's stand-in); they take
+precedence over the program.
 """
 
 from __future__ import annotations
 
-import logging
 import re
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from pipette_cli.errors import PipetteError, suggest
+from pipette_cli.errors import PipetteError
 from pipette_cli.sim.world import World
 
 if TYPE_CHECKING:
+    from pipette_cli.specs.expert import StepSpec
     from pipette_cli.specs.task import TaskSpec
-
-log = logging.getLogger(__name__)
 
 
 class Expert(Protocol):
@@ -36,90 +39,60 @@ class Expert(Protocol):
 
 
 ExpertFactory = Callable[[], Expert]
-_EXPERTS: dict[str, ExpertFactory] = {}
-
-FAMILY_EXPERTS: dict[str, tuple[str, ...]] = {
-    # task family (a tag written by ``pipette new-task``) -> family expert names tried in order
-    "pick": ("pick",),
-    "place": ("place",),
-    "insert": ("insert", "place"),
-    "transfer": ("transfer", "place"),
-    "open": ("open_lid",),  # none built in yet ("lid" is the closing plan): a clear "no expert" error
-    "close": ("close_lid", "lid"),
-    "press": ("press_button", "press"),
-    "position": ("position",),
-}
+_CUSTOM: dict[str, ExpertFactory] = {}
 
 
-def register_expert(*names: str) -> Callable[[ExpertFactory], ExpertFactory]:
-    """Register an expert factory under task ids without version (``pipette/PickUpTestTube``) or
-    under family names without a namespace (``pick``, ``close_lid``) for generated tasks."""
+def register_expert(*task_ids: str) -> Callable[[ExpertFactory], ExpertFactory]:
+    """Register a Python expert for task ids (any version): it replaces the task's skill program."""
 
     def decorate(factory: ExpertFactory) -> ExpertFactory:
-        for name in names:
-            _EXPERTS[_key(name)] = factory
+        for task_id in task_ids:
+            _CUSTOM[_key(task_id)] = factory
         return factory
 
     return decorate
 
 
-def _key(name: str) -> str:
-    """``pipette/PickUpTestTube-v1`` -> ``pipette/PickUpTestTube``; family names stay as they are."""
-    return re.sub(r"-v[0-9]+$", "", name)
+def _key(task_id: str) -> str:
+    return re.sub(r"-v[0-9]+$", "", task_id)
 
 
-def expert_names() -> list[str]:
-    _load_builtins()
-    return sorted(_EXPERTS)
-
-
-def make_expert(task_id: str) -> Expert:
-    """The scripted expert for ``task_id`` (any version), or for a family name.
-
-    The namespace is part of the key: a generated ``generated/CloseSpectrophotometerLid-v1``
-    does not get the benchmark's expert, whose plan names that task's scene objects; it gets
-    its family's expert through :func:`find_expert`.
+def expert_program(task: TaskSpec) -> tuple[list[StepSpec], str]:
+    """The skill program a task's expert runs and where it comes from (``task`` or ``derived``).
 
     Raises:
-        PipetteError: no expert is registered for the task.
+        PipetteError: the task has no program and none can be read off its success criterion.
     """
-    _load_builtins()
-    key = _key(task_id)
-    factory = _EXPERTS.get(key)
-    if factory is None:
-        raise PipetteError(f"no scripted expert for task {task_id!r}; {suggest(key, _EXPERTS)}")
-    return factory()
+    from pipette_cli.skills.derive import derive_program
 
-
-def task_family(task: TaskSpec) -> str | None:
-    """The task family recorded in the task's tags (``generated, place, ...``), if any."""
-    return next((t for t in task.tags if t in FAMILY_EXPERTS), None)
+    return derive_program(task), "task" if task.expert else "derived"
 
 
 def find_expert(task: TaskSpec) -> tuple[str, Expert]:
-    """The task's own expert (by id), else the first registered expert of its family.
+    """The expert for ``task``: a registered Python expert, else its skill program.
 
-    This is how ``collect``, ``experts check`` and ``new-task --check`` pick an expert, so a
-    task written by ``pipette new-task`` gets the family expert (``pick``, ``place``, ...).
+    This is how ``collect``, ``experts check``, ``augment`` and ``new-task --check`` pick one.
 
     Returns:
-        The expert's registered name and a fresh expert.
+        A short description of the expert (``program``, ``derived program`` or the Python class)
+        and a fresh expert.
 
     Raises:
-        PipetteError: neither the task nor its family has an expert.
+        PipetteError: there is neither a registered expert nor a program for the task.
     """
-    family = task_family(task)
-    candidates = FAMILY_EXPERTS.get(family or "", ())
-    for name in (task.id, *candidates):
-        try:
-            return name, make_expert(name)
-        except PipetteError:
-            continue
-        except Exception as exc:  # an expert that fails to build must not hide the others
-            log.warning("expert %s unavailable: %s", name, exc)
-    tried = f" or its family {family!r} (tried: {', '.join(candidates)})" if family else ""
-    raise PipetteError(f"no scripted expert for task {task.id!r}{tried}; {suggest(_key(task.id), _EXPERTS)}")
+    factory = _CUSTOM.get(_key(task.id))
+    if factory is not None:
+        return getattr(factory, "__qualname__", "custom expert"), factory()
+    from pipette_cli.skills.program import ProgramExpert
+
+    steps, source = expert_program(task)
+    return ("program" if source == "task" else "derived program"), ProgramExpert(steps, source)
 
 
-def _load_builtins() -> None:
-    import pipette_cli.demos.experts  # noqa: F401  (imports every expert module)
+def expert_failure(expert: Expert) -> str | None:
+    """Why the expert stopped trying (a skill step that could not do its job), if it did."""
+    failure = getattr(expert, "failure", None)
+    return failure if isinstance(failure, str) else None
+
+
+__all__ = ["Expert", "PipetteError", "expert_failure", "expert_program", "find_expert", "register_expert"]

@@ -16,6 +16,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 from dataclasses import dataclass
 
+import logging
+
 import mujoco
 import numpy as np
 
@@ -25,6 +27,8 @@ from pipette_cli.skills.runtime import (
 )
 from pipette_cli.specs.expert import CloseHingeSpec, HingeSpec, OpenHingeSpec, SlideSpec
 
+log = logging.getLogger(__name__)
+
 TOLERANCE_DEG = 3.0
 PUSH_REACHES = (0.85, 0.7, 0.55, 0.4)
 """Where along the lid the fingers push: fractions of the handle's distance from the hinge, tried
@@ -32,6 +36,11 @@ in turn (far out needs the least force, nearer the hinge is easier to reach)."""
 STANDOFF = 0.025
 """Metres between the tcp and the face it pushes (the fingers' half thickness and a little)."""
 MAX_PASSES = 3
+MIN_PULL_DEG = 24.0
+"""Degrees a handle's grasp must let the arm follow the arc (enough to reach behind the part and push)."""
+FOLLOW = (1.0, 0.5, 0.0)
+PULL_STEP = 8.0
+"""Degrees per move while pulling a handle along its arc (the joint is read after each)."""
 SETTLED_RAD_S = 0.05
 
 
@@ -106,20 +115,93 @@ def goal_angle(ctx: SkillContext, hinge: Hinge, step: HingeSpec, opening: bool) 
     return 0.9 * far
 
 
-def handle_point(ctx: SkillContext, hinge: Hinge, step: HingeSpec) -> np.ndarray:
-    """The named handle, else a ``*handle`` site of the part's asset, else the part's farthest point."""
-    if step.handle is not None:
-        return ctx.world.position(step.handle)
-    obj = hinge.joint.split("/", 1)[0]
-    from pipette_cli.skills.grasp import semantics
+def plate_edge(ctx: SkillContext, joint: str) -> tuple[np.ndarray, float]:
+    """The far edge of the part's plate (its largest collision geom), at mid-thickness, and the
+    plate's half-thickness: where pushing it needs the least force."""
+    w = ctx.world
+    m, d = w.model, w.data
+    hinge = read_hinge(ctx, joint)
+    best = None
+    for body in _moving_bodies(ctx, joint):
+        for g in np.flatnonzero(m.geom_bodyid == body):
+            if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+                continue
+            volume = float(np.prod(m.geom_aabb[g, 3:]))
+            if best is None or volume > best[0]:
+                best = (volume, g)
+    if best is None:
+        raise SkillFailure(f"{joint!r}: the moving part has no collision geometry to push")
+    g = best[1]
+    rot = d.geom_xmat[g].reshape(3, 3)
+    center = d.geom_xpos[g] + rot @ m.geom_aabb[g, :3]
+    half = m.geom_aabb[g, 3:]
+    out = center - hinge.anchor
+    out -= hinge.axis * float(hinge.axis @ out)
+    out /= np.linalg.norm(out) + 1e-12
+    reach = float(np.abs(rot.T @ out) @ half)
+    thickness = float(np.abs(rot.T @ np.cross(hinge.axis, out)) @ half)
+    return center + reach * out, thickness
 
-    handles = [s for s in semantics(ctx, obj).get("sites", []) if "handle" in str(s)]
-    body = ctx.world.model.jnt_bodyid[ctx.world.joint_id(hinge.joint)]
-    for name in handles:
-        sid = ctx.world.site_id(f"{obj}/{name}")
-        if ctx.world.model.site_bodyid[sid] == body:
-            return ctx.world.position(f"{obj}/{name}")
-    raise SkillFailure(f"{hinge.joint!r}: the part has no handle site; name one with 'handle:'")
+
+def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> Iterator[Move]:
+    """Sweep the closed fingers along the part's arc toward ``goal``, pushing the face that moves away
+    from them; passes again where the part stopped short (friction, a lid that fell ahead of the hand)."""
+    hinge = read_hinge(ctx, joint)
+    edge, thickness = plate_edge(ctx, joint)
+    sign = float(np.sign(goal - hinge.angle))
+    angle0 = hinge.angle
+    overshoot = goal + sign * 2.0
+    off = STANDOFF + thickness
+
+    def push_point(reach: float, angle: float, standoff: float) -> np.ndarray:
+        p = hinge.point(hinge.anchor + reach * (edge - hinge.anchor), angle0, angle)
+        return p - standoff * hinge.motion(p, sign)
+
+    def sweep(reach: float, start: float) -> list[np.ndarray]:
+        behind = min(max(start - sign * 4.0, hinge.low), hinge.high)  # a little behind the part as it stands
+        return [push_point(reach, float(a), off) for a in np.linspace(behind, overshoot, 8)]
+
+    def frame(reach: float, pitch: float) -> np.ndarray:
+        p = push_point(reach, angle0, 0.0)
+        if pitch >= 89.9:
+            closing = np.cross(hinge.motion(p, sign), UP)
+            return down_frame(closing if np.linalg.norm(closing[:2]) > 0.1 else hinge.axis)
+        return pitched_frame(p - ctx.base, pitch)
+
+    def approach_of(candidate: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+        first = sweep(candidate[0], angle0)[0]
+        return first - 0.05 * hinge.motion(first, sign) + 0.02 * UP, frame(*candidate)
+
+    def poses(candidate: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray]]:
+        rot = frame(*candidate)
+        points = sweep(candidate[0], angle0)
+        return [approach_of(candidate), *((p, rot) for p in points[::2]), (points[-1], rot)]
+
+    candidates = [(reach, pitch) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
+    chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
+    if chosen is None:
+        raise SkillFailure(f"no reachable way to push {joint!r} to {goal:.0f} deg without touching anything else")
+    reach, pitch = chosen
+    rot = frame(reach, pitch)
+    start = angle0
+    for attempt in range(MAX_PASSES):
+        points = sweep(reach, start)
+        approach = approach_of(chosen)[0] if attempt == 0 else points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP
+        yield from ctx.transit(approach, rot, what=f"the approach to {joint!r}")
+        with ctx.touching(moving):
+            yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {joint!r}")
+            for point in points[1:]:
+                yield ctx.move(point, rot, speed=FINE_SPEED * 3, what=f"pushing {joint!r}")
+        now = ctx.world.joint(joint)
+        if abs(now - goal) <= TOLERANCE_DEG or np.sign(goal - now) != sign:
+            break
+        if attempt > 0 and abs(now - start) < 1.0:
+            raise SkillFailure(f"{joint!r} does not move (stays at {now:.0f} deg, goal {goal:.0f} deg)")
+        start = now
+    end = ctx.pos
+    with ctx.touching(moving):
+        yield ctx.move(end + 0.02 * UP - 0.02 * hinge.motion(end, sign), rot, speed=APPROACH_SPEED, what="backing off")
+        yield from ctx.lift_clear(0.10)
 
 
 @skill("close_hinge")
@@ -131,176 +213,128 @@ def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
     yield from settle(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
     goal = goal_angle(ctx, hinge, step, opening=False)
-    if abs(hinge.angle - goal) <= TOLERANCE_DEG:
-        return
-    handle = handle_point(ctx, hinge, step)
-    sign = float(np.sign(goal - hinge.angle))
-    angle0 = hinge.angle
-    moving = _moving_bodies(ctx, step.joint)
-    overshoot = goal + sign * 2.0
-
-    def push_point(reach: float, angle: float, off: float) -> np.ndarray:
-        p = hinge.point(hinge.anchor + reach * (handle - hinge.anchor), angle0, angle)
-        return p - off * hinge.motion(p, sign)
-
-    def sweep(reach: float, start: float) -> list[np.ndarray]:
-        behind = min(max(start - sign * 4.0, hinge.low), hinge.high)  # a little behind the part as it stands
-        return [push_point(reach, float(a), STANDOFF) for a in np.linspace(behind, overshoot, 8)]
-
-    def frame(reach: float, pitch: float) -> np.ndarray:
-        p = push_point(reach, angle0, 0.0)
-        if pitch >= 89.9:
-            closing = np.cross(hinge.motion(p, sign), UP)
-            return down_frame(closing if np.linalg.norm(closing[:2]) > 0.1 else hinge.axis)
-        return pitched_frame(p - ctx.base, pitch)
-
-    candidates = [(reach, pitch) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
-
-    def poses(candidate: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray]]:
-        reach, pitch = candidate
-        rot = frame(reach, pitch)
-        points = sweep(reach, angle0)
-        return [(points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP, rot), *((p, rot) for p in points[::2]),
-                (points[-1], rot)]
-
-    def approach_of(candidate: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-        first = sweep(candidate[0], angle0)[0]
-        return first - 0.05 * hinge.motion(first, sign) + 0.02 * UP, frame(*candidate)
-
-    chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
-    if chosen is None:
-        raise SkillFailure(f"no reachable way to push {step.joint!r} shut")
-    reach, pitch = chosen
-    rot = frame(reach, pitch)
-    start = angle0
-    for attempt in range(MAX_PASSES):
-        points = sweep(reach, start)
-        approach, _ = approach_of((reach, pitch)) if attempt == 0 else (points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP, rot)
-        yield from ctx.transit(approach, rot, what=f"the approach to {step.joint!r}")
-        with ctx.touching(moving):
-            yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {step.joint!r}")
-            for point in points[1:]:
-                yield ctx.move(point, rot, speed=FINE_SPEED * 3, what=f"pushing {step.joint!r}")
-        now = ctx.world.joint(step.joint)
-        if abs(now - goal) <= TOLERANCE_DEG or np.sign(goal - now) != sign:
-            break
-        if attempt > 0 and abs(now - start) < 1.0:
-            raise SkillFailure(f"{step.joint!r} does not move (stays at {now:.0f} deg, goal {goal:.0f} deg)")
-        start = now
-    end = ctx.pos
-    with ctx.touching(moving):
-        yield ctx.move(end + 0.02 * UP - 0.02 * hinge.motion(end, sign), rot, speed=APPROACH_SPEED, what="backing off")
-        yield from ctx.lift_clear(0.10)
+    if abs(hinge.angle - goal) > TOLERANCE_DEG:
+        yield from push_arc(ctx, step.joint, goal, _moving_bodies(ctx, step.joint))
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
 
 @skill("open_hinge")
 def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
+    """Pull the handle along the arc as far as the arm follows it, then push the part the rest of the way."""
+    from pipette_cli.skills.grasp import plan_grasp
     from pipette_cli.skills.library.pick import grasp
+    from pipette_cli.skills.library.place import back_off
 
     if ctx.held is not None:
         raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before opening {step.joint!r}")
+    yield from settle(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
     goal = goal_angle(ctx, hinge, step, opening=True)
     if abs(hinge.angle - goal) <= TOLERANCE_DEG:
         return
-    handle = handle_point(ctx, hinge, step)
     obj = step.joint.split("/", 1)[0]
-    handle_site = step.handle or _handle_site(ctx, hinge, handle)
-    yield from grasp(ctx, obj, at=handle_site, mode=_handle_mode(ctx, hinge, handle))
-    ctx.held = None  # the part is articulated, not carried: the hand follows its arc
     moving = _moving_bodies(ctx, step.joint)
-    ctx.allowed = ctx.allowed | moving
+    handle_site = step.handle or _part_handle(ctx, step.joint)
     sign = float(np.sign(goal - hinge.angle))
-    tcp0, rot0, angle0 = ctx.pos.copy(), ctx.rot.copy(), hinge.angle
-    steps = max(3, int(abs(goal - angle0) / 8.0))
-    angle = angle0
-    for target in np.linspace(angle0, goal + sign * 2.0, steps + 1)[1:]:
-        turn = axis_rotation(hinge.axis, np.deg2rad(target - angle0))
-        pos = hinge.anchor + turn @ (tcp0 - hinge.anchor)
-        yield ctx.move(pos, turn @ rot0, speed=FINE_SPEED * 3, what=f"opening {step.joint!r}")
-        now = ctx.world.joint(step.joint)
-        if abs(now - target) > 15.0:
-            raise SkillFailure(f"{step.joint!r} does not follow the hand (at {now:.0f} deg, hand at {target:.0f} deg): "
-                               "the handle slipped")
-        angle = now
-    yield ctx.grip(OPEN, 0.4)
-    from pipette_cli.skills.library.place import back_off
+    if handle_site is not None:
+        # a handle on a front face (a door's bar, a lid's front lip) is taken from in front; one on top from above
+        normal = ctx.scene.face_normal(ctx.world.position(handle_site), obj, prefer=ctx.base - hinge.anchor)
+        angle0 = hinge.angle
+        targets = [float(np.clip(t, min(angle0, goal + sign * 2.0), max(angle0, goal + sign * 2.0)))
+                   for t in np.arange(angle0 + sign * PULL_STEP, goal + sign * (PULL_STEP + 2.0), sign * PULL_STEP)]
 
-    yield from back_off(ctx, 0.08)
-    ctx.allowed = ctx.allowed - moving
-    if abs(ctx.world.joint(step.joint) - goal) > 10.0 and abs(angle - goal) > 10.0:
-        raise SkillFailure(f"{step.joint!r} stopped at {angle:.0f} deg, short of {goal:.0f} deg")
+        def pull_pose(pos: np.ndarray, rot: np.ndarray, target: float, follow: float) -> tuple[np.ndarray, np.ndarray]:
+            """The handle's place at ``target``, the hand turned ``follow`` of the way with it (the
+            handle turns in the fingers for the rest)."""
+            turn = axis_rotation(hinge.axis, np.deg2rad(target - angle0))
+            return hinge.anchor + turn @ (pos - hinge.anchor), axis_rotation(hinge.axis, np.deg2rad(follow * (target - angle0))) @ rot
+
+        # a grasp the arm can follow round the first part of the arc (what stays is pushed); the hand
+        # turns with the handle if it can, half as much, or not at all
+        mode = "top" if normal[2] > 0.9 else "side"
+        follow = None
+        for follow in FOLLOW:
+            arc = (lambda g, f=follow: [pull_pose(g.pos, g.rot, t, f) for t in targets if abs(t - angle0) <= MIN_PULL_DEG + 1e-6])
+            try:
+                plan_grasp(ctx, obj, at=handle_site, mode=mode, then=arc)
+                break
+            except SkillFailure:
+                continue
+        else:
+            raise SkillFailure(f"no grasp of {handle_site!r} the {ctx.robot.name} can pull {MIN_PULL_DEG:.0f} deg along "
+                               f"the arc of {step.joint!r}")
+        yield from grasp(ctx, obj, at=handle_site, mode=mode, extra_touch=moving, then=arc)
+        ctx.held = None  # the part is articulated, not carried: the hand follows its arc
+        tcp0, rot0 = ctx.pos.copy(), ctx.rot.copy()
+        with ctx.touching(moving):
+            for target in targets:
+                pos, rot = pull_pose(tcp0, rot0, target, follow)
+                try:
+                    move = ctx.move(pos, rot, speed=FINE_SPEED * 3, what=f"opening {step.joint!r}")
+                except SkillFailure as exc:
+                    log.debug("pulling %s stops at %.0f deg: %s", step.joint, ctx.world.joint(step.joint), exc)
+                    break  # the arm cannot follow further: let go and push the rest
+                yield move
+                if abs(ctx.world.joint(step.joint) - target) > 15.0:
+                    break  # the grip slipped: push the rest
+                if sign * (ctx.world.joint(step.joint) - goal) >= 0:
+                    break
+            yield ctx.grip(OPEN, 0.4)
+            yield from back_off(ctx, 0.06)
+        yield from settle(ctx, step.joint)
+    if abs(ctx.world.joint(step.joint) - goal) > TOLERANCE_DEG and sign * (ctx.world.joint(step.joint) - goal) < 0:
+        if ctx.gripper != CLOSED:
+            yield ctx.grip(CLOSED, 0.3)
+        yield from push_arc(ctx, step.joint, goal, moving)
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
 
-def _handle_site(ctx: SkillContext, hinge: Hinge, handle: np.ndarray) -> str:
-    obj = hinge.joint.split("/", 1)[0]
-    from pipette_cli.skills.grasp import semantics
-
-    for name in semantics(ctx, obj).get("sites", []):
-        if np.linalg.norm(ctx.world.position(f"{obj}/{name}") - handle) < 1e-6:
-            return f"{obj}/{name}"
-    raise SkillFailure(f"{hinge.joint!r}: no handle site to grasp")
-
-
-def _handle_mode(ctx: SkillContext, hinge: Hinge, handle: np.ndarray) -> str:
-    """A handle on a vertical face (a door's bar) is taken from the side, one on top from above."""
-    return "side" if abs(hinge.axis[2]) > 0.7 else "top"
-
-
 @skill("slide")
 def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
+    from pipette_cli.skills.library.pick import grasp
+    from pipette_cli.skills.library.place import back_off
+
     w = ctx.world
     jid = w.joint_id(step.joint)
     if w.model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_SLIDE:
         raise SkillFailure(f"{step.joint!r} is not a sliding joint; use open_hinge/close_hinge")
-    low, high = w.model.jnt_range[jid]
+    if ctx.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before moving {step.joint!r}")
+    low, high = (float(v) for v in w.model.jnt_range[jid])
     goal = high if step.to == "open" else low if step.to == "closed" else float(step.to)
     now = w.joint(step.joint)
     if abs(now - goal) < 0.005:
         return
     axis = w.data.xaxis[jid].copy()
-    obj = step.joint.split("/", 1)[0]
-    body = w.model.jnt_bodyid[jid]
-    part = ctx.scene.bodies(obj)
-    face = _front_face(ctx, body, axis * np.sign(goal - now))
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before moving {step.joint!r}")
-    pushing = True
     direction = axis * np.sign(goal - now)
-    rot = tool_frame(horizontal(direction) if abs(direction[2]) < 0.7 else -UP, np.array([0.0, 0.0, 1.0]) if abs(direction[2]) < 0.7 else np.array([1.0, 0.0, 0.0]))
-    if not pushing:  # pragma: no cover - every built-in slide is driven by pushing its front
-        pass
-    if ctx.gripper != CLOSED:
-        yield ctx.grip(CLOSED, 0.3)
-    start = face - 0.05 * direction
-    yield from ctx.transit(start, rot, exclude=part, what=f"the approach to {step.joint!r}")
-    travel = abs(goal - now)
-    yield ctx.move(face + (travel + 0.005) * direction, rot, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
-    yield ctx.move(ctx.pos - 0.05 * direction, rot, speed=APPROACH_SPEED, what="backing off")
-    if abs(w.joint(step.joint) - goal) > 0.01:
-        raise SkillFailure(f"{step.joint!r} is at {w.joint(step.joint):.3f} m, not {goal:.3f} m")
+    obj = step.joint.split("/", 1)[0]
+    moving = _moving_bodies(ctx, step.joint)
+    handle = step.handle or _part_handle(ctx, step.joint)
+    if handle is None:
+        raise SkillFailure(f"{step.joint!r}: the sliding part has no handle site to move it by; name one with 'handle:'")
+    yield from grasp(ctx, obj, at=handle, mode="side" if abs(direction[2]) < 0.7 else "top")
+    ctx.held = None  # the part slides on its joint; the hand follows
+    with ctx.touching(moving):
+        travel = abs(goal - now)
+        yield ctx.move(ctx.pos + travel * direction, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
+        yield ctx.grip(OPEN, 0.4)
+        yield from back_off(ctx, 0.06)
+    reached = w.joint(step.joint)
+    if abs(reached - goal) > 0.02:
+        raise SkillFailure(f"{step.joint!r} is at {reached:.3f} m, not {goal:.3f} m: the grip slipped")
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
 
-def _front_face(ctx: SkillContext, body: int, direction: np.ndarray) -> np.ndarray:
-    """The centre of the sliding part's face that trails ``direction`` (the face to push)."""
-    w = ctx.world
-    m, d = w.model, w.data
-    best, point = np.inf, None
-    for g in np.flatnonzero(m.geom_bodyid == body):
-        if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
-            continue
-        center = d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ m.geom_aabb[g, :3]
-        half = np.abs(d.geom_xmat[g].reshape(3, 3)) @ m.geom_aabb[g, 3:]
-        back = center - half * np.abs(direction) * np.sign(direction.sum() or 1.0)
-        depth = float(back @ direction)
-        if depth < best:
-            best, point = depth, center - np.abs(direction) * half * np.sign(direction @ np.ones(3))
-    if point is None:
-        raise SkillFailure("the sliding part has no collision geometry to push")
-    return point
+def _part_handle(ctx: SkillContext, joint: str) -> str | None:
+    """A ``*handle`` site on the body ``joint`` moves."""
+    from pipette_cli.skills.grasp import semantics
+
+    obj = joint.split("/", 1)[0]
+    body = ctx.world.model.jnt_bodyid[ctx.world.joint_id(joint)]
+    for name in semantics(ctx, obj).get("sites", []):
+        if "handle" in str(name) and ctx.world.model.site_bodyid[ctx.world.site_id(f"{obj}/{name}")] == body:
+            return f"{obj}/{name}"
+    return None

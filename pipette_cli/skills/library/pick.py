@@ -7,7 +7,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP
-from pipette_cli.skills.grasp import plan_grasp
+from pipette_cli.skills.grasp import FollowThrough, plan_grasp
 from pipette_cli.skills.runtime import APPROACH_SPEED, CLOSED, OPEN, Move, SkillContext, SkillFailure, skill
 from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
 
@@ -17,12 +17,13 @@ CLOSE_S = 0.5
 
 
 def grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
-          height: float | None = None, extra_touch: set[int] = frozenset()) -> Iterator[Move]:
+          height: float | None = None, extra_touch: set[int] = frozenset(),
+          then: FollowThrough | None = None) -> Iterator[Move]:
     """Approach ``name``, close on it and record it as held (the hand ends at the grasp pose).
     The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
     if ctx.held is not None:
         raise SkillFailure(f"the hand already holds {ctx.held.name!r}; put it down first")
-    plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=entry_direction(ctx, name))
+    plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=entry_direction(ctx, name), then=then)
     exclude = ctx.scene.bodies(name)
     if ctx.gripper != OPEN:
         yield ctx.grip(OPEN, 0.3)

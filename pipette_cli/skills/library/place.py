@@ -8,6 +8,7 @@ with (it stays level), and its base, measured in the hand after the grasp, lands
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 
 import numpy as np
@@ -17,6 +18,8 @@ from pipette_cli.skills.runtime import (
     APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillContext, SkillFailure, fmt, skill,
 )
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
+
+log = logging.getLogger(__name__)
 
 DROP = 0.002
 """Metres above the surface where a placed object is let go."""
@@ -195,6 +198,18 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     tool_final = final(tool_rot)
     entry = tool_final + rise * UP
     yield from ctx.transit(entry, tool_rot, what=f"carrying {step.object!r} over {step.target!r}")
+    yield ctx.hold(0.3)  # let it stop swinging in the fingers
+    # closed loop: where is the mating point now (the object may have turned in the grasp)? line it up
+    # over the site from where the hand stands, then go down
+    obj_pos, obj_rot = ctx.world.position(step.object), ctx.world.rotation(step.object)
+    mate_now = obj_pos + obj_rot @ mate
+    shift = site + 0.003 * UP - mate_now
+    log.debug("insert %s at t=%.2f: mating point %s, site %s, tilt %.1f deg", step.object, ctx.world.time, fmt(mate_now), fmt(site),
+              float(np.rad2deg(np.arccos(np.clip(obj_rot[2, 2], -1, 1)))))
+    entry_fixed = ctx.pos + np.array([shift[0], shift[1], 0.0])
+    if np.linalg.norm(shift[:2]) > 0.002:
+        yield ctx.move(entry_fixed, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up over {step.target!r}")
+    tool_final = ctx.pos + np.array([0.0, 0.0, shift[2]])
     with ctx.touching(holder):
         yield ctx.move(tool_final, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
         if not step.release:

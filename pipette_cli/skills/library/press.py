@@ -14,25 +14,6 @@ STANDOFFS = (0.08, 0.05, 0.03)
 """Metres in front of the button where the approach starts (less where the arm is cramped)."""
 
 
-def face_normal(ctx: SkillContext, point: np.ndarray, owner: str) -> np.ndarray:
-    """The outward normal of the face a site sits on: of the horizontal directions and up, the one
-    with free space in front of the site (facing the robot when several are free)."""
-    skip: set[int] = set()
-    best, best_score = UP.copy(), -np.inf
-    toward_robot = ctx.base - point
-    toward_robot[2] = 0.0
-    toward_robot /= np.linalg.norm(toward_robot) + 1e-12
-    for direction in (np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 1.0, 0]), UP):
-        free, _ = ctx.scene.ray(point + 0.003 * direction, direction, skip)
-        # the owner's own geometry right behind the site tells which side is solid
-        behind, body = ctx.scene.ray(point + 0.003 * direction, -direction, skip)
-        solid = np.isfinite(behind) and behind < 0.02 and ctx.scene.owner(body) == owner
-        score = min(free, 0.3) + (0.3 if solid else 0.0) + 0.05 * float(direction @ toward_robot)
-        if score > best_score:
-            best, best_score = direction, score
-    return best
-
-
 @skill("press")
 def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
     if ctx.held is not None:
@@ -40,7 +21,7 @@ def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
     owner = step.button.split("/", 1)[0]
     site = ctx.world.position(step.button)
     panel = int(ctx.world.model.site_bodyid[ctx.world.site_id(step.button)])
-    normal = face_normal(ctx, site, owner)
+    normal = ctx.scene.face_normal(site, owner, prefer=ctx.base - site)
     fingers = ctx.robot.gripper
     if normal[2] > 0.9:  # a button on a top face: fingertips straight down onto it
         frames = [down_frame(np.array([1.0, 0.0, 0.0]))]
