@@ -71,8 +71,9 @@ spec = AugmentSpec(variants=make_variants(variants, default_atoms()), image_size
 out = Path(tempfile.mkdtemp(prefix="bench_reference_")) / "out.h5"
 started = time.perf_counter()
 result = augment(load_registry([]).get(task_id), raw, out, spec, workers=1)
+import pipette_cli
 print(json.dumps({"kept": result.report["kept"], "attempts": result.report["attempts"],
-                  "seconds": time.perf_counter() - started}))
+                  "seconds": time.perf_counter() - started, "package": pipette_cli.__file__}))
 """
 
 
@@ -139,7 +140,7 @@ def ours(task, raw: Path, out: Path, spec: AugmentSpec, *, workers: int = 1, exe
 def reference(tree: Path, task, raw: Path, variants: str, size: int) -> dict[str, Any]:
     env = {**os.environ, "PYTHONPATH": str(tree)}
     done = subprocess.run([sys.executable, "-c", REFERENCE_SCRIPT, task.id, str(raw), variants, str(size)],
-                          capture_output=True, text=True, env=env, check=False)
+                          capture_output=True, text=True, env=env, check=False, cwd=tree)  # `-c` imports from cwd first
     if done.returncode != 0:
         raise SystemExit(f"reference run in {tree} failed:\n{done.stderr[-2000:]}")
     row = json.loads(done.stdout.strip().splitlines()[-1])

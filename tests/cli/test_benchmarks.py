@@ -50,10 +50,11 @@ def test_bench_render_covers_every_profile_and_size(tmp_path) -> None:
     bench("bench_render.py", "--sizes", "32,48", "--frames", "2", "--rounds", "1", "--out", str(out), "--picture", str(png))
     data = read(out)
     rows = data["results"]
-    assert {(r["profile"], r["size"]) for r in rows} == {("fast", 32), ("fast", 48), ("full", 32), ("full", 48)}
+    profiles = ("fast", "full", "fast-original-meshes")
+    assert {(r["profile"], r["size"]) for r in rows} == {(p, s) for p in profiles for s in (32, 48)}
     assert all(r["captures_per_s"] > 0 and r["frames"] == 2 for r in rows)
     triangles = {r["profile"]: r["triangles"] for r in rows}
-    assert triangles["fast"] * 4 < triangles["full"]  # the fast profile renders decimated meshes
+    assert triangles["fast"] * 4 < triangles["full"] == triangles["fast-original-meshes"]  # fast: decimated meshes
     assert len(data["loadavg_before"]) == 3
     from PIL import Image
 
@@ -72,6 +73,7 @@ def test_bench_augment_compares_pipelines_floor_and_workers(tmp_path) -> None:
     assert runs["floor"][0]["seconds"] == pytest.approx(runs["floor"][0]["physics_s"] + runs["floor"][0]["render_s"])
     assert summary["ours_over_floor"] == pytest.approx(runs["ours"][0]["seconds"] / runs["floor"][0]["seconds"])
     assert summary["ours_over_baseline"] == pytest.approx(runs["ours"][0]["kept_per_hour"] / runs["baseline"][0]["kept_per_hour"])
+    assert runs["reference"][0]["package"] == str(ROOT / "pipette_cli" / "__init__.py")  # the tree asked for
     assert [(r["executor"], r["workers"]) for r in data["scaling"]] == [("local", 1), ("local", 2)]
     assert data["scaling"][0]["efficiency"] == pytest.approx(1.0)
     assert "ours / baseline" in result.stdout and data["machine"]["cpus"] >= 1
