@@ -1,14 +1,14 @@
 """Decimated visual meshes for the ``fast`` render profile, cached on disk.
 
 On a software renderer (Mesa llvmpipe) a capture costs what its triangles cost: the Panda's
-visual meshes are 135k of a scene's 137k. :func:`decimate_visual_meshes` replaces, in a
-composed scene spec, every heavy mesh that only the renderer sees by a quadric-error
-simplification (``fast-simplification``, the Fast-Quadric-Mesh-Simplification algorithm)
-keeping :attr:`Decimation.keep` of its triangles. A mesh qualifies when every geom using it is
-visual only (``contype = conaffinity = 0``) on a body whose inertia is given explicitly and no
-primitive geom is fitted to it, so
-the physics (collision meshes, masses, inertias) is exactly that of the full model; textured
-meshes are left alone (simplification would lose their texture coordinates).
+visual meshes are 135k of a scene's 137k. :func:`decimate_visual_meshes` points, in a composed
+scene spec, every geom that only the renderer sees at a quadric-error simplification of its
+mesh (``fast-simplification``, the Fast-Quadric-Mesh-Simplification algorithm) keeping
+:attr:`Decimation.keep` of the triangles. A geom qualifies when it collides with nothing
+(``contype = conaffinity = 0``) and its body's inertia is given explicitly; collision geoms and
+primitives fitted to a mesh keep the original, so the physics (collision meshes, masses,
+inertias) is exactly that of the full model. Textured meshes are left alone (simplification
+would lose their texture coordinates).
 
 Simplified meshes are cached under :func:`cache_dir`, one ``.npz`` per source mesh, keyed by
 the SHA-256 of the mesh as MuJoCo loaded it (vertices and faces) and the simplification
