@@ -40,6 +40,7 @@ if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie")
 
 from pipette_cli.augment.run import augment  # noqa: E402
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
+from pipette_cli.demo import SMALL_ACT  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
@@ -49,13 +50,6 @@ from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.specs.task import TaskSpec  # noqa: E402
-
-SMALL_ACT = (
-    "--policy.dim_model=128", "--policy.dim_feedforward=512", "--policy.n_heads=4", "--policy.n_encoder_layers=2",
-    "--policy.n_decoder_layers=1", "--policy.n_vae_encoder_layers=2", "--policy.latent_dim=16",
-    "--policy.chunk_size=20", "--policy.n_action_steps=20", "--policy.optimizer_lr=1e-4",
-    "--policy.optimizer_lr_backbone=1e-4", "--num_workers=0", "--log_freq=50",
-)
 
 
 @dataclass(frozen=True)

@@ -32,9 +32,20 @@ def default_workers() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def _init_worker(kwargs: dict[str, Any]) -> None:
+def share_renderer_threads(workers: int) -> None:
+    """Give this worker's software renderer (Mesa llvmpipe) its share of the cores.
+
+    llvmpipe starts one rasterizer thread per core in every process; N workers on N cores would
+    run N^2 threads. Must run before the worker's GL context exists; ``LP_NUM_THREADS`` set by
+    the user wins. A GPU driver ignores the variable.
+    """
+    os.environ.setdefault("LP_NUM_THREADS", str(max(1, default_workers() // max(1, workers))))
+
+
+def _init_worker(kwargs: dict[str, Any], workers: int) -> None:
     global _AUGMENTER, _INIT_ERROR
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    share_renderer_threads(workers)
     try:
         _AUGMENTER = DemoAugmenter(**kwargs)
     except Exception as exc:  # a failing initializer would make the pool respawn forever
@@ -61,7 +72,7 @@ def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], b
 
 
 def in_pool(kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]) -> Iterator[Outcome]:
-    return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
+    return ordered_pool(_init_worker, (kwargs, min(workers, len(jobs))), _run_job, jobs, workers, stop)
 
 
 def in_ray(
@@ -80,7 +91,8 @@ def in_ray(
             options["_node_ip_address"] = "127.0.0.1"
         ray.init(address=address, **options)
     actor_cls = ray.remote(_RayWorker)
-    actors = [actor_cls.remote(kwargs) for _ in range(min(workers, len(jobs)))]
+    count = min(workers, len(jobs))
+    actors = [actor_cls.remote(kwargs, count) for _ in range(count)]
     try:
         pending: dict[Any, tuple[int, Any]] = {}
         done: dict[int, DemoResult] = {}
@@ -111,7 +123,8 @@ def in_ray(
 
 
 class _RayWorker:
-    def __init__(self, kwargs: dict[str, Any]) -> None:
+    def __init__(self, kwargs: dict[str, Any], workers: int) -> None:
+        share_renderer_threads(workers)  # assumes the actors share a node; each node's own cores count
         self.augmenter = DemoAugmenter(**kwargs)
 
     def run(self, job: DemoJob) -> DemoResult:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,14 +28,14 @@ import numpy as np
 from pipette_cli.augment.batch import can_batch, screen
 from pipette_cli.augment.objectcentric import adapt_actions
 from pipette_cli.augment.perturb import VariantPlan, plan_variant
-from pipette_cli.augment.render import fresh_steps, render_rollout
+from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
 from pipette_cli.augment.simulate import Rollout, replay_check, settle_steps, simulate
 from pipette_cli.augment.specs import AugmentSpec
-from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
+from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter, compress_frame
 from pipette_cli.demos.store import EpisodeRef, read_episode
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import Observation
-from pipette_cli.sim.render import CameraRig
+from pipette_cli.sim.render import CameraRig, Profile, find_profile
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
 
@@ -84,9 +85,10 @@ class DemoResult:
 
 def write_rollout(
     path: Path, info: DatasetInfo, rollout: Rollout, frames: list[dict[str, np.ndarray]], *, index: int, seed: int,
-    vision_every: int, attrs: dict[str, Any],
+    vision_every: int, attrs: dict[str, Any], chunks: dict[int, dict[str, bytes]] | None = None,
 ) -> Path:
-    """Write a rendered rollout with :class:`EpisodeWriter`; returns the closed ``.tmp`` file."""
+    """Write a rendered rollout with :class:`EpisodeWriter`; returns the closed ``.tmp`` file.
+    ``chunks[t]``: row ``t``'s frames already compressed (:func:`compress_frame`)."""
     fresh = fresh_steps(rollout.num_steps, vision_every)
     last = 0
     writer = EpisodeWriter(path, info, index=index, seed=seed, source="augmented", attrs=attrs)
@@ -98,28 +100,38 @@ def write_rollout(
                 frame_age=t - last, sim_time=float(rollout.sim_time[t]), wall_time=float(rollout.wall_time[t]),
                 step=t + 1, instruction=info.instruction,
             )
-            writer.add(obs, rollout.actions[t], rollout.states[t])
+            writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t))
         writer.close(rollout.verdict, rollout.final_state, rollout.final_sim_state)
     return writer.tmp
+
+
+def _compress_views(views: dict[str, np.ndarray]) -> dict[str, bytes]:
+    return {camera: compress_frame(frame) for camera, frame in views.items()}
 
 
 class DemoAugmenter:
     """Augments demos of one task with one spec (one per worker process)."""
 
-    def __init__(self, task: TaskSpec, spec: AugmentSpec, info: DatasetInfo, *, render: bool = True, attrs: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self, task: TaskSpec, spec: AugmentSpec, info: DatasetInfo, *, render: bool = True,
+        attrs: dict[str, Any] | None = None, profile: Profile = "fast",
+    ) -> None:
         self.task, self.spec, self.info = task, spec, info
-        self.world = World(task)
+        self.profile = profile
+        self.world = World(task, meshes=find_profile(profile).meshes if render else "full")
         self.render = render
         self.rig: CameraRig | None = None
+        self.compressor = ThreadPoolExecutor(1, thread_name_prefix="compress")  # zlib runs without the GIL
         self.attrs = dict(attrs or {})
         self.settle = settle_steps(self.world, spec.settle_s)
 
     def _rig(self) -> CameraRig:
         if self.rig is None:
-            self.rig = CameraRig(self.world.model, self.info.image_width, self.info.image_height)
+            self.rig = CameraRig(self.world.model, self.info.image_width, self.info.image_height, self.profile)
         return self.rig
 
     def close(self) -> None:
+        self.compressor.shutdown()
         if self.rig is not None:
             self.rig.close()
             self.rig = None
@@ -147,6 +159,7 @@ class DemoAugmenter:
                 plan.actions = adapt_actions(self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp)
             plans.append(plan)
         screened = self._screen(s.seed, original.states[0], plans)
+        seen: dict[tuple[str, Any], list[np.ndarray]] = {}  # frames of the original physics, by camera and view
         result.seconds["physics"] += time.perf_counter() - t0
         for v, plan in enumerate(plans):
             t0 = time.perf_counter()
@@ -174,7 +187,7 @@ class DemoAugmenter:
             if folder is None:
                 continue
             path = folder / f"aug_{s.uid}_{v:03d}.h5"
-            tmp = self._write(path, rollout, plan, s.seed, job, record.attrs, result)
+            tmp = self._write(path, rollout, plan, s.seed, job, record.attrs, result, None if plan.physics else seen)
             (result.kept if kept else result.rejected).append(tmp)
         return result
 
@@ -191,13 +204,24 @@ class DemoAugmenter:
 
     def _write(
         self, path: Path, rollout: Rollout, plan: VariantPlan, seed: int, job: DemoJob, source: dict[str, object],
-        result: DemoResult,
+        result: DemoResult, seen: dict[tuple[str, Any], list[np.ndarray]] | None,
     ) -> Path:
+        """Render (reusing in ``seen`` the views of the same physics, lights and camera pose), write."""
         t0 = time.perf_counter()
-        frames = (
-            render_rollout(self.world, self._rig(), seed, rollout, plan, vision_every=self.task.timing.vision_every)
-            if self.render else []
-        )
+        pending: dict[int, Future[dict[str, bytes]]] = {}
+        frames: list[dict[str, np.ndarray]] = []
+        if self.render:
+            rig = self._rig()
+            keys = {camera: (camera, view_key(plan, camera)) for camera in rig.ids}
+            known = {camera: seen[key] for camera, key in keys.items() if seen is not None and key in seen}
+            frames = render_rollout(
+                self.world, rig, seed, rollout, plan, vision_every=self.task.timing.vision_every, known=known,
+                on_capture=lambda t, views: pending.__setitem__(t, self.compressor.submit(_compress_views, views)),
+            )
+            if seen is not None:
+                fresh = fresh_steps(rollout.num_steps, self.task.timing.vision_every)
+                for camera, key in keys.items():
+                    seen.setdefault(key, [frames[t][camera] for t in np.flatnonzero(fresh)])
         t1 = time.perf_counter()
         attrs = {
             **self.attrs,
@@ -217,7 +241,7 @@ class DemoAugmenter:
             attrs["expert"] = str(source["expert"])
         tmp = write_rollout(
             path, self.info, rollout, frames, index=job.position, seed=seed,
-            vision_every=self.task.timing.vision_every, attrs=attrs,
+            vision_every=self.task.timing.vision_every, attrs=attrs, chunks={t: f.result() for t, f in pending.items()},
         )
         result.seconds["render"] += t1 - t0
         result.seconds["write"] += time.perf_counter() - t1

@@ -13,7 +13,7 @@ Lighting and camera pose do not touch the physics: lights are scaled in ``model.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import mujoco
@@ -58,25 +58,46 @@ def fresh_steps(num_steps: int, vision_every: int) -> np.ndarray:
     return np.arange(num_steps) % vision_every == 0
 
 
+def view_key(plan: VariantPlan, camera: str) -> tuple[float, bool, tuple[float, ...] | None]:
+    """What one camera's frames of a given physics depend on: the lights and that camera's pose."""
+    delta = plan.camera_offsets.get(camera)
+    return plan.light_scale, plan.headlight, None if delta is None else tuple(np.asarray(delta, dtype=float).tolist())
+
+
 def render_rollout(
-    world: World, rig: CameraRig, seed: int, rollout: Rollout, plan: VariantPlan, *, vision_every: int
+    world: World, rig: CameraRig, seed: int, rollout: Rollout, plan: VariantPlan, *, vision_every: int,
+    on_capture: Callable[[int, dict[str, np.ndarray]], None] | None = None,
+    known: dict[str, list[np.ndarray]] | None = None,
 ) -> list[dict[str, np.ndarray]]:
-    """One dict of camera frames per row; stale rows share the previous row's arrays."""
+    """One dict of camera frames per row; stale rows share the previous row's arrays.
+
+    Args:
+        on_capture: Called as ``on_capture(t, views)`` after each fresh row.
+        known: Per camera, this rollout's fresh frames already rendered under the same lights and
+            camera pose (another variant of the same physics); those cameras are not rendered again.
+    """
     m, d = world.model, world.data
+    known = known or {}
+    cameras = [c for c in rig.ids if c not in known]
     fresh = fresh_steps(rollout.num_steps, vision_every)
     frames: list[dict[str, np.ndarray]] = []
     with visual_perturbation(m, plan, rig.ids):
-        restore(world, seed, rollout.states[0], plan.offset)
+        if cameras:
+            restore(world, seed, rollout.states[0], plan.offset)
         for t in range(rollout.num_steps):
             if not fresh[t]:
                 frames.append(frames[-1])
                 continue
-            if t > 0:
+            if cameras and t > 0:
                 mujoco.mj_setState(m, d, rollout.states[t - 1], SIM_STATE)
                 world.apply_action(rollout.actions[t - 1])
                 for _ in range(world.substeps):
                     mujoco.mj_step(m, d)
-            else:
+            elif cameras:
                 mujoco.mj_forward(m, d)  # camera poses follow the moved cameras
-            frames.append(rig.render_all(d))
+            capture = int(np.count_nonzero(fresh[:t]))
+            views = {c: known[c][capture] if c in known else rig.render(d, c) for c in rig.ids}
+            frames.append(views)
+            if on_capture is not None:
+                on_capture(t, views)
     return frames

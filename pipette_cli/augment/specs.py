@@ -161,7 +161,7 @@ class AugmentSpec(Spec):
     settle_s: float = Field(1.0, ge=0, description="s the last target is held when the actions run out undecided")
     image_size: Annotated[int, Field(ge=0)] = 0
     """Square image side; 0: the input file's."""
-    batch: bool = Field(True, description="screen physics variants with one mujoco.rollout first (tasks without mechanisms)")
+    batch: bool = Field(False, description="screen physics variants with one mujoco.rollout first (tasks without mechanisms)")
 
     @model_validator(mode="after")
     def _names(self) -> AugmentSpec:

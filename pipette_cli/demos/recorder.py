@@ -19,6 +19,7 @@ import os
 import time
 import uuid
 import zlib
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -45,6 +46,11 @@ STOPPED = "stopped"
 
 def episode_name(index: int) -> str:
     return f"episode_{index:06d}"
+
+
+def compress_frame(frame: np.ndarray) -> bytes:
+    """One image as the gzip chunk its dataset stores (``write_direct_chunk``)."""
+    return zlib.compress(np.ascontiguousarray(frame, dtype=np.uint8).tobytes(), GZIP_LEVEL)
 
 
 def sim_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -220,16 +226,21 @@ class EpisodeWriter:
             )
         return self._images[camera]
 
-    def add(self, obs: Observation, action: np.ndarray, state: np.ndarray) -> None:
+    def add(
+        self, obs: Observation, action: np.ndarray, state: np.ndarray, chunks: Mapping[str, bytes] | None = None
+    ) -> None:
         """Record control step ``obs.step``: the observation, the action about to be applied, and the
-        simulator state before it (:func:`sim_state`)."""
+        simulator state before it (:func:`sim_state`). ``chunks`` may hold ``obs.images`` already
+        compressed with :func:`compress_frame` (e.g. by another thread while the next frame renders)."""
         k = self.num_steps
         for camera, frame in obs.images.items():
             dataset = self._image_dataset(camera, frame)
             last = self._last_chunk.get(camera)
-            if last is None or obs.fresh or last[0] is not frame:  # a stale step reuses the same array
-                frame = np.ascontiguousarray(frame, dtype=np.uint8)
-                last = (obs.images[camera], zlib.compress(frame.tobytes(), GZIP_LEVEL))
+            if chunks is not None and camera in chunks:
+                last = (frame, chunks[camera])
+                self._last_chunk[camera] = last
+            elif last is None or obs.fresh or last[0] is not frame:  # a stale step reuses the same array
+                last = (obs.images[camera], compress_frame(frame))
                 self._last_chunk[camera] = last
             dataset.resize(k + 1, axis=0)
             dataset.id.write_direct_chunk((k, 0, 0, 0), last[1])

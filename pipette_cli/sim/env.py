@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pipette_cli.evaluators.base import Verdict
-from pipette_cli.sim.render import CameraRig, Profile
+from pipette_cli.sim.render import CameraRig, Profile, find_profile
 from pipette_cli.sim.scene import CAMERA_NAMES
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
@@ -50,7 +50,8 @@ class PipetteEnv:
         self, task: TaskSpec, *, image_size: int | None = None, render_profile: Profile = "fast", render: bool = True
     ) -> None:
         self.task = task
-        self.world = World(task)
+        meshes = find_profile(render_profile).meshes if render else "full"
+        self.world = World(task, meshes=meshes)
         width = image_size or task.cameras.width
         height = image_size or task.cameras.height
         self.rig = CameraRig(self.world.model, width, height, render_profile) if render else None

@@ -1,7 +1,9 @@
 """Offscreen rendering of the three task cameras, with two render profiles.
 
-``fast``: no shadows, no reflections, no multisampling — about 10x faster on a CPU
-(llvmpipe). ``full``: shadows, reflections and 4x MSAA for figures and GPU machines.
+``fast``: no shadows, no reflections, no multisampling and decimated visual meshes
+(:mod:`.meshes`) — made for a CPU (llvmpipe). ``full``: shadows, reflections, 4x MSAA and the
+original meshes, for figures and GPU machines. A profile's meshes are compiled into the model
+(``World(task, meshes=PROFILES[p].meshes)``); the physics is the same under both.
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.errors import SimError
+from pipette_cli.sim.meshes import MeshDetail
 from pipette_cli.sim.scene import CAMERA_NAMES, WRIST_CAMERA
 
 Profile = Literal["fast", "full"]
@@ -23,12 +26,24 @@ class RenderProfile:
     shadows: bool
     reflections: bool
     samples: int
+    meshes: MeshDetail
 
 
 PROFILES: dict[str, RenderProfile] = {
-    "fast": RenderProfile(shadows=False, reflections=False, samples=0),
-    "full": RenderProfile(shadows=True, reflections=True, samples=4),
+    "fast": RenderProfile(shadows=False, reflections=False, samples=0, meshes="decimated"),
+    "full": RenderProfile(shadows=True, reflections=True, samples=4, meshes="full"),
 }
+
+
+def find_profile(name: str) -> RenderProfile:
+    """The :class:`RenderProfile` called ``name``.
+
+    Raises:
+        SimError: unknown profile, with the known ones.
+    """
+    if name not in PROFILES:
+        raise SimError(f"unknown render profile {name!r}; expected one of {', '.join(PROFILES)}")
+    return PROFILES[name]
 
 
 def camera_ids(model: mujoco.MjModel) -> dict[str, int]:
@@ -49,9 +64,7 @@ class CameraRig:
     """Renders the task's cameras into uint8 HxWx3 arrays."""
 
     def __init__(self, model: mujoco.MjModel, width: int, height: int, profile: Profile = "fast") -> None:
-        if profile not in PROFILES:
-            raise SimError(f"unknown render profile {profile!r}; expected one of {', '.join(PROFILES)}")
-        self.profile = PROFILES[profile]
+        self.profile = find_profile(profile)
         model.vis.quality.offsamples = self.profile.samples
         model.vis.global_.offwidth = max(model.vis.global_.offwidth, width)
         model.vis.global_.offheight = max(model.vis.global_.offheight, height)

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.errors import AssetError, SimError
+from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
 from pipette_cli.sim.robots import make_robot_spec, wrist_camera_pose
 from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.base import PoseSpec
@@ -177,9 +178,16 @@ def make_scene_spec(task: TaskSpec) -> tuple[mujoco.MjSpec, RobotSpec, dict[str,
     return spec, config, objects
 
 
-def compile_scene(spec: mujoco.MjSpec, task: TaskSpec) -> mujoco.MjModel:
-    """Compile, turning MuJoCo's errors into :class:`SimError` naming the task."""
+def compile_scene(spec: mujoco.MjSpec, task: TaskSpec, *, meshes: MeshDetail = "full") -> mujoco.MjModel:
+    """Compile, turning MuJoCo's errors into :class:`SimError` naming the task.
+
+    ``meshes="decimated"`` swaps heavy visual-only meshes for simplified ones
+    (:mod:`.meshes`, the ``fast`` render profile); the physics is that of ``"full"``.
+    """
     try:
-        return spec.compile()
+        model = spec.compile()
+        if meshes == "decimated" and decimate_visual_meshes(spec, model):
+            model = spec.compile()
+        return model
     except Exception as exc:
         raise SimError(f"{task.id}: scene does not compile: {exc}") from None

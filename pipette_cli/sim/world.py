@@ -17,6 +17,7 @@ import numpy as np
 from pipette_cli.errors import SimError, suggest
 from pipette_cli.evaluators.base import MechanismState, Verdict, make_evaluator
 from pipette_cli.sim.mechanisms import make_mechanism
+from pipette_cli.sim.meshes import MeshDetail
 from pipette_cli.sim.robots import gripper_ctrl
 from pipette_cli.sim.scene import ROBOT_PREFIX, compile_scene, euler_to_quat, make_scene_spec
 from pipette_cli.specs.task import TaskSpec
@@ -28,13 +29,19 @@ PENETRATION_TOLERANCE = 0.004
 
 
 class World:
-    """One task's MuJoCo model and data, reset per episode from a seed."""
+    """One task's MuJoCo model and data, reset per episode from a seed.
 
-    def __init__(self, task: TaskSpec) -> None:
+    Args:
+        task: The task spec.
+        meshes: ``"decimated"`` swaps heavy visual-only meshes for simplified ones (the
+            ``fast`` render profile, :mod:`.meshes`); the physics does not change.
+    """
+
+    def __init__(self, task: TaskSpec, *, meshes: MeshDetail = "full") -> None:
         self.task = task
         spec, self.robot, self.objects = make_scene_spec(task)
         self.spec = spec
-        self.model = compile_scene(spec, task)
+        self.model = compile_scene(spec, task, meshes=meshes)
         self.data = mujoco.MjData(self.model)
         self.control_dt = 1.0 / task.timing.control_hz
         self.substeps = task.timing.substeps

@@ -46,11 +46,37 @@ def test_bench_sim_reports_real_time_factor_per_task(tmp_path) -> None:
 
 @pytest.mark.render
 def test_bench_render_covers_every_profile_and_size(tmp_path) -> None:
-    out = tmp_path / "render.json"
-    bench("bench_render.py", "--sizes", "32,48", "--frames", "2", "--out", str(out))
-    rows = read(out)["results"]
-    assert {(r["profile"], r["size"]) for r in rows} == {("fast", 32), ("fast", 48), ("full", 32), ("full", 48)}
+    out, png = tmp_path / "render.json", tmp_path / "profiles.png"
+    bench("bench_render.py", "--sizes", "32,48", "--frames", "2", "--rounds", "1", "--out", str(out), "--picture", str(png))
+    data = read(out)
+    rows = data["results"]
+    profiles = ("fast", "full", "fast-original-meshes")
+    assert {(r["profile"], r["size"]) for r in rows} == {(p, s) for p in profiles for s in (32, 48)}
     assert all(r["captures_per_s"] > 0 and r["frames"] == 2 for r in rows)
+    triangles = {r["profile"]: r["triangles"] for r in rows}
+    assert triangles["fast"] * 4 < triangles["full"] == triangles["fast-original-meshes"]  # fast: decimated meshes
+    assert len(data["loadavg_before"]) == 3
+    from PIL import Image
+
+    assert Image.open(png).size == (3 * 48, 2 * 48)  # three views, fast above full
+
+
+@pytest.mark.render
+def test_bench_augment_compares_pipelines_floor_and_workers(tmp_path) -> None:
+    out = tmp_path / "augment.json"
+    result = bench("bench_augment.py", "--demos", "1", "--variants", "light,speed", "--image-size", "32", "--repeats", "1",
+                   "--workers", "1,2", "--reference", str(ROOT), "--out", str(out))
+    data = read(out)
+    runs, summary = data["runs"], data["summary"]
+    for name in ("baseline", "ours", "reference", "floor"):
+        assert runs[name][0]["kept"] == 2 and len(runs[name][0]["loadavg_before"]) == 3, name
+    assert runs["floor"][0]["seconds"] == pytest.approx(runs["floor"][0]["physics_s"] + runs["floor"][0]["render_s"])
+    assert summary["ours_over_floor"] == pytest.approx(runs["ours"][0]["seconds"] / runs["floor"][0]["seconds"])
+    assert summary["ours_over_baseline"] == pytest.approx(runs["ours"][0]["kept_per_hour"] / runs["baseline"][0]["kept_per_hour"])
+    assert runs["reference"][0]["package"] == str(ROOT / "pipette_cli" / "__init__.py")  # the tree asked for
+    assert [(r["executor"], r["workers"]) for r in data["scaling"]] == [("local", 1), ("local", 2)]
+    assert data["scaling"][0]["efficiency"] == pytest.approx(1.0)
+    assert "ours / baseline" in result.stdout and data["machine"]["cpus"] >= 1
 
 
 @pytest.mark.render

@@ -166,3 +166,37 @@ def test_batch_rollout_screening_agrees_with_step_by_step(task, tmp_path_factory
     assert len(kept_on) == len(kept_off) == 1
     np.testing.assert_array_equal(kept_on[0], kept_off[0])
     assert [r["kept"] for r in on.report["variants"]] == [r["kept"] for r in off.report["variants"]] == [1, 0]
+
+
+def test_views_shared_by_variants_of_the_same_physics_are_rendered_once(task, tmp_path_factory) -> None:
+    """light+cam moves one camera: its other two views are those of `light` (same physics, same
+    lights) and are reused, not rendered again; the episode is identical to rendering it alone."""
+    from pipette_cli.sim.render import CameraRig
+
+    raw = raw_demo(tmp_path_factory)
+    folder = tmp_path_factory.mktemp("reuse")
+    light = VariantSpec(name="light", perturbations=[LightingSpec(scale=0.6)])
+    moved = VariantSpec(name="light+cam", perturbations=[LightingSpec(scale=0.6), CameraPoseSpec(camera="top", radius=0.2)])
+    rendered: list[str] = []
+    real_render = CameraRig.render
+
+    def counting(self, data, camera):  # noqa: ANN001, ANN202
+        rendered.append(camera)
+        return real_render(self, data, camera)
+
+    CameraRig.render = counting  # type: ignore[method-assign]
+    try:
+        augment(task, raw, folder / "both.h5", AugmentSpec(variants=[light, moved]), workers=1)
+        both = list(rendered)
+        rendered.clear()
+        augment(task, raw, folder / "alone.h5", AugmentSpec(variants=[moved]), workers=1)
+    finally:
+        CameraRig.render = real_render  # type: ignore[method-assign]
+    captures = both.count("wrist")
+    assert both.count("top") == 2 * captures  # light and light+cam each render their own top view
+    assert rendered.count("top") == rendered.count("main") == captures  # alone: all three views once
+    shared = read_episode(scan(folder / "both.h5").episodes[1], images=True)
+    alone = read_episode(scan(folder / "alone.h5").episodes[0], images=True)
+    assert shared.attrs["augment_variant"] == alone.attrs["augment_variant"] == "light+cam"
+    for cam in ("top", "main", "wrist"):
+        assert shared.images[cam].tobytes() == alone.images[cam].tobytes(), cam
