@@ -88,7 +88,7 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
         main = record.images["main"]
         image = Image.fromarray(main[2 * len(main) // 3])
         scale = max(1, tile // image.width)
-        image = image.resize((image.width * scale, image.height * scale), Image.NEAREST)
+        image = image.resize((image.width * scale, image.height * scale), Image.Resampling.NEAREST)
         ImageDraw.Draw(image).text((3, 2), str(record.attrs.get("augment_variant", "")), fill="yellow")
         tiles.append(image)
         if i == 0:
@@ -96,7 +96,7 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
                 views = [Image.fromarray(record.images[cam][k]) for cam in ("top", "main", "wrist")]
                 strip = Image.new("RGB", (3 * image.width, image.height))
                 for j, view in enumerate(views):
-                    strip.paste(view.resize(image.size, Image.NEAREST), (j * image.width, 0))
+                    strip.paste(view.resize(image.size, Image.Resampling.NEAREST), (j * image.width, 0))
                 frames.append(strip)
     w, h = tiles[0].size
     cols = min(6, len(tiles))
@@ -131,7 +131,7 @@ class RecordingSource:
         for i, frames in enumerate(self.episodes):
             if not frames:
                 continue
-            images = [Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.NEAREST) for f in frames]
+            images = [Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.Resampling.NEAREST) for f in frames]
             path = folder / f"episode_{i:04d}.gif"
             images[0].save(path, save_all=True, append_images=images[1:], duration=100, loop=0)
             paths.append(path)

@@ -84,7 +84,8 @@ def demos(
     """
     from pipette_cli.demos.store import scan
 
-    rows, files = [], []
+    rows: list[list[str]] = []
+    files: list[dict[str, Any]] = []
     for path in _demo_files(file, task_id):
         try:
             status = scan(path)
@@ -174,5 +175,5 @@ def answer(command: str, args: dict[str, Any], registry: Registry | None = None)
     ``registry`` is the one the plan was made with (default: the built-in one)."""
     values = {k: Path(v) if k in ("file", "folder") and v is not None else v for k, v in args.items()}
     if command == "answer tasks" and registry is not None:
-        return tasks_in(registry, **values)
-    return ANSWERS[command](**values)
+        return tasks_in(registry, **values)  # type: ignore[arg-type]
+    return ANSWERS[command](**values)  # type: ignore[operator]  # each takes its own checked arguments

@@ -80,7 +80,8 @@ class OfflineAgent:
         return spec
 
     def _read(self, text: str) -> tuple[PlanSpec, list[str]]:
-        steps, problems = [], []
+        steps: list[StepSpec] = []
+        problems: list[str] = []
         for clause in split_clauses(text, self.intents):
             command = clause.command or self._policy_only(clause.text)
             if command is None:
@@ -119,7 +120,10 @@ class OfflineAgent:
                           and is_empty(args.get(p.name))), None)  # "the ray cluster at host:port"
             if param is None and plain is None:
                 raise AgentError(f"'pipette {info.name}' takes no address like {raw!r}")
-            args[param.name if param is not None else plain.name] = address if param is not None else raw
+            if param is not None:
+                args[param.name] = address
+            elif plain is not None:
+                args[plain.name] = raw
         paths = mentions.paths
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]

@@ -183,7 +183,7 @@ class TaskIndex:
         policies = {w for w, _ in self.vocab.policy_words()}
         for m in re.finditer(r"(?<![\w-])(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
             token = m.group(0)
-            word = re.match(r"[\w-]*", text[m.start():]).group(0).lower()
+            word = re.match(r"[\w-]*", text[m.start():]).group(0).lower()  # type: ignore[union-attr]  # [\w-]* always matches
             if short_name(token).lower() not in known and token.lower() not in policies and word not in policies:
                 return token
         return None

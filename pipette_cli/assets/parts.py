@@ -47,17 +47,22 @@ CAP_COLOURS = {
 }
 
 
+def _xyz(v: Sequence[float]) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in v)
+    return x, y, z
+
+
 def visual(body: Body, name: str, mesh: g.Mesh, material: Material) -> None:
     body.visuals.append(Visual(name, mesh, material))
 
 
 def box_collider(body: Body, name: str, size: Sequence[float], center: Sequence[float], quat=None) -> None:
     half = tuple(s / 2 for s in size)
-    body.colliders.append(Collider(name, "box", half, tuple(center), quat or (1.0, 0.0, 0.0, 0.0)))
+    body.colliders.append(Collider(name, "box", half, _xyz(center), quat or (1.0, 0.0, 0.0, 0.0)))
 
 
 def cylinder_collider(body: Body, name: str, radius: float, height: float, center: Sequence[float]) -> None:
-    body.colliders.append(Collider(name, "cylinder", (radius, height / 2), tuple(center)))
+    body.colliders.append(Collider(name, "cylinder", (radius, height / 2), _xyz(center)))
 
 
 def solid_box(
@@ -139,7 +144,7 @@ def solid_cylinder_x(
     """A cylinder lying along X (seen and collided)."""
     visual(body, name, g.cylinder(radius, length, (0, 0, 0), segments).moved(center, g.rotation("y", 90)), material)
     half = math.sqrt(0.5)
-    body.colliders.append(Collider(f"{name}_col", "cylinder", (radius, length / 2), tuple(center), (half, 0.0, half, 0.0)))
+    body.colliders.append(Collider(f"{name}_col", "cylinder", (radius, length / 2), _xyz(center), (half, 0.0, half, 0.0)))
 
 
 def revolved_colliders(body: Body, name: str, outer: Sequence[tuple[float, float]], slices: int, z0: float | None = None) -> None:

@@ -55,7 +55,7 @@ def calibrate(
             augmenter.spec = scaled_spec(spec, factor)
             kept = tried = 0
             for ref in refs:
-                outcome = augmenter.run(DemoJob(ref.index, ref, None, None))  # type: ignore[arg-type]
+                outcome = augmenter.run(DemoJob(ref.index, ref, None, None))
                 tried += len(outcome.outcomes)
                 kept += sum(o.kept for o in outcome.outcomes)
             achieved = kept / tried if tried else 0.0

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import os
 import signal
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from typing import Any, Literal
 
 from pipette_cli.augment.pipeline import DemoAugmenter, DemoJob, DemoResult
@@ -59,7 +59,7 @@ def _run_job(job: DemoJob) -> DemoResult:
     return _AUGMENTER.run(job)
 
 
-def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], bool]) -> Iterator[Outcome]:
+def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
     augmenter = DemoAugmenter(**kwargs)
     try:
         for job in jobs:
@@ -71,13 +71,13 @@ def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], b
         augmenter.close()
 
 
-def in_pool(kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]) -> Iterator[Outcome]:
+def in_pool(kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
     return ordered_pool(_init_worker, (kwargs, min(workers, len(jobs))), _run_job, jobs, workers, stop)
 
 
 def in_ray(
     kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool], address: str | None
-) -> Iterator[Outcome]:
+) -> Generator[Outcome, None, None]:
     """One Ray actor per worker, each with its own augmenter; part files are written on a
     filesystem every node shares (the output's folder)."""
     try:
@@ -90,9 +90,9 @@ def in_ray(
         if address is None:  # a local cluster: keep every Ray service on loopback
             options["_node_ip_address"] = "127.0.0.1"
         ray.init(address=address, **options)
-    actor_cls = ray.remote(_RayWorker)
+    actor_cls: Any = ray.remote(_RayWorker)
     count = min(workers, len(jobs))
-    actors = [actor_cls.remote(kwargs, count) for _ in range(count)]
+    actors: list[Any] = [actor_cls.remote(kwargs, count) for _ in range(count)]
     try:
         pending: dict[Any, tuple[int, Any]] = {}
         done: dict[int, DemoResult] = {}
@@ -134,7 +134,7 @@ class _RayWorker:
 def run_jobs(
     kwargs: dict[str, Any], jobs: list[DemoJob], *, executor: Executor, workers: int, stop: Callable[[], bool],
     address: str | None = None,
-) -> Iterator[Outcome]:
+) -> Generator[Outcome, None, None]:
     if executor == "ray":
         return in_ray(kwargs, jobs, workers, stop, address)
     if workers <= 1 or len(jobs) <= 1:

@@ -196,10 +196,11 @@ class DemoAugmenter:
         object offset, when the task has no scripted mechanism (:mod:`.batch`)."""
         if not self.spec.batch or not can_batch(self.world):
             return {}
-        index = [v for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None]
-        if len(index) < 2:
+        chosen = [(v, p.actions) for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None]
+        if len(chosen) < 2:
             return {}
-        verdicts = screen(self.world, seed, state0, [plans[v].actions for v in index], settle_steps=self.settle)
+        index = [v for v, _ in chosen]
+        verdicts = screen(self.world, seed, state0, [actions for _, actions in chosen], settle_steps=self.settle)
         return dict(zip(index, verdicts, strict=True))
 
     def _write(

@@ -171,11 +171,12 @@ def augment(
                     if outcome is None:
                         result.interrupted = True
                         break
-                    for tmps, path in ((outcome.kept, out), (outcome.rejected, Path(rejected) if rejected else None)):
+                    rejected_to = Path(rejected) if rejected else None
+                    for tmps, dest in ((outcome.kept, out), (outcome.rejected, rejected_to)):
                         for tmp in tmps:
-                            assert path is not None
-                            commit_tmp(tmp, part_path(path, next_index[path]))
-                            next_index[path] += 1
+                            assert dest is not None
+                            commit_tmp(tmp, part_path(dest, next_index[dest]))
+                            next_index[dest] += 1
                     ledger["demos"][outcome.uid] = {
                         "position": outcome.position, "seed": outcome.seed, "status": outcome.status,
                         "detail": outcome.detail, "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],

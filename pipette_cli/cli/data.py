@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
@@ -31,7 +31,7 @@ def inspect(
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
     info = status.info
-    episodes = [
+    episodes: list[dict[str, Any]] = [
         {
             "index": ref.index, "seed": ref.summary.seed, "source": ref.summary.source, "steps": ref.summary.num_steps,
             "success": ref.summary.success, "reason": ref.summary.reason, "metrics": ref.summary.metrics,

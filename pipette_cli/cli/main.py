@@ -110,7 +110,11 @@ def run() -> None:
         err_console.print("interrupted")
         sys.exit(130)
     except typer.TyperException as exc:  # usage errors (exit 2) in non-standalone mode
-        exc.show()
+        show = getattr(exc, "show", None)  # click usage errors print themselves
+        if show is not None:
+            show()
+        else:
+            err_console.print(f"[red]error:[/red] {escape(str(exc))}")
         sys.exit(exc.exit_code)
     sys.exit(code if isinstance(code, int) else 0)
 

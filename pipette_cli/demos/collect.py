@@ -22,7 +22,7 @@ import pickle
 import signal
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -291,7 +291,7 @@ def collect(
 Outcome = tuple[Path, EpisodeSummary, DatasetInfo] | None
 
 
-def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool]) -> Iterator[tuple[Job, Outcome]]:
+def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool]) -> Generator[tuple[Job, Outcome], None, None]:
     runner = EpisodeRunner(**kwargs)
     try:
         for job in jobs:
@@ -304,7 +304,7 @@ def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool
         runner.close()
 
 
-def _in_pool(kwargs: dict[str, Any], jobs: list[Job], workers: int, stop: Callable[[], bool]) -> Iterator[tuple[Job, Outcome]]:
+def _in_pool(kwargs: dict[str, Any], jobs: list[Job], workers: int, stop: Callable[[], bool]) -> Generator[tuple[Job, Outcome], None, None]:
     return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import multiprocessing
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from typing import Any, TypeVar
 
 J = TypeVar("J")
@@ -12,7 +12,7 @@ J = TypeVar("J")
 def ordered_pool(
     init: Callable[..., None], init_args: tuple[Any, ...], run: Callable[[J], Any], jobs: Sequence[J], workers: int,
     stop: Callable[[], bool],
-) -> Iterator[tuple[J, Any]]:
+) -> Generator[tuple[J, Any], None, None]:
     """Run ``run(job)`` in ``workers`` spawned processes (each set up by ``init(*init_args)``)
     and yield ``(job, outcome)`` in job order. When ``stop()`` turns true (Ctrl-C deferred by the
     caller) it yields ``(job, None)`` once and stops; the pool is torn down either way."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -26,8 +26,11 @@ class WorldState(Protocol):
     metres for slides.
     """
 
-    time: float
-    """Simulated seconds since reset."""
+    @property
+    def time(self) -> float:
+        """Simulated seconds since reset."""
+        ...
+
     control_dt: float
     """Seconds per control step."""
 
@@ -81,14 +84,15 @@ class Verdict:
 class Evaluator(Protocol):
     """Runtime evaluator built from a spec."""
 
-    spec: EvaluatorSpec
+    @property
+    def spec(self) -> EvaluatorSpec: ...
 
     def reset(self, state: WorldState) -> None: ...
 
     def update(self, state: WorldState) -> Verdict: ...
 
 
-EvaluatorFactory = Callable[[EvaluatorSpec], Evaluator]
+EvaluatorFactory = Callable[[Any], Evaluator]  # takes the spec of the type it is registered under
 _FACTORIES: dict[str, EvaluatorFactory] = {}
 
 

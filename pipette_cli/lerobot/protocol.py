@@ -185,7 +185,8 @@ def parse_request(obj: Any) -> InfoRequest | ActRequest:
     if not isinstance(obj, dict):
         raise ProtocolError(ErrorType.BAD_REQUEST, f"a request is a msgpack map, not {type(obj).__name__}")
     command = obj.get("command", "act")
-    model = {"info": InfoRequest, "act": ActRequest}.get(command) if isinstance(command, str) else None
+    requests: dict[str, type[InfoRequest] | type[ActRequest]] = {"info": InfoRequest, "act": ActRequest}
+    model = requests.get(command) if isinstance(command, str) else None
     if model is None:
         raise ProtocolError(ErrorType.BAD_REQUEST, "command must be 'act' or 'info'", "command")
     try:

@@ -97,7 +97,7 @@ class LeRobotRunner:
             images={k: tuple(f.shape) for k, f in feats.items() if f.type is FeatureType.VISUAL},
             state_shape=tuple(state.shape) if state is not None else (0,),
             action_dim=int(config.output_features["action"].shape[0]),
-            chunk_size=int(getattr(config, "chunk_size", None) or getattr(config, "n_action_steps", 1)),
+            chunk_size=int(getattr(config, "chunk_size", None) or getattr(config, "n_action_steps", None) or 1),
         )
 
     def reset(self) -> None:

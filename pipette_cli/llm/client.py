@@ -23,7 +23,7 @@ import json
 import logging
 import os
 from dataclasses import dataclass, replace
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import httpx
 
@@ -106,7 +106,7 @@ def make_client(kind: str, *, base_url: str | None = None, model: str | None = N
     form = response_format or env(FORMAT_ENV) or None
     if form is not None and form not in FORMS[kind]:
         raise BackendError(f"response format {form!r} is not one of {', '.join(FORMS[kind])} ({kind} servers)")
-    spec = ServerSpec(kind, url.rstrip("/"), name, key,
+    spec = ServerSpec(cast(Kind, kind), url.rstrip("/"), name, key,  # one of the two, checked above
                       timeout_s=float(timeout_s if timeout_s is not None else _env_number(TIMEOUT_ENV, 60.0)),
                       max_attempts=int(max_attempts if max_attempts is not None else _env_number(ATTEMPTS_ENV, 3)),
                       response_format=form)

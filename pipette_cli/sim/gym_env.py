@@ -25,7 +25,7 @@ STATE_MARGIN = 0.05
 """Radians (metres for slides) by which observed joints may pass their limits."""
 
 
-class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+class PipetteGymEnv(gym.Env[dict[str, Any], np.ndarray]):
     """Gymnasium view of :class:`~pipette_cli.sim.env.PipetteEnv`."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
@@ -71,7 +71,7 @@ class PipetteGymEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.action_space = spaces.Box(low, high, dtype=np.float32)
         self._last: Observation | None = None
 
-    def _obs(self, obs: Observation) -> dict[str, np.ndarray]:
+    def _obs(self, obs: Observation) -> dict[str, Any]:
         self._last = obs
         # copies: gymnasium requires every call to return fresh arrays, and stale steps reuse frames
         return {"pixels": {k: v.copy() for k, v in obs.images.items()}, "agent_pos": obs.state.astype(np.float32)}
@@ -117,7 +117,7 @@ def register_envs() -> None:
             steps = int(round((task.success.timeout_s or 60.0) * task.timing.control_hz)) + 1
             gym.register(
                 id=task_id,
-                entry_point=PipetteGymEnv,
+                entry_point=PipetteGymEnv,  # type: ignore[arg-type]  # gymnasium types it as a creator function
                 kwargs={"task_id": task_id},
                 max_episode_steps=steps,
                 disable_env_checker=True,

@@ -81,6 +81,7 @@ class World:
         if ref in self._refs:
             return self._refs[ref]
         obj, _, part = ref.partition("/")
+        found: tuple[str, int] | None
         if obj not in self.objects:
             raise SimError(f"{self.task.id}: {ref!r} names no scene object; {suggest(obj, self.objects)}")
         if not part:

@@ -11,6 +11,8 @@ the criterion, so the task author writes the program.
 
 from __future__ import annotations
 
+from typing import Any
+
 from collections.abc import Callable
 
 from pipette_cli.errors import PipetteError
@@ -26,7 +28,7 @@ class CannotDerive(PipetteError):
     """No skill program can be read off this success criterion; write an ``expert:`` section."""
 
 
-Deriver = Callable[[TaskSpec, ev.EvaluatorSpec], list[StepSpec]]
+Deriver = Callable[[TaskSpec, Any], list[StepSpec]]  # (task, its criterion of the registered type)
 _DERIVERS: dict[str, Deriver] = {}
 
 

@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from collections.abc import Set as AbstractSet
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame, unit
@@ -280,7 +281,7 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> 
     return out
 
 
-def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: set[int] = frozenset(),
+def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: AbstractSet[int] = frozenset(),
                      then: FollowThrough | None = None) -> Grasp:
     touch = set(touch) | ctx.scene.bodies(name) | _support_of(ctx, name)
 

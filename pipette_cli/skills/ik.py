@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+from collections.abc import Set as AbstractSet
 import mink
 import mujoco
 import numpy as np
@@ -57,7 +58,7 @@ class ArmIK:
         self.robot_bodies = {b for b in range(model.nbody) if model.body(b).name.startswith(ROBOT_PREFIX)}
         ee = model.body(ROBOT_PREFIX + world.robot.end_effector.body).id
         self.hand_bodies = {b for b in self.robot_bodies if _descends(model, b, ee)}
-        self.limits = [mink.ConfigurationLimit(model)]
+        self.limits: list[mink.Limit] = [mink.ConfigurationLimit(model)]
         if self.distal and self.proximal:
             self.limits.append(mink.CollisionAvoidanceLimit(
                 model, geom_pairs=[(self.distal, self.proximal)], minimum_distance_from_collisions=0.005,
@@ -154,7 +155,7 @@ class ArmIK:
                 best = min(best, mujoco.mj_geomDistance(model, data, g1, g2, 0.05, None))
         return float(best)
 
-    def collisions(self, q_arm: np.ndarray, allow: set[int] = frozenset()) -> list[tuple[int, int]]:
+    def collisions(self, q_arm: np.ndarray, allow: AbstractSet[int] = frozenset()) -> list[tuple[int, int]]:
         """Robot bodies touching something at ``q_arm`` (the scene as it stands now), as
         ``(robot body, other body)`` pairs. The hand (gripper) touching bodies in ``allow`` (what it
         grasps, pushes or holds) and the fingers touching each other do not count; the arm's links

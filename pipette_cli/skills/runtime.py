@@ -10,6 +10,7 @@ the IK); a skill that cannot do its job raises :class:`SkillFailure` with a one-
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 import logging
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -283,7 +284,7 @@ class SkillContext:
             q = (1 - t) * q0 + t * q1
             if self.ik.collisions(q, allow):
                 return False
-            if r0 is not None and rotation_angle(self.ik.tool_pose(q)[1], slerp(r0, r1, t)) > MAX_SWING:
+            if r0 is not None and r1 is not None and rotation_angle(self.ik.tool_pose(q)[1], slerp(r0, r1, t)) > MAX_SWING:
                 return False
         return True
 
@@ -297,7 +298,7 @@ class SkillContext:
         ref = self.rot if reference is None else reference
         return flipped if rotation_angle(ref, flipped) < rotation_angle(ref, rot) - 1e-6 else rot
 
-    def margin(self, poses: list[tuple[np.ndarray, np.ndarray]], touch: set[int] = frozenset(),
+    def margin(self, poses: list[tuple[np.ndarray, np.ndarray]], touch: AbstractSet[int] = frozenset(),
                start: Leg | None = None, collisions: bool = True) -> float | None:
         """How comfortably the arm reaches every pose in turn (radians to the nearest joint limit,
         the least over the poses), or ``None`` when one is out of reach or the arm would touch
@@ -329,7 +330,7 @@ class SkillContext:
 
     def choose(self, candidates: list[Any], poses: Callable[[Any], list[tuple[np.ndarray, np.ndarray]]],
                comfortable: float = COMFORT, via: Callable[[Any], tuple[Any, ...]] | None = None,
-               touch: set[int] = frozenset()) -> Any | None:
+               touch: AbstractSet[int] = frozenset()) -> Any | None:
         """The first candidate whose poses the arm reaches with ``comfortable`` radians to spare at
         every joint, else the one with the most to spare; ``None`` when none is reachable. The poses
         may touch ``touch`` (the part being pushed or pressed). With ``via``, the hand first goes to the
@@ -403,7 +404,7 @@ class SkillContext:
         return self.scene.bodies(self.held.name) if self.held else set()
 
     # ------------------------------------------------------------------ paths
-    def transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: set[int] = frozenset(), radius: float = 0.04,
+    def transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(), radius: float = 0.04,
                 what: str = "the approach") -> Iterator[Move]:
         """Go to ``pos``/``rot`` over whatever stands in between (see :meth:`plan_transit`)."""
         legs = self.plan_transit(pos, rot, exclude=exclude, radius=radius)
@@ -413,11 +414,11 @@ class SkillContext:
         for leg in legs:
             yield self.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight)
 
-    def can_reach(self, pos: np.ndarray, rot: np.ndarray, exclude: set[int] = frozenset()) -> bool:
+    def can_reach(self, pos: np.ndarray, rot: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> bool:
         """Whether :meth:`transit` finds a path from the hand to ``pos``/``rot``."""
         return self.plan_transit(pos, rot, exclude=exclude) is not None
 
-    def plan_transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: set[int] = frozenset(),
+    def plan_transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(),
                      radius: float = 0.04) -> list[Leg] | None:
         """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything
         (dry run of the IK and of the arm's collisions), or ``None``.
@@ -596,7 +597,7 @@ class SkillContext:
                 return
         raise SkillFailure(f"no way out of the enclosure from {fmt(self.pos)} that touches nothing")
 
-    def lift_clear(self, height: float, exclude: set[int] = frozenset(), *, required: bool = False) -> Iterator[Move]:
+    def lift_clear(self, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False) -> Iterator[Move]:
         """Lift by ``height``: less where something is overhead or the arm cannot go higher (unless
         ``required``, when a lift the arm cannot make fails the skill)."""
         room = self.scene.clearance_above(self.pos + 0.02 * UP, set(exclude) | self.held_bodies()) + 0.02

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+from collections.abc import Set as AbstractSet
 import mujoco
 import numpy as np
 
@@ -80,7 +81,7 @@ class SceneQuery:
         return head if head in self.world.objects and head != "bench" else None
 
     # ------------------------------------------------------------------ rays
-    def ray(self, start: np.ndarray, direction: np.ndarray, exclude: set[int] = frozenset()) -> tuple[float, int]:
+    def ray(self, start: np.ndarray, direction: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> tuple[float, int]:
         """Distance along unit ``direction`` to the first collision geom not on the robot or in
         ``exclude`` (bodies), and that geom's body; ``(inf, -1)`` when nothing is hit."""
         m, d = self.world.model, self.world.data
@@ -99,16 +100,16 @@ class SceneQuery:
             travelled += step
         return np.inf, -1
 
-    def surface_below(self, x: float, y: float, exclude: set[int] = frozenset(), from_z: float = 3.0) -> float:
+    def surface_below(self, x: float, y: float, exclude: AbstractSet[int] = frozenset(), from_z: float = 3.0) -> float:
         """Height of the first surface under ``(x, y)`` looking down from ``from_z``."""
         dist, _ = self.ray(np.array([x, y, from_z]), np.array([0.0, 0.0, -1.0]), exclude)
         return from_z - dist if np.isfinite(dist) else 0.0
 
-    def clearance_above(self, point: np.ndarray, exclude: set[int] = frozenset()) -> float:
+    def clearance_above(self, point: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> float:
         """Free height above ``point`` before something covers it (``inf`` under open sky)."""
         return self.ray(point, np.array([0.0, 0.0, 1.0]), exclude)[0]
 
-    def corridor_top(self, a: np.ndarray, b: np.ndarray, radius: float, exclude: set[int] = frozenset(),
+    def corridor_top(self, a: np.ndarray, b: np.ndarray, radius: float, exclude: AbstractSet[int] = frozenset(),
                      below: float = 3.0) -> float:
         """Highest surface under a horizontal corridor of half-width ``radius`` from ``a`` to ``b``, looking
         down from height ``below`` (what is higher, an overhang, is not counted). The columns over the
@@ -125,7 +126,7 @@ class SceneQuery:
         points += [end + r for end in (a2, b2) for r in ring]
         return max(0.0, *(self.surface_below(p[0], p[1], exclude, from_z=below) for p in points))
 
-    def way_out(self, point: np.ndarray, exclude: set[int] = frozenset(), prefer: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    def way_out(self, point: np.ndarray, exclude: AbstractSet[int] = frozenset(), prefer: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """The horizontal direction out of an enclosure from ``point`` and the distance to its mouth:
         of 24 directions, those that leave the enclosure (no hit within 1.5 m), the one closest to
         ``prefer``; else the longest free one."""
@@ -143,7 +144,7 @@ class SceneQuery:
         mouth = self._mouth(point, direction, exclude)
         return direction, mouth
 
-    def _mouth(self, point: np.ndarray, direction: np.ndarray, exclude: set[int]) -> float:
+    def _mouth(self, point: np.ndarray, direction: np.ndarray, exclude: AbstractSet[int]) -> float:
         """How far along ``direction`` until nothing is overhead any more (the enclosure's mouth)."""
         for s in np.arange(0.0, 1.0, 0.01):
             if not np.isfinite(self.clearance_above(point + s * direction, exclude)):

@@ -57,7 +57,8 @@ class PluggableSpec(Spec):
         """Yield ``(field path, object ref)`` for every scene object this spec names."""
         for name, info in type(self).model_fields.items():
             value = getattr(self, name)
-            if info.json_schema_extra and info.json_schema_extra.get("ref") and isinstance(value, str):
+            extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+            if extra.get("ref") and isinstance(value, str):
                 yield (name,), value
             elif isinstance(value, PluggableSpec):
                 for loc, ref in value.refs():
@@ -120,7 +121,7 @@ class TypeRegistry(Generic[T]):
     def validator(self) -> Callable[[Any, ValidatorFunctionWrapHandler], T]:
         def dispatch(value: Any, handler: ValidatorFunctionWrapHandler) -> T:
             if isinstance(value, self.base):
-                return value  # type: ignore[return-value]
+                return value
             if not isinstance(value, dict):
                 raise PydanticCustomError("spec_type", "expected a mapping with a '{key}' field", {"key": self.key})
             name = value.get(self.key)
@@ -141,4 +142,4 @@ class TypeRegistry(Generic[T]):
 
     def field_type(self) -> Any:
         """The annotation for a field holding one spec of this registry."""
-        return Annotated[SerializeAsAny[self.base], WrapValidator(self.validator())]
+        return Annotated[SerializeAsAny[self.base], WrapValidator(self.validator())]  # type: ignore[name-defined,misc]

@@ -16,7 +16,7 @@ so the same program runs on every robot. Lengths in metres, angles in degrees, t
 from __future__ import annotations
 
 from collections.abc import Iterator
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import ConfigDict, Field, model_validator
 
@@ -85,7 +85,10 @@ class StepSpec(PluggableSpec):
 
 SKILLS: TypeRegistry[StepSpec] = TypeRegistry("skill", StepSpec, key="skill")
 register_skill = SKILLS.register
-StepField = SKILLS.field_type()
+if TYPE_CHECKING:  # to a type checker a field is its base spec; pydantic dispatches on the type key
+    StepField = StepSpec
+else:
+    StepField = SKILLS.field_type()
 
 
 def skill_names() -> list[str]:

@@ -7,7 +7,7 @@ names in :mod:`pipette_cli.sim.mechanisms`.
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import Field
 
@@ -22,7 +22,10 @@ class MechanismSpec(TypedSpec):
 
 MECHANISMS: TypeRegistry[MechanismSpec] = TypeRegistry("mechanism", MechanismSpec)
 register_mechanism = MECHANISMS.register
-MechanismField = MECHANISMS.field_type()
+if TYPE_CHECKING:  # to a type checker a field is its base spec; pydantic dispatches on the type key
+    MechanismField = MechanismSpec
+else:
+    MechanismField = MECHANISMS.field_type()
 
 
 @register_mechanism

@@ -78,7 +78,7 @@ class SceneSpec(Spec):
     bench: Name = "lab_bench"
     objects: list[ObjectSpec] = Field(min_length=1)
     joint_states: list[JointStateSpec] = []
-    mechanisms: list[MechanismField] = []  # type: ignore[valid-type]
+    mechanisms: list[MechanismField] = []
 
     @model_validator(mode="after")
     def _unique_names(self) -> SceneSpec:
@@ -170,8 +170,8 @@ class TaskSpec(Spec):
     cameras: CamerasSpec
     timing: TimingSpec = TimingSpec()
     targets: list[Name] = Field(min_length=1, description="scene objects the task is about")
-    success: EvaluatorField  # type: ignore[valid-type]
-    expert: list[StepField] | None = Field(  # type: ignore[valid-type]
+    success: EvaluatorField
+    expert: list[StepField] | None = Field(
         None, min_length=1, description="the scripted expert: skill steps (default: derived from the success criterion)")
     notes: list[NoteSpec] = []
 
@@ -206,9 +206,9 @@ class TaskSpec(Spec):
         for i, step in enumerate(self.expert or []):
             for loc, ref in step.refs():
                 yield from check(("expert", i, *loc), ref)
-        for loc, mech in _mechanism_refs(self.success, ("success",)):
-            if mech not in mechanisms:
-                yield loc, f"mechanism {mech!r} is not defined in scene.mechanisms"
+        for loc, named in _mechanism_refs(self.success, ("success",)):
+            if named not in mechanisms:
+                yield loc, f"mechanism {named!r} is not defined in scene.mechanisms"
         for name, cam in (("top", self.cameras.top), ("main", self.cameras.main), ("wrist", self.cameras.wrist)):
             if cam.mount not in ("world", "end_effector"):
                 yield from check(("cameras", name, "mount"), cam.mount)

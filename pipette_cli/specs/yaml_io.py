@@ -164,8 +164,8 @@ def validation_problems(exc: ValidationError, model: type[BaseModel], raw: Any, 
         elif err["type"].startswith("literal_error") or err["type"] == "literal_error":
             message = f"{message} (got {err.get('input')!r})"
         elif err["type"] == "spec_type" and isinstance(err.get("input"), dict):
-            key = next((r.key for r in REGISTRIES if r.key in err["input"]), None)
-            loc = (*loc, key) if key else loc
+            type_key = next((r.key for r in REGISTRIES if r.key in err["input"]), None)
+            loc = (*loc, type_key) if type_key else loc
         elif err["type"] == "value_error":
             message = message.removeprefix("Value error, ")
         problems.append(format_problem(source, doc, loc, message))

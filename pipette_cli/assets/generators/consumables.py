@@ -7,6 +7,7 @@ from common catalogue values (empty vessels unless a fill is named).
 from __future__ import annotations
 
 import math
+from typing import Any
 from functools import partial
 
 from pipette_cli.assets import geometry as g
@@ -99,7 +100,7 @@ def pcr_strip(asset_id: str) -> AssetDef:
                   extra={"volume_ml": 0.2, "tubes": 8.0, "pitch": pitch})
 
 
-_TUBES = {
+_TUBES: dict[str, dict[str, Any]] = {
     "microtube_1_5ml": dict(radius=0.0054, length=0.0385, cone=0.017, mass=0.0011, volume_ml=1.5, cap="white", description="1.5 mL microcentrifuge tube, conical bottom, snap cap closed."),
     "microtube_1_5ml_open": dict(radius=0.0054, length=0.0385, cone=0.017, mass=0.0011, volume_ml=1.5, cap="white", cap_open=True, description="1.5 mL microcentrifuge tube with its snap cap open."),
     "microtube_2ml": dict(radius=0.0054, length=0.040, bottom="round", mass=0.0012, volume_ml=2.0, cap="blue", description="2 mL round-bottom microcentrifuge tube, cap closed."),
@@ -210,8 +211,8 @@ def beaker(asset_id: str, volume_ml: float, radius: float, height: float, mass: 
     return _asset(asset_id, desc, body, extra={"volume_ml": volume_ml, "outer_diameter": 2 * radius, "height": height})
 
 
-for _v, _r, _h, _m in ((50, 0.021, 0.060, 0.032), (100, 0.025, 0.070, 0.050), (250, 0.0345, 0.095, 0.090), (500, 0.043, 0.120, 0.170), (1000, 0.0535, 0.145, 0.300)):
-    register(f"beaker_{_v}ml", CATEGORY, partial(beaker, f"beaker_{_v}ml", float(_v), _r, _h, _m))
+for _v, _rad, _h, _m in ((50, 0.021, 0.060, 0.032), (100, 0.025, 0.070, 0.050), (250, 0.0345, 0.095, 0.090), (500, 0.043, 0.120, 0.170), (1000, 0.0535, 0.145, 0.300)):
+    register(f"beaker_{_v}ml", CATEGORY, partial(beaker, f"beaker_{_v}ml", float(_v), _rad, _h, _m))
 
 
 def erlenmeyer(asset_id: str, volume_ml: float, base_r: float, height: float, neck_r: float, neck_h: float, mass: float) -> AssetDef:
@@ -272,9 +273,9 @@ def media_bottle(asset_id: str, volume_ml: float, radius: float, body_h: float, 
     return _asset(asset_id, desc, body, extra={"volume_ml": volume_ml, "outer_diameter": 2 * radius, "height": total_h})
 
 
-for _v, _r, _bh, _nr, _th, _m, _f in ((100, 0.028, 0.070, 0.0165, 0.105, 0.180, 0.0), (250, 0.035, 0.098, 0.0215, 0.143, 0.300, 0.5),
+for _v, _rad, _bh, _nr, _th, _m, _f in ((100, 0.028, 0.070, 0.0165, 0.105, 0.180, 0.0), (250, 0.035, 0.098, 0.0215, 0.143, 0.300, 0.5),
                                       (500, 0.043, 0.128, 0.0215, 0.181, 0.420, 0.6), (1000, 0.0505, 0.170, 0.0215, 0.230, 0.640, 0.0)):
-    register(f"media_bottle_{_v}ml", CATEGORY, partial(media_bottle, f"media_bottle_{_v}ml", float(_v), _r, _bh, _nr, _th, _m, _f))
+    register(f"media_bottle_{_v}ml", CATEGORY, partial(media_bottle, f"media_bottle_{_v}ml", float(_v), _rad, _bh, _nr, _th, _m, _f))
 
 
 def graduated_cylinder(asset_id: str, volume_ml: float, radius: float, height: float, base_r: float, mass: float) -> AssetDef:

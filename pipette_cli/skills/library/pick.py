@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+from collections.abc import Set as AbstractSet
 import numpy as np
 
 from pipette_cli.skills.frames import UP
@@ -17,7 +18,7 @@ CLOSE_S = 0.5
 
 
 def grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
-          height: float | None = None, extra_touch: set[int] = frozenset(),
+          height: float | None = None, extra_touch: AbstractSet[int] = frozenset(),
           then: FollowThrough | None = None) -> Iterator[Move]:
     """Approach ``name``, close on it and record it as held (the hand ends at the grasp pose).
     The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
