@@ -11,15 +11,22 @@ the criterion, so the task author writes the program.
 
 from __future__ import annotations
 
-from typing import Any
-
 from collections.abc import Callable
+from typing import Any
 
 from pipette_cli.errors import PipetteError
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs.expert import (
-    CloseHingeSpec, MoveSpec, OpenHingeSpec, PickSpec, PlaceOnSpec, PositionOverSpec, PressSpec, SlideSpec,
-    StepSpec, TargetSpec,
+    CloseHingeSpec,
+    MoveSpec,
+    OpenHingeSpec,
+    PickSpec,
+    PlaceOnSpec,
+    PositionOverSpec,
+    PressSpec,
+    SlideSpec,
+    StepSpec,
+    TargetSpec,
 )
 from pipette_cli.specs.task import TaskSpec
 

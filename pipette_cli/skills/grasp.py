@@ -19,11 +19,12 @@ the robot in steps until it can.
 from __future__ import annotations
 
 from collections.abc import Callable
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
-from collections.abc import Set as AbstractSet
 import numpy as np
 
+from pipette_cli.assets.library import load_asset_library
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame, unit
 from pipette_cli.skills.runtime import SkillContext, SkillFailure
 from pipette_cli.skills.scene import Shape
@@ -56,7 +57,6 @@ class Grasp:
 
 
 def semantics(ctx: SkillContext, name: str) -> dict:
-    from pipette_cli.assets.library import load_asset_library
 
     return load_asset_library().get(ctx.world.objects[name].asset).semantics()
 

@@ -13,10 +13,10 @@ arm's joints move (every other degree of freedom has no cost but damping and sta
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from functools import cached_property
 
-from collections.abc import Set as AbstractSet
 import mink
 import mujoco
 import numpy as np

@@ -15,10 +15,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from pipette_cli.sim.world import World
 from pipette_cli.skills.frames import min_jerk, slerp
 from pipette_cli.skills.runtime import Move, SkillContext, SkillFailure, skill_runtime
 from pipette_cli.specs.expert import StepSpec
-from pipette_cli.sim.world import World
 
 log = logging.getLogger(__name__)
 

@@ -10,20 +10,20 @@ the IK); a skill that cannot do its job raises :class:`SkillFailure` with a one-
 
 from __future__ import annotations
 
-from collections.abc import Set as AbstractSet
 import logging
 from collections.abc import Callable, Iterator
+from collections.abc import Set as AbstractSet
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, suggest
+from pipette_cli.sim.world import World
 from pipette_cli.skills.frames import UP, rotation_angle, slerp
 from pipette_cli.skills.ik import ArmIK, IKSolution
 from pipette_cli.skills.scene import SceneQuery
-from pipette_cli.sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -646,7 +646,6 @@ def skill_runtime(name: str) -> Skill:
     try:
         return _RUNTIMES[name]
     except KeyError:
-        from pipette_cli.errors import suggest
 
         raise SkillFailure(f"no runtime for skill {name!r}; {suggest(name, _RUNTIMES)}") from None
 

@@ -7,10 +7,10 @@ caller excludes (the object in the hand, the object being approached).
 
 from __future__ import annotations
 
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from functools import cached_property
 
-from collections.abc import Set as AbstractSet
 import mujoco
 import numpy as np
 
@@ -25,7 +25,6 @@ FAR = 10.0
 class Shape:
     """An object's collision geometry as an oriented box in the world: ``center``, ``axes`` (columns:
     the object's own x, y, z in the world) and ``half`` extents along them."""
-
     center: np.ndarray
     axes: np.ndarray
     half: np.ndarray

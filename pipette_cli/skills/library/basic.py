@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+from pipette_cli.skills.library.place import back_off
 from pipette_cli.skills.runtime import OPEN, TRANSIT_SPEED, Move, SkillContext, skill
 from pipette_cli.specs.expert import RetreatSpec, WaitSpec
 
@@ -15,7 +16,6 @@ def wait(ctx: SkillContext, step: WaitSpec) -> Iterator[Move]:
 
 @skill("retreat")
 def retreat(ctx: SkillContext, step: RetreatSpec) -> Iterator[Move]:
-    from pipette_cli.skills.library.place import back_off
 
     if ctx.gripper != OPEN:
         yield ctx.grip(OPEN, 0.4)

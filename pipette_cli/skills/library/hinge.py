@@ -13,17 +13,26 @@ move a little along the arc, read the joint, stop at the target or on a stall an
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from dataclasses import dataclass
-
-import logging
 
 import mujoco
 import numpy as np
 
-from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame
+from pipette_cli.skills.frames import UP, axis_rotation, down_frame, pitched_frame
+from pipette_cli.skills.grasp import plan_grasp, semantics
+from pipette_cli.skills.library.pick import grasp
+from pipette_cli.skills.library.place import back_off
 from pipette_cli.skills.runtime import (
-    APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillContext, SkillFailure, skill,
+    APPROACH_SPEED,
+    CLOSED,
+    FINE_SPEED,
+    OPEN,
+    Move,
+    SkillContext,
+    SkillFailure,
+    skill,
 )
 from pipette_cli.specs.expert import CloseHingeSpec, HingeSpec, OpenHingeSpec, SlideSpec
 
@@ -103,7 +112,6 @@ def goal_angle(ctx: SkillContext, hinge: Hinge, step: HingeSpec, opening: bool) 
     end of the range (open). Assets close at 0 and open toward the other end of their range."""
     if step.to_deg is not None:
         return step.to_deg
-    from pipette_cli.skills.grasp import semantics
 
     sem = semantics(ctx, hinge.joint.split("/", 1)[0])
     key = "lid_open_angle_deg" if opening else "lid_closed_angle_deg"
@@ -222,10 +230,6 @@ def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
 @skill("open_hinge")
 def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
     """Pull the handle along the arc as far as the arm follows it, then push the part the rest of the way."""
-    from pipette_cli.skills.grasp import plan_grasp
-    from pipette_cli.skills.library.pick import grasp
-    from pipette_cli.skills.library.place import back_off
-
     if ctx.held is not None:
         raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before opening {step.joint!r}")
     yield from settle(ctx, step.joint)
@@ -293,8 +297,6 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
 
 @skill("slide")
 def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
-    from pipette_cli.skills.library.pick import grasp
-    from pipette_cli.skills.library.place import back_off
 
     w = ctx.world
     jid = w.joint_id(step.joint)
@@ -330,8 +332,6 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
 
 def _part_handle(ctx: SkillContext, joint: str) -> str | None:
     """A ``*handle`` site on the body ``joint`` moves."""
-    from pipette_cli.skills.grasp import semantics
-
     obj = joint.split("/", 1)[0]
     body = ctx.world.model.jnt_bodyid[ctx.world.joint_id(joint)]
     for name in semantics(ctx, obj).get("sites", []):

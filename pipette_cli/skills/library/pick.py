@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Iterator
-
 from collections.abc import Set as AbstractSet
+
 import numpy as np
 
 from pipette_cli.skills.frames import UP
-from pipette_cli.skills.grasp import FollowThrough, plan_grasp
+from pipette_cli.skills.grasp import FollowThrough, _support_of, plan_grasp
+from pipette_cli.skills.library.place import put_down, resolve_target
 from pipette_cli.skills.runtime import APPROACH_SPEED, CLOSED, OPEN, Move, SkillContext, SkillFailure, skill
 from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
 
@@ -29,7 +30,6 @@ def grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "a
     if ctx.gripper != OPEN:
         yield ctx.grip(OPEN, 0.3)
     yield from ctx.transit(plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
-    from pipette_cli.skills.grasp import _support_of
 
     with ctx.touching(exclude | set(extra_touch) | _support_of(ctx, name)):
         for point in plan.approach[1:]:
@@ -47,7 +47,6 @@ def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
     target = getattr(step, "target", None)
     if step is None or getattr(step, "object", None) != name or target is None:
         return None
-    from pipette_cli.skills.library.place import resolve_target
 
     point = resolve_target(ctx, target, surface=False)
     skip = ctx.scene.bodies(name)
@@ -79,7 +78,6 @@ def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
     if step.to == "hold":
         yield ctx.hold(step.hold_s)
         return
-    from pipette_cli.skills.library.place import put_down, resolve_target
 
     if step.to == "bench":
         shape = ctx.scene.shape(step.object)

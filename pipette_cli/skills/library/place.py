@@ -14,8 +14,18 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_frame, unit
+from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.runtime import (
-    APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Held, Move, SkillContext, SkillFailure, fmt, skill,
+    APPROACH_SPEED,
+    CLOSED,
+    FINE_SPEED,
+    OPEN,
+    Held,
+    Move,
+    SkillContext,
+    SkillFailure,
+    fmt,
+    skill,
 )
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
 
@@ -59,8 +69,6 @@ def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool
 
 def _top_of(ctx: SkillContext, name: str) -> np.ndarray:
     """The middle of an object's top: its ``*center`` site if its asset names one, else its box."""
-    from pipette_cli.skills.grasp import semantics
-
     centers = [s for s in semantics(ctx, name).get("sites", []) if str(s).endswith("center")]
     if centers:
         return ctx.world.position(f"{name}/{centers[0]}")
@@ -160,8 +168,6 @@ def place_on(ctx: SkillContext, step: PlaceOnSpec) -> Iterator[Move]:
 def mating_point(ctx: SkillContext, name: str) -> np.ndarray:
     """Where ``name`` meets a holder, in its own frame: where it hangs from (``hang_height`` above its
     origin, a pipette's collar) or its base (a tube)."""
-    from pipette_cli.skills.grasp import semantics
-
     hang = semantics(ctx, name).get("hang_height")
     return np.array([0.0, 0.0, float(hang) if hang else 0.0])
 

@@ -12,6 +12,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation
+from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.library.place import resolve_target
 from pipette_cli.skills.runtime import APPROACH_SPEED, Move, SkillContext, SkillFailure, skill
 from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
@@ -19,8 +20,6 @@ from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
 
 def tool_point(ctx: SkillContext, name: str, point: str | None) -> np.ndarray:
     """The held tool's working point in the tcp frame: ``point``, else its ``tip`` site, else its origin."""
-    from pipette_cli.skills.grasp import semantics
-
     held = ctx.holding(name)
     if point is None and "tip" in semantics(ctx, name).get("sites", []):
         point = f"{name}/tip"
