@@ -23,6 +23,7 @@ from typing import Any
 
 import typer
 
+from pipette_cli.agent.answers import app as answers_app
 from pipette_cli.agent.vocabulary import load_vocabulary
 from pipette_cli.errors import PipetteError, suggest
 
@@ -306,11 +307,11 @@ def _command(path: tuple[str, ...], command: Any) -> CommandInfo:
     return CommandInfo(path, params, text.splitlines()[0] if text else "", example)
 
 
-def read_catalog(*apps: tuple[typer.Typer, tuple[str, ...]]) -> CommandCatalog:
+def read_catalog(*apps: tuple[typer.Typer | Any, tuple[str, ...]]) -> CommandCatalog:
     """The catalog of the typer ``apps``, each with the prefix its commands get (``("answer",)``)."""
     commands: dict[str, CommandInfo] = {}
     for root, prefix in apps:
-        for path, command in _walk(typer.main.get_command(root), prefix):
+        for path, command in _walk(typer.main.get_command(root) if isinstance(root, typer.Typer) else root, prefix):
             if path[0] != "agent":  # the agent does not call itself
                 info = _command(path, command)
                 commands[info.name] = info
@@ -318,10 +319,7 @@ def read_catalog(*apps: tuple[typer.Typer, tuple[str, ...]]) -> CommandCatalog:
     return CommandCatalog(commands, one_of)
 
 
-@cache
-def load_catalog() -> CommandCatalog:
-    """Every leaf command of the ``pipette`` CLI (but ``agent``) and the agent's answers."""
-    from pipette_cli.agent.answers import app as answers_app
-    from pipette_cli.cli.main import app
-
-    return read_catalog((app, ()), (answers_app, (ANSWER,)))
+def cli_catalog(cli: typer.Typer | Any) -> CommandCatalog:
+    """Every leaf command of the ``pipette`` CLI ``cli`` (a typer app or its click group; all but
+    ``agent``) and the agent's answers. The CLI is handed in: the agent is one of its commands."""
+    return read_catalog((cli, ()), (answers_app, (ANSWER,)))

@@ -11,16 +11,16 @@ from rich.markup import escape
 from rich.table import Table
 
 from pipette_cli.agent.answers import Answer, answer
-from pipette_cli.agent.catalog import AgentError, load_catalog, render_args, say_missing
+from pipette_cli.agent.catalog import AgentError, CommandCatalog, cli_catalog, render_args, say_missing
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec, StepRef, plain
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 
 
-def make_agent(backend: str, model: str | None = None, base_url: str | None = None):
+def make_agent(catalog: CommandCatalog, backend: str, model: str | None = None, base_url: str | None = None):
     """The offline parser, or an LLM agent on an ``openai`` / ``ollama`` server."""
-    catalog, registry = load_catalog(), load_registry(STATE.registry_dirs)
+    registry = load_registry(STATE.registry_dirs)
     if backend == "offline":
         from pipette_cli.agent.offline import OfflineAgent
 
@@ -30,10 +30,10 @@ def make_agent(backend: str, model: str | None = None, base_url: str | None = No
     return LLMAgent(backend, catalog, registry, model=model, base_url=base_url)
 
 
-def command_text(plan: CheckedPlan, index: int) -> str:
+def command_text(catalog: CommandCatalog, plan: CheckedPlan, index: int) -> str:
     """Step ``index`` (1-based) as a command line, earlier steps' outputs filled in."""
     step = plan.steps[index - 1]
-    info = load_catalog().get(step.command)
+    info = catalog.get(step.command)
     return shlex.join(["pipette", *info.path, *render_args(info, plan.resolved_args(step))])
 
 
@@ -43,9 +43,9 @@ def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
     for step in plan.steps:
         item: dict[str, Any] = {"step": step.index, "command": step.command,
                                 "args": {k: plain(v) for k, v in step.args.items()},
-                                "command_line": command_text(plan, step.index), "missing": step.missing,
+                                "command_line": command_text(agent.catalog, plan, step.index), "missing": step.missing,
                                 "output": step.product, "notes": step.notes}
-        is_answer = load_catalog().get(step.command).is_answer
+        is_answer = agent.catalog.get(step.command).is_answer
         reads_only = reads_only and is_answer
         if is_answer and reads_only and not step.missing:
             found = answer(step.command, plan.resolved_args(step), agent.registry)
@@ -54,7 +54,7 @@ def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
     return {"request": plan.request, "backend": agent.name, "runnable": plan.runnable, "steps": steps}
 
 
-def show_plan(plan: CheckedPlan) -> None:
+def show_plan(catalog: CommandCatalog, plan: CheckedPlan) -> None:
     table = Table(title="plan", title_justify="left", show_lines=False)
     for column in ("step", "command", "notes"):
         table.add_column(column, overflow="fold")
@@ -63,7 +63,7 @@ def show_plan(plan: CheckedPlan) -> None:
         refs = [r for v in step.args.values() for r in (v if isinstance(v, list) else [v]) if isinstance(r, StepRef)]
         notes += [f"input: output of step {r.from_step}" for r in refs]
         notes += [escape(n) for n in step.notes]
-        table.add_row(str(step.index), escape(command_text(plan, step.index)), "\n".join(notes))
+        table.add_row(str(step.index), escape(command_text(catalog, plan, step.index)), "\n".join(notes))
     out_console.print(table)
 
 
@@ -102,7 +102,7 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
                               for i, m in plan.missing.items())
             count = sum(len(m) for m in plan.missing.values())
             raise AgentError(f"{needs}; add {'it' if count == 1 else 'them'} to the request")
-        show_plan(plan)
+        show_plan(agent.catalog, plan)
         for _ in range(3):  # answers can reveal more (a task gives a default output; a bad value is re-asked)
             plan = _ask_missing(agent, plan, context)
             if not plan.missing:
@@ -112,10 +112,10 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
         print_json(plan_json(plan, agent))
         if not (yes and plan.runnable):
             return
-    catalog = load_catalog()
+    catalog = agent.catalog
     answers_only = all(catalog.get(s.command).is_answer for s in plan.steps)
     if not as_json and not answers_only:
-        show_plan(plan)
+        show_plan(agent.catalog, plan)
     if not answers_only and not yes:
         if not (interactive or sys.stdin.isatty()):
             err_console.print(f"[dim]add --yes to run {'it' if len(plan.steps) == 1 else 'them'}[/dim]")
@@ -131,6 +131,7 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
 
 
 def agent(
+    ctx: typer.Context,
     request: Annotated[str | None, typer.Argument(help="What you want done, in words.")] = None,
     backend: Annotated[str, typer.Option("--backend", "-b", help="offline, openai or ollama.")] = "offline",
     yes: Annotated[bool, typer.Option("--yes", "-y", help="Run the plan without asking.")] = False,
@@ -144,7 +145,7 @@ def agent(
 
     Example: pipette agent "record 20 demos of the test tube task, augment them, convert and train ACT"
     """
-    agent_impl = make_agent(backend, model, base_url)
+    agent_impl = make_agent(cli_catalog(ctx.find_root().command), backend, model, base_url)
     context = Context()
     if not interactive:
         if not request:

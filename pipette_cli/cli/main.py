@@ -9,6 +9,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+from functools import cache
 from pathlib import Path
 from typing import Annotated
 
@@ -22,6 +23,7 @@ from rich.logging import RichHandler
 from rich.markup import escape
 
 from pipette_cli import __version__
+from pipette_cli.agent.catalog import CommandCatalog, cli_catalog
 from pipette_cli.cli import agent as agent_cli
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli import demo as demo_cli
@@ -59,6 +61,12 @@ app.command("augment")(augment_cli.augment)
 app.command("convert")(convert_cli.convert)
 app.command("serve")(serve_cli.serve)
 app.command("train")(train_cli.train)
+
+
+@cache
+def load_catalog() -> CommandCatalog:
+    """The agent's catalog of this CLI (``pipette agent`` reads the CLI it is part of)."""
+    return cli_catalog(app)
 
 
 def _version(value: bool) -> None:

@@ -17,7 +17,8 @@ import pytest
 import typer
 
 from pipette_cli.agent.answers import answer
-from pipette_cli.agent.catalog import AgentError, Unsupported, load_catalog, read_catalog
+from pipette_cli.agent.catalog import AgentError, Unsupported, read_catalog
+from pipette_cli.cli.main import load_catalog
 from pipette_cli.agent.devset import canonical, load_dev_set, run_case, step_lines
 from pipette_cli.agent.llm import LLMAgent, plan_schema
 from pipette_cli.agent.offline import OfflineAgent

@@ -18,7 +18,8 @@ import httpx
 import pytest
 from pydantic import BaseModel, ConfigDict
 
-from pipette_cli.agent.catalog import Unsupported, load_catalog
+from pipette_cli.agent.catalog import Unsupported
+from pipette_cli.cli.main import load_catalog
 from pipette_cli.agent.llm import LLMAgent
 from pipette_cli.agent.plan import CheckedPlan
 from pipette_cli.errors import BackendError, PipetteError
