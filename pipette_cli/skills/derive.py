@@ -15,6 +15,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pipette_cli.errors import PipetteError
+from pipette_cli.plugins import Plugins
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs.expert import (
     CloseHingeSpec,
@@ -36,20 +37,12 @@ class CannotDerive(PipetteError):
 
 
 Deriver = Callable[[TaskSpec, Any], list[StepSpec]]  # (task, its criterion of the registered type)
-_DERIVERS: dict[str, Deriver] = {}
+DERIVERS: Plugins[Deriver] = Plugins("program deriver", CannotDerive)
 
 
 def deriver(*types: str) -> Callable[[Deriver], Deriver]:
     """Register how programs are read off criteria of the given ``type`` names."""
-
-    def decorate(fn: Deriver) -> Deriver:
-        for name in types:
-            if name in _DERIVERS:
-                raise ValueError(f"a program deriver for {name!r} is registered twice")
-            _DERIVERS[name] = fn
-        return fn
-
-    return decorate
+    return DERIVERS.register(*types)
 
 
 def derive_program(task: TaskSpec) -> list[StepSpec]:
@@ -64,7 +57,7 @@ def derive_program(task: TaskSpec) -> list[StepSpec]:
 
 
 def _steps(task: TaskSpec, spec: ev.EvaluatorSpec) -> list[StepSpec]:
-    fn = _DERIVERS.get(spec.type)
+    fn = DERIVERS.find(spec.type)
     if fn is None:
         raise CannotDerive(f"{task.id}: no expert program can be read off a {spec.type!r} criterion; "
                            "give the task an 'expert:' section (docs/extending/adding_a_task.md)")

@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.errors import PipetteError, suggest
+from pipette_cli.errors import PipetteError
+from pipette_cli.plugins import Plugins
 from pipette_cli.sim.world import World
 from pipette_cli.skills.frames import UP, rotation_angle, slerp
 from pipette_cli.skills.ik import ArmIK, IKSolution
@@ -625,29 +626,19 @@ class SkillContext:
             return
 
 
-_RUNTIMES: dict[str, Skill] = {}
+SKILL_RUNTIMES: Plugins[Skill] = Plugins("skill", SkillFailure)
 
 
 def skill(name: str) -> Callable[[Skill], Skill]:
     """Register the runtime of the skill step type ``name`` (:mod:`pipette_cli.specs.expert`)."""
 
-    def decorate(fn: Skill) -> Skill:
-        if name in _RUNTIMES and _RUNTIMES[name] is not fn:
-            raise ValueError(f"skill {name!r} is registered twice")
-        _RUNTIMES[name] = fn
-        return fn
-
-    return decorate
+    return SKILL_RUNTIMES.register(name)
 
 
 def skill_runtime(name: str) -> Skill:
     import pipette_cli.skills.library  # noqa: F401  (registers the built-in skills)
 
-    try:
-        return _RUNTIMES[name]
-    except KeyError:
-
-        raise SkillFailure(f"no runtime for skill {name!r}; {suggest(name, _RUNTIMES)}") from None
+    return SKILL_RUNTIMES.get(name)
 
 
 def _pose_key(pos: np.ndarray, rot: np.ndarray) -> tuple:

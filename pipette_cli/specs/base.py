@@ -6,11 +6,19 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Annotated, Any, Generic, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, SerializeAsAny, ValidatorFunctionWrapHandler, WrapValidator
-from pydantic import model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializeAsAny,
+    ValidatorFunctionWrapHandler,
+    WrapValidator,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
-from pipette_cli.errors import suggest
+from pipette_cli.errors import SpecError, suggest
+from pipette_cli.plugins import Plugins
 
 NAME_PATTERN = r"^[a-z][a-z0-9_]*$"
 Name = Annotated[str, Field(pattern=NAME_PATTERN, description="lower_snake_case name")]
@@ -96,7 +104,7 @@ class TypeRegistry(Generic[T]):
         self.kind = kind
         self.base = base
         self.key = key
-        self._types: dict[str, type[T]] = {}
+        self._types: Plugins[type[T]] = Plugins(f"{kind} type", SpecError)
         REGISTRIES.append(self)
 
     def register(self, cls: type[T]) -> type[T]:
@@ -104,16 +112,13 @@ class TypeRegistry(Generic[T]):
         name = cls.model_fields[self.key].default
         if not isinstance(name, str):
             raise TypeError(f"{cls.__name__} needs a default for its {self.key!r} field")
-        if name in self._types and self._types[name] is not cls:
-            raise ValueError(f"{self.kind} type {name!r} is already registered by {self._types[name].__name__}")
-        self._types[name] = cls
-        return cls
+        return self._types.add(name, cls)
 
     def names(self) -> list[str]:
-        return sorted(self._types)
+        return self._types.names()
 
     def get(self, name: str) -> type[T]:
-        return self._types[name]
+        return self._types.get(name)
 
     def __contains__(self, name: object) -> bool:
         return name in self._types

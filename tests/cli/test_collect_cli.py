@@ -31,7 +31,7 @@ def _collect(run_cli, out: Path, *extra: str):
 def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from pipette_cli.skills import derive
 
-    monkeypatch.delitem(derive._DERIVERS, "lift_and_hold")  # no program in its YAML, none derivable
+    monkeypatch.delitem(derive.DERIVERS._items, "lift_and_hold")  # no program in its YAML, none derivable
     out = tmp_path / "x.h5"
     result = _collect(run_cli, out, "--episodes", "1")
     assert result.exit_code == 1

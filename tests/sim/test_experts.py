@@ -114,6 +114,6 @@ def test_find_expert_names_the_criterion_it_cannot_read(monkeypatch: pytest.Monk
     from pipette_cli.skills import derive
 
     task = REGISTRY.get("PickUpTestTube").model_copy(update={"expert": None})
-    monkeypatch.delitem(derive._DERIVERS, "lift_and_hold")
+    monkeypatch.delitem(derive.DERIVERS._items, "lift_and_hold")
     with pytest.raises(PipetteError, match="no expert program can be read off a 'lift_and_hold' criterion"):
         find_expert(task)

@@ -42,7 +42,7 @@ def no_program(monkeypatch, plate_task):
     """The drafted task without an expert program, and none derivable from its criterion."""
     from pipette_cli.skills import derive
 
-    monkeypatch.delitem(derive._DERIVERS, plate_task.success.type)
+    monkeypatch.delitem(derive.DERIVERS._items, plate_task.success.type)
     return plate_task.model_copy(update={"expert": None})
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from pipette_cli.assets.model import AssetDef
 from pipette_cli.errors import AssetError, suggest
+from pipette_cli.plugins import Plugins, where
 
 Factory = Callable[[], AssetDef]
 _MODULES = ("tools", "equipment", "consumables", "instruments")
@@ -31,14 +32,12 @@ class Generator:
         return asset
 
 
-_REGISTRY: dict[str, Generator] = {}
+GENERATORS: Plugins[Generator] = Plugins("asset generator", AssetError)
 
 
 def register(asset_id: str, category: str, factory: Factory) -> None:
     """Register ``factory`` as the generator of ``asset_id``; ids are unique."""
-    if asset_id in _REGISTRY:
-        raise AssetError(f"asset generator {asset_id!r} is registered twice")
-    _REGISTRY[asset_id] = Generator(asset_id, category, factory)
+    GENERATORS.add(asset_id, Generator(asset_id, category, factory), defined_at=where(factory))
 
 
 def generator(asset_id: str, category: str) -> Callable[[Factory], Factory]:
@@ -55,7 +54,7 @@ def all_generators() -> dict[str, Generator]:
     """Every registered generator (imports the category modules on first use)."""
     for name in _MODULES:
         importlib.import_module(f"{__name__}.{name}")
-    return dict(sorted(_REGISTRY.items()))
+    return dict(GENERATORS.items())
 
 
 def get_generator(asset_id: str) -> Generator:
