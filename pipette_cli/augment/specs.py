@@ -45,7 +45,7 @@ class LightingSpec(PerturbationSpec):
 
     type: Literal["lighting"] = "lighting"
     atom: ClassVar[str] = "light"
-    scale: float = Field(0.8, gt=0, description="s_I, intensity factor")
+    scale: float = Field(0.8, gt=0, description="s_I, every light's intensity factor; paper A.7")
     headlight: bool = Field(True, description="scale the viewer headlight too")
 
     def scaled(self, factor: float) -> LightingSpec:
@@ -62,8 +62,8 @@ class SpeedSpec(PerturbationSpec):
     type: Literal["speed"] = "speed"
     atom: ClassVar[str] = "speed"
     physics: ClassVar[bool] = True
-    factor: float = Field(1.2, gt=0, description="s_v, speed factor")
-    rho: float = Field(0.10, ge=0, description="strength of the local speed noise")
+    factor: float = Field(1.2, gt=0, description="s_v, speed factor of the resampling; paper A.7")
+    rho: float = Field(0.10, ge=0, description="rho, strength of the local speed noise; paper A.7")
     window: int = Field(11, ge=1, description="moving-average length smoothing the noise")
     interpolation: Literal["catmull_rom", "linear"] = "catmull_rom"
 
@@ -81,8 +81,8 @@ class JointNoiseSpec(PerturbationSpec):
     type: Literal["joint_noise"] = "joint_noise"
     atom: ClassVar[str] = "noise"
     physics: ClassVar[bool] = True
-    sigma: float = Field(0.005, ge=0, description="rad")
-    bound: float = Field(0.02, ge=0, description="rad")
+    sigma: float = Field(0.005, ge=0, description="rad, std of the joint-target noise; paper A.7")
+    bound: float = Field(0.02, ge=0, description="rad, bound of the joint-target noise; paper A.7")
 
     def scaled(self, factor: float) -> JointNoiseSpec:
         return self.model_copy(update={"sigma": self.sigma * factor, "bound": self.bound * factor})

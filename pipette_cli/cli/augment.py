@@ -10,8 +10,11 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.errors import PipetteError
+from pipette_cli.augment.specs import (
+    AugmentSpec, CameraPoseSpec, JointNoiseSpec, LightingSpec, ObjectPoseSpec, SpeedSpec, default_atoms, make_variants,
+)
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
+from pipette_cli.errors import PipetteError, SpecError
 from pipette_cli.registry import load_registry
 
 
@@ -30,19 +33,19 @@ def augment(
     input: Annotated[Path, typer.Option("--input", "-i", help="Raw demos (HDF5 from `pipette collect`).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Augmented file to create or resume.")],
     variants: Annotated[str, typer.Option("--variants", help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object.")] = "paper",
-    light_scale: Annotated[float, typer.Option("--light-scale", help="s_I: every light's intensity factor.")] = 0.8,
-    speed: Annotated[float, typer.Option("--speed", help="s_v: speed factor of the resampling.")] = 1.2,
-    rho: Annotated[float, typer.Option("--rho", help="Strength of the local speed noise.")] = 0.10,
-    interpolation: Annotated[str, typer.Option("--interpolation", help="catmull_rom or linear.")] = "catmull_rom",
-    noise_sigma: Annotated[float, typer.Option("--noise-sigma", help="Joint-target noise std (rad).")] = 0.005,
-    noise_clip: Annotated[float, typer.Option("--noise-clip", help="Joint-target noise bound (rad).")] = 0.02,
-    camera: Annotated[str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")] = "random",
-    camera_radius: Annotated[float, typer.Option("--camera-radius", help="Ball radius (m) for top/main.")] = 0.2,
-    wrist_radius: Annotated[float, typer.Option("--wrist-radius", help="Ball radius (m) for the wrist camera.")] = 0.002,
-    object_xy: Annotated[float, typer.Option("--object-xy", help="Object shift range (m) for the object variant.")] = 0.02,
-    object_yaw: Annotated[float, typer.Option("--object-yaw", help="Object yaw range (deg) for the object variant.")] = 0.0,
-    seed: Annotated[int, typer.Option("--seed", help="Base seed of the perturbations.")] = 0,
-    image_size: Annotated[int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")] = 0,
+    light_scale: Annotated[float, typer.Option("--light-scale", help=spec_help(LightingSpec, "scale"))] = spec_default(LightingSpec, "scale"),
+    speed: Annotated[float, typer.Option("--speed", help=spec_help(SpeedSpec, "factor"))] = spec_default(SpeedSpec, "factor"),
+    rho: Annotated[float, typer.Option("--rho", help=spec_help(SpeedSpec, "rho"))] = spec_default(SpeedSpec, "rho"),
+    interpolation: Annotated[str, typer.Option("--interpolation", help="catmull_rom or linear.")] = spec_default(SpeedSpec, "interpolation"),
+    noise_sigma: Annotated[float, typer.Option("--noise-sigma", help=spec_help(JointNoiseSpec, "sigma"))] = spec_default(JointNoiseSpec, "sigma"),
+    noise_clip: Annotated[float, typer.Option("--noise-clip", help=spec_help(JointNoiseSpec, "bound"))] = spec_default(JointNoiseSpec, "bound"),
+    camera: Annotated[str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")] = spec_default(CameraPoseSpec, "camera"),
+    camera_radius: Annotated[float, typer.Option("--camera-radius", help=spec_help(CameraPoseSpec, "radius", "Ball radius for top/main"))] = spec_default(CameraPoseSpec, "radius"),
+    wrist_radius: Annotated[float, typer.Option("--wrist-radius", help=spec_help(CameraPoseSpec, "wrist_radius", "Ball radius for the wrist camera"))] = spec_default(CameraPoseSpec, "wrist_radius"),
+    object_xy: Annotated[float, typer.Option("--object-xy", help=spec_help(ObjectPoseSpec, "xy", "Object shift range for the object variant"))] = spec_default(ObjectPoseSpec, "xy"),
+    object_yaw: Annotated[float, typer.Option("--object-yaw", help=spec_help(ObjectPoseSpec, "yaw_deg", "Object yaw range (deg) for the object variant"))] = spec_default(ObjectPoseSpec, "yaw_deg"),
+    seed: Annotated[int, typer.Option("--seed", help=spec_help(AugmentSpec, "seed", "Base seed"))] = spec_default(AugmentSpec, "seed"),
+    image_size: Annotated[int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")] = spec_default(AugmentSpec, "image_size"),
     rejected: Annotated[Path | None, typer.Option("--rejected", help="Also keep failed variants in this file.")] = None,
     workers: Annotated[int | None, typer.Option("--workers", "-w", min=1, help="Worker processes (default: all cores).")] = None,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
@@ -57,8 +60,6 @@ def augment(
 
     Example: pipette augment PickUpTestTube --input raw.h5 --output aug.h5 --workers 4
     """
-    from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
-    from pipette_cli.errors import SpecError
 
     if executor not in ("local", "ray"):
         raise PipetteError(f"--executor must be local or ray, not {executor!r}")

@@ -139,9 +139,9 @@ class TypeRegistry(Generic[T]):
                     "spec_type",
                     "unknown {kind}{what} '{name}'; {hint}",
                     {"kind": self.kind, "what": " type" if self.key == "type" else "", "name": str(name),
-                     "hint": suggest(str(name), self._types)},
+                     "hint": suggest(str(name), self._types.names())},
                 )
-            return self._types[name].model_validate(value)
+            return self._types.get(name).model_validate(value)
 
         return dispatch
 

@@ -8,6 +8,7 @@ from typing import Literal
 import pytest
 from pydantic import ValidationError
 
+from pipette_cli.errors import SpecError
 from pipette_cli.specs import TaskSpec, evaluator_types, register_evaluator
 from pipette_cli.specs.evaluators import EvaluatorSpec
 from pipette_cli.specs.task import TimingSpec
@@ -156,5 +157,5 @@ def test_third_party_evaluator_registers_without_editing_a_list() -> None:
     class Impostor(EvaluatorSpec):
         type: Literal["test_poured_volume"] = "test_poured_volume"
 
-    with pytest.raises(ValueError, match="already registered"):
+    with pytest.raises(SpecError, match="defined twice"):
         register_evaluator(Impostor)
