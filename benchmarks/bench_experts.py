@@ -66,7 +66,8 @@ def main() -> None:
     for name, row in skills.items():
         print(f"  {name:14s} {row['episodes'] - row['stopped']:4d}/{row['episodes']:<4d} {100 * row['success_rate']:5.1f} %")
     total = sum(r["successes"] for r in rows), sum(r["episodes"] for r in rows)
-    result = {"commit": git_state(), "episodes_per_task": args.episodes, "first_seed": args.seed, "tasks": rows,
+    commit, dirty = git_state()
+    result = {"commit": commit, "dirty": dirty, "episodes_per_task": args.episodes, "first_seed": args.seed, "tasks": rows,
               "skills": skills, "successes": total[0], "episodes": total[1], "wall_s": time.perf_counter() - started,
               "cpu_count": os.cpu_count()}
     print(f"\n{total[0]}/{total[1]} episodes solved over {len(rows)} tasks in {result['wall_s']:.0f} s")
@@ -75,7 +76,7 @@ def main() -> None:
         args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     if args.markdown:
         lines = [f"Scripted success of every task's skill program, {args.episodes} seeds from {args.seed} per task "
-                 f"(`python benchmarks/bench_experts.py --episodes {args.episodes}`, commit {result['commit']}).", "",
+                 f"(`python benchmarks/bench_experts.py --episodes {args.episodes}`, commit {commit[:10]}{' + local changes' if dirty else ''}).", "",
                  "| task | program | success | failures (reason: count) | median s/episode |", "| --- | --- | ---: | --- | ---: |"]
         for r in rows:
             failures = ", ".join(f"{k}: {v}" for k, v in r["failures"].items()) or "-"
