@@ -161,6 +161,16 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
                             accept=accept, json_schema=plan_json_schema(list(vocab.assets)))
 
 
+def plan_summary(checked: CheckedPlan) -> list[str]:
+    """The plan in one line per step: ``action object-asset [target-or-source-asset]``."""
+    lines = []
+    for step in checked.steps:
+        other = step.target or (step.source if step.action == "remove" else None)
+        words = [step.action, checked.asset(step.object), *([checked.asset(other)] if other else [])]
+        lines.append(" ".join(words))
+    return lines
+
+
 def write_task(drafted: DraftedTask, target: Path, *, force: bool = False) -> Path:
     """Write the YAML (only a validated draft gets here).
 
