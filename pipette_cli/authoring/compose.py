@@ -52,6 +52,11 @@ class ComposedTask:
     checked: CheckedPlan = field(repr=False)
 
     @property
+    def stage_names(self) -> list[str]:
+        """What each stage asks for, in words ("place the 2 mL microtube on the microcentrifuge")."""
+        return [step_name(stage.step, self.checked) for stage in self.stages]
+
+    @property
     def file_stem(self) -> str:
         short = self.task_id.split("/", 1)[1].rsplit("-v", 1)[0]
         return re.sub(r"(?<!^)(?=[A-Z])", "_", short).lower()

@@ -21,9 +21,6 @@ from pipette_cli.specs.robot import RobotSpec, robot_spec
 
 DEFAULT_ROBOT = "franka_panda"
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
-RIM_PINCH_MAX_HEIGHT = 0.035
-"""Round flat objects (dishes) lower than this are pinched at the rim, even when wider than the gripper opens."""
-GRIP_MARGIN = 0.004
 
 
 @dataclass(frozen=True)
@@ -72,16 +69,36 @@ def resolve_asset(words: str, vocab: Vocabulary) -> str:
     raise PlanError(f"unknown object '{words}'; nearest: {hint}")
 
 
+def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
+    """Metres across the object where the skills' grasp (:mod:`pipette_cli.skills.grasp`) would take
+    it, from its resting collision boxes; None for a flat object, which is pinched at the rim."""
+    from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, PALM_MARGIN
+
+    boxes = geom.boxes
+    low, high = geom.low, geom.high
+    if float(high[2] - low[2]) < FLAT:
+        return None
+    if geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2]):
+        return float(min(high[:2] - low[:2]))  # lying: across its long axis
+    top = float(high[2])
+    z = geom.origin_height + float(geom.sites["grasp"][2]) if "grasp" in geom.sites else float(low[2]) + 0.6 * (top - float(low[2]))
+    z = min(max(z, top - (robot.gripper.finger_depth - PALM_MARGIN), float(low[2]) + FINGERTIP_LIFT), top - 0.004)
+    slab = boxes[(boxes[:, 2] <= z + 0.008) & (boxes[:, 5] >= z - 0.008)]
+    if not len(slab):
+        slab = boxes
+    return float(min(slab[:, 3:5].max(axis=0) - slab[:, 0:2].min(axis=0)))
+
+
 def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None:
     """Why ``robot``'s gripper cannot hold the object, or None."""
-    ex, ey = (float(v) for v in (geom.high[:2] - geom.low[:2]))
-    narrow = min(ex, ey)
+    from pipette_cli.skills.grasp import GRIP_MARGIN
+
+    width = grip_width(geom, robot)
     opening = robot.gripper.max_opening
-    round_ = abs(ex - ey) < 0.08 * max(ex, ey)
-    if narrow <= opening - GRIP_MARGIN or (round_ and geom.height <= RIM_PINCH_MAX_HEIGHT):
+    if width is None or width <= opening - GRIP_MARGIN:
         return None
-    return (f"impossible request: the {name} is {narrow * 1000:.0f} mm wide at its narrowest; the {robot.name}'s "
-            f"gripper opens {opening * 1000:.0f} mm, so it cannot hold it")
+    return (f"impossible request: the {name} is {width * 1000:.0f} mm across where it would be held; the "
+            f"{robot.name}'s gripper opens {opening * 1000:.0f} mm, so it cannot hold it")
 
 
 def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], robot: RobotSpec) -> list[str]:

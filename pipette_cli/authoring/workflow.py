@@ -161,6 +161,26 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
                             accept=accept, json_schema=plan_json_schema(list(vocab.assets)))
 
 
+def check_gate(episodes: int, *, enforce: bool = True) -> Gate:
+    """The ``--check`` gate: build, an idle rollout that must not succeed, and the expert on
+    ``episodes`` seeds (at least 4 of 5 must succeed). The report is kept on the draft; with
+    ``enforce`` a failed check raises :class:`PlanError` naming the stage and step that failed (an
+    LLM backend is sent it for a corrected answer)."""
+    from pipette_cli.authoring.check import check_task
+
+    def gate(drafted: DraftedTask) -> None:
+        report = check_task(drafted.spec, episodes, stage_names=drafted.composed.stage_names)
+        drafted.report = report
+        if not enforce:
+            return
+        if not report.ok:
+            raise PlanError(f"--check failed for {drafted.spec.id}: {'; '.join(report.problems)}")
+        if report.solve.status != "solved":
+            raise PlanError(f"--check failed for {drafted.spec.id}: {report.solve.summary()}")
+
+    return gate
+
+
 def plan_summary(checked: CheckedPlan) -> list[str]:
     """The plan in one line per step: ``action object-asset [target-or-source-asset]``."""
     lines = []
