@@ -26,6 +26,8 @@ BENCH_Y = (-0.47, 0.47)
 GRID_STEP = 0.025
 CLEARANCE = 0.02
 """Metres kept between any two objects, and between an object and the robot at home."""
+TIGHT_CLEARANCE = 0.005
+"""The same where nothing fits with :data:`CLEARANCE` (the arm leaves its home pose first)."""
 
 
 INNER_MARGIN = 0.05
@@ -97,7 +99,18 @@ class Layout:
     def place(self, fp: Footprint, z: float = BENCH_Z, *, commit: bool = True,
               away: tuple[tuple[float, float], float] | None = None) -> tuple[float, float] | None:
         """Best free position (x, y) of ``fp``'s origin, or None when there is none; with ``commit``
-        the object becomes an obstacle there; ``away = (point, d)`` keeps the origin ``d`` from ``point``."""
+        the object becomes an obstacle there; ``away = (point, d)`` keeps the origin ``d`` from ``point``.
+
+        Key points are first kept within the robot's comfortable reach and :data:`CLEARANCE` from
+        everything; where nothing fits (a tall instrument whose open door needs room in front), within
+        its full reach and :data:`TIGHT_CLEARANCE` from the robot's home pose and the other objects."""
+        spot = self._place(fp, z, commit, away, self.workspace.max_reach, CLEARANCE + fp.margin)
+        if spot is None:
+            spot = self._place(fp, z, commit, away, self.workspace.origin_reach, TIGHT_CLEARANCE)
+        return spot
+
+    def _place(self, fp: Footprint, z: float, commit: bool, away: tuple[tuple[float, float], float] | None,
+               max_reach: float, pad: float) -> tuple[float, float] | None:
         grid = self.grid
         boxes = fp.boxes
         world = np.repeat(boxes[None], len(grid), axis=0).copy()
@@ -110,9 +123,9 @@ class Layout:
         ok = on_bench.copy()
         for k in fp.keys or [(0.0, 0.0)]:
             reach = np.hypot(grid[:, 0] + k[0], grid[:, 1] + k[1])
-            ok &= (reach >= ws.min_reach) & (reach <= ws.max_reach)
+            ok &= (reach >= ws.min_reach) & (reach <= max_reach + 1e-9)
         if fp.origin_in_reach:
-            ok &= np.hypot(grid[:, 0], grid[:, 1]) <= ws.origin_reach
+            ok &= np.hypot(grid[:, 0], grid[:, 1]) <= ws.origin_reach + 1e-9
         if fp.pressed:  # the nearest point of every box stays press_front away from the base
             near_x = np.clip(0.0, lo[:, 0], hi[:, 0])
             near_y = np.clip(0.0, lo[:, 1], hi[:, 1])
@@ -121,7 +134,6 @@ class Layout:
             ok &= np.hypot(grid[:, 0] - away[0][0], grid[:, 1] - away[0][1]) >= away[1]
         key = grid + np.asarray((fp.keys or [(0.0, 0.0)])[0])
         if len(self.obstacles):
-            pad = CLEARANCE + fp.margin
             obs = self.obstacles
             a_lo = world[ok][:, :, None, :3] - pad
             a_hi = world[ok][:, :, None, 3:] + pad

@@ -87,7 +87,8 @@ class Builder:
         else:
             pool = self._moved() or [o for o in self.objects if not self._static(o)]
         if not pool:
-            raise PlanError(f"'{clause.text}': nothing named before that 'it' could refer to; name the object")
+            what = "instrument or holder" if role in ("instrument", "holder") else "object"
+            raise PlanError(f"'{clause.text}': nothing named before says which {what} is meant; name the {what}")
         return pool[-1]
 
     def obj(self, mention: Mention, clause: Clause, role: str, taken: list[Obj]) -> Obj:
@@ -180,6 +181,8 @@ class Builder:
             action = "remove"
         elif action == "place" and (on_bench or source is not None):
             action = "remove"
+        elif action == "place" and not on_bench and self._opened():
+            targets.append((self._opened()[-1], None))  # "open the cycler, load the plate, close it"
         elif action == "place" and not on_bench:
             what = " and ".join(o.wanted.words() if not o.mention.is_pronoun else "it" for o in items)
             raise PlanError(f"say where to put the {what} (e.g. 'on the balance', 'into the tube rack')")
@@ -193,6 +196,10 @@ class Builder:
         for k, item in enumerate(items):
             target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
             self.steps.append(RawStep(action, item, target, source, part))
+
+    def _opened(self) -> list[Obj]:
+        """Instruments an earlier step opened (or pressed open): where a bare "insert X" goes."""
+        return [s.object for s in self.steps if s.action in ("open", "press") and s.object is not None]
 
     def _dangling_dest(self, clause: Clause) -> bool:
         """A destination word with no object after it: "put the tube in"."""
@@ -247,9 +254,9 @@ class Builder:
                 step.source = step.source or last.source
                 out[-1] = step  # "take the tube out of the rack and put it on the balance"
                 continue
-            if last is not None and (last.action, last.object, last.part) == (step.action, step.object, step.part) \
-                    and step.action in ("open", "close", "press"):
-                continue
+            if last is not None and (last.action, last.object, last.part, last.target) == \
+                    (step.action, step.object, step.part, step.target) and step.action in ("open", "close", "press", "position", "place"):
+                continue  # "hold it over the beaker and keep it there": said twice, done once
             out.append(step)
         return out
 
@@ -306,7 +313,7 @@ def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
         for group, phrase in clause.unsupported:
             if clause.action is None or clause.verb == phrase:
                 raise PlanError(f"cannot '{phrase}': {groups[group].reason}", final=True)
-        leftover = " ".join([*clause.unknown, *(w for m in clause.mentions for w in m.modifiers)])
+        leftover = " ".join(clause.unknown)  # "the buffer bottle" names a bottle: moving it is fine
         for group, spec in groups.items():
             for word in spec.words:
                 if re.search(rf"\b{re.escape(word)}\b", leftover):

@@ -186,12 +186,14 @@ class SceneBuilder:
         return sorted(names, key=lambda n: (rank[self.checked.objects[n].spec.role], names.index(n)))
 
     def _keys(self, name: str, geom: AssetGeometry) -> tuple[list[tuple[float, float]], bool]:
-        """Key points of a static object: the sites its steps work at; and whether a button is pressed."""
+        """Key points of a static object: the sites its steps work at (a handle where it is when shut);
+        and whether a button is pressed."""
         keys: list[tuple[float, float]] = []
         pressed = False
+        closed = measure_asset(self.checked.asset(name))
         for step in self._steps_on(name):
             if step.action in ("open", "close") and step.object == name:
-                keys += [geom.sites[h][:2] for h in HANDLES if h in geom.sites]
+                keys += [closed.sites[h][:2] for h in HANDLES if h in closed.sites]  # where the hand takes it shut
                 if "lid_seat" in geom.sites:
                     keys.append(geom.sites["lid_seat"][:2])
             elif step.action == "press":
@@ -223,7 +225,8 @@ class SceneBuilder:
             shifted = lid_geom.boxes.copy()
             shifted[:, [2, 5]] += seat[2]
             boxes.append(shifted)
-        spot = self.layout.place(Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed), self.ws.bench_z)
+        spot = self.layout.place(Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed),
+                                 self.ws.bench_z)
         if spot is None:
             raise self._no_room(name)
         self.out.placed[name] = PlacedObject(name, asset, (spot[0], spot[1], self.ws.bench_z), randomize={"xy": (0.02, 0.02)},
