@@ -220,6 +220,10 @@ class ClauseReader:
             m.window_start = k + 1
             m.sizes.reverse()
             m.modifiers.reverse()
+            after = tokens[m.end] if m.end < len(tokens) else None  # "the tube without its cap" (-> nocap)
+            if after is not None and not after.used and after.text in set(self.modifiers.values()):
+                m.modifiers.append(after.text)
+                after.used = True
 
     def _parts(self, clause: Clause) -> None:
         tokens = clause.tokens
