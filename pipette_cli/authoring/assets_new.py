@@ -22,7 +22,7 @@ from typing import Any, Literal
 from pydantic import Field, model_validator
 
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
-from pipette_cli.authoring.draft import DraftError
+from pipette_cli.authoring.plan import PlanError as DraftError
 from pipette_cli.errors import AssetError, PipetteError
 from pipette_cli.resources import env_paths
 from pipette_cli.specs.base import Spec

@@ -4,12 +4,15 @@
 2. For each episode seed: reset, then hold the robot still for the whole time limit. The
    evaluator must not succeed (a task solved by doing nothing is a broken task) and the free
    objects must stay where they were put (a tube rolling off the pan is a broken layout).
-3. :func:`solve_check`: when a scripted expert exists for the task or its family, run it and
-   count the successes; otherwise report "solvability not checked".
+3. :func:`solve_check`: run the task's expert (its ``expert:`` skill program) for the seeds and
+   count the successes; a failed episode is reported with the stage of the success criterion it
+   did not get past and the expert step that stopped. The task passes when the expert succeeds on
+   at least :data:`SOLVE_SHARE` of the seeds (4 of 5).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
@@ -19,6 +22,9 @@ from pipette_cli.demos.experts.base import find_expert
 from pipette_cli.errors import PipetteError
 from pipette_cli.specs.task import TaskSpec
 
+SOLVE_SHARE = 0.8
+"""Share of seeds the expert must solve for ``--check`` to pass (4 of 5)."""
+DEFAULT_EPISODES = 5
 MAX_DRIFT_M = 0.05
 """Free objects may drift this much while the robot stands still (lying tubes and pipettes rock by a few cm in the registry too)."""
 
@@ -32,13 +38,23 @@ class SolveReport:
     successes: int = 0
     episodes: int = 0
     reasons: list[str] = field(default_factory=list)
+    """One line per failed seed: the stage not reached and the expert step that stopped."""
     detail: str = ""
+
+    @property
+    def required(self) -> int:
+        return math.ceil(SOLVE_SHARE * self.episodes)
 
     def summary(self) -> str:
         if self.status == "not_checked":
             return f"solvability not checked: {self.detail}"
-        return f"expert '{self.expert}' solved {self.successes}/{self.episodes} episodes" + (
-            f" (failures: {', '.join(sorted(set(self.reasons)))})" if self.reasons else "")
+        seeds: dict[str, list[str]] = {}
+        for line in self.reasons:  # "seed 3: why" -> "seeds 1, 3: why"
+            seed, _, why = line.partition(": ")
+            seeds.setdefault(why, []).append(seed.removeprefix("seed "))
+        failures = [f"seed{'s' if len(s) > 1 else ''} {', '.join(s)}: {why}" for why, s in seeds.items()]
+        return f"expert '{self.expert}' solved {self.successes}/{self.episodes} episodes (needs {self.required})" + (
+            f"; {'; '.join(failures)}" if failures else "")
 
 
 @dataclass
@@ -75,8 +91,17 @@ def _episode_steps(task: TaskSpec, world) -> int:
     return int(np.ceil(min(timeout, 30.0) / world.control_dt)) + 1
 
 
-def check_task(task: TaskSpec, episodes: int = 2, *, solve: bool = True) -> CheckReport:
-    """Build ``task`` and run the checks above; problems are listed, never raised."""
+def check_task(task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool = True,
+               stage_names: list[str] | None = None) -> CheckReport:
+    """Build ``task`` and run the checks above; problems are listed, never raised.
+
+    Args:
+        task: The task to check.
+        episodes: Seeds 0..episodes-1, for the idle rollout and for the expert.
+        solve: Run the expert too.
+        stage_names: What each stage of the success criterion is ("place the tube on the
+            balance"), for the failure lines; else "stage k of n".
+    """
     from pipette_cli.sim.world import World
 
     start = time.perf_counter()
@@ -113,14 +138,24 @@ def check_task(task: TaskSpec, episodes: int = 2, *, solve: bool = True) -> Chec
                 report.problems.append(f"seed {seed}: {name} moved {drift * 1000:.0f} mm by itself while the robot "
                                        "stood still; it does not rest where the layout put it")
     if solve and report.ok:
-        report.solve = solve_check(task, episodes)
+        report.solve = solve_check(task, episodes, stage_names)
     report.seconds = time.perf_counter() - start
     return report
 
 
-def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
+def _stage_line(task_spec: TaskSpec, verdict, stage_names: list[str] | None) -> str:
+    """Which stage of the criterion an episode did not get past."""
+    stages = len(getattr(task_spec.success, "of", None) or []) if task_spec.success.type == "sequence" else 1
+    k = int(verdict.metrics.get("stage", 0)) if stages > 1 else 0
+    k = min(k, stages - 1)
+    name = stage_names[k] if stage_names and k < len(stage_names) else None
+    where = f"stage {k + 1} of {stages}" + (f" ({name})" if name else "") if stages > 1 else (name or "the criterion")
+    return f"{where} not met"
+
+
+def solve_check(task_spec: TaskSpec, episodes: int, stage_names: list[str] | None = None) -> SolveReport:
     """Run the task's scripted expert (its skill program, or one read off its criterion) for
-    ``episodes`` seeds.
+    ``episodes`` seeds; ``status`` is "solved" when at least :data:`SOLVE_SHARE` of them succeed.
 
     Returns ``status="not_checked"`` when the task has no program and none can be derived.
     """
@@ -138,7 +173,8 @@ def solve_check(task_spec: TaskSpec, episodes: int) -> SolveReport:
         if verdict.success:
             report.successes += 1
         else:
-            report.reasons.append(failure or verdict.reason or "not done")
-    if report.successes == episodes:
+            why = f"expert stopped at {failure}" if failure else f"evaluator: {verdict.reason or 'not done'}"
+            report.reasons.append(f"seed {seed}: {_stage_line(task_spec, verdict, stage_names)}; {why}")
+    if report.successes >= report.required:
         report.status = "solved"
     return report

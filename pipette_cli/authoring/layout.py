@@ -2,9 +2,12 @@
 
 Objects are placed one after another on a grid over the bench. A position is accepted when
 the object's collision boxes (in every joint state the task visits) keep clear of the robot
-in its home pose and of the objects already placed, the object stays on the bench top, and
-its key point (the site the robot works at) lies within the robot's comfortable reach. Among
-accepted positions the one whose key point is closest to the role's preferred spot wins.
+in its home pose and of the objects already placed, the object stays on the bench top, its key
+points (the sites the robot works at) lie within the robot's comfortable reach, its origin within
+the reach the scene check enforces, and (for front-panel buttons) its front stays far enough from
+the robot's base for the arm to press it. Among accepted positions the one whose first key point
+is closest to the role's preferred spot wins. Reach numbers come from the robot's facts
+(``registry/robots/*.yaml``).
 """
 
 from __future__ import annotations
@@ -17,28 +20,45 @@ import numpy as np
 from pipette_cli.authoring.measure import robot_boxes
 
 BENCH_Z = 0.55
+"""Height of the bench top (the task's default robot base height stands on it)."""
 BENCH_X = (-0.3, 1.2)
 BENCH_Y = (-0.47, 0.47)
 GRID_STEP = 0.025
 CLEARANCE = 0.02
 """Metres kept between any two objects, and between an object and the robot at home."""
+TIGHT_CLEARANCE = 0.005
+"""The same where nothing fits with :data:`CLEARANCE` (the arm leaves its home pose first)."""
+
+
+INNER_MARGIN = 0.05
+OUTER_MARGIN = 0.08
+"""Metres kept inside the robot's ``min_reach`` / ``reach`` for the sites it works at."""
+ORIGIN_MARGIN = 0.02
+PRESS_FRONT = 0.45
+"""Metres (on a Panda-sized arm, scaled by reach) between the base and an instrument whose button is pressed."""
 
 
 @dataclass(frozen=True)
 class Workspace:
-    """Where one robot works comfortably (horizontal distances from its base)."""
+    """Where one robot works comfortably (horizontal distances from its base), from its facts."""
 
     center_x: float
     lane_y: float
     min_reach: float
     max_reach: float
+    origin_reach: float
+    press_front: float
+    bench_z: float
 
+    @classmethod
+    def of(cls, robot: str) -> Workspace:
+        from pipette_cli.specs.robot import robot_spec
 
-WORKSPACES = {
-    "franka_panda": Workspace(center_x=0.5, lane_y=0.16, min_reach=0.3, max_reach=0.85),
-    "ur5e_robotiq": Workspace(center_x=0.5, lane_y=0.16, min_reach=0.3, max_reach=0.85),
-    "agilex_piper": Workspace(center_x=0.32, lane_y=0.15, min_reach=0.2, max_reach=0.55),
-}
+        facts = robot_spec(robot)
+        low, high = facts.min_reach + INNER_MARGIN, facts.reach - OUTER_MARGIN
+        return cls(center_x=round(0.5 * (low + high), 3), lane_y=round(0.2 * facts.reach, 3), min_reach=low,
+                   max_reach=high, origin_reach=facts.reach - ORIGIN_MARGIN,
+                   press_front=min(PRESS_FRONT, 0.55 * facts.reach), bench_z=facts.base_height)
 
 
 @dataclass
@@ -55,27 +75,42 @@ class PlacedObject:
 
 @dataclass
 class Footprint:
-    """What the layout needs of one object: its boxes and key point in its own frame."""
+    """What the layout needs of one object: its boxes and key points in its own frame."""
 
     boxes: np.ndarray  # (n, 6) in the asset frame, z from the resting surface
-    key: tuple[float, float]  # key point (x, y) in the asset frame
-    preferred: tuple[float, float]  # where the key point should be in the world
+    keys: list[tuple[float, float]]  # key points (x, y) in the asset frame; the first is matched to `preferred`
+    preferred: tuple[float, float]  # where the first key point should be in the world
     margin: float = 0.0  # extra clearance (randomisation amplitude)
+    pressed: bool = False  # a front-panel button is pressed: keep the front at press_front
+    origin_in_reach: bool = True  # the scene check wants the origin of a task target within reach
 
 
 class Layout:
     """Places footprints one by one; remembers the placed boxes as obstacles."""
 
     def __init__(self, robot: str) -> None:
-        self.workspace = WORKSPACES[robot]
+        self.workspace = Workspace.of(robot)
         self.obstacles = robot_boxes(robot).copy()
         self.obstacles = self.obstacles[self.obstacles[:, 5] > BENCH_Z + 0.002]  # parts below the bench top never collide
         xs = np.arange(0.1, BENCH_X[1] + 1e-9, GRID_STEP)
         ys = np.arange(-0.45, 0.45 + 1e-9, GRID_STEP)
         self.grid = np.array([(x, y) for x in xs for y in ys])
 
-    def place(self, fp: Footprint, z: float = BENCH_Z) -> tuple[float, float] | None:
-        """Best free position (x, y) of ``fp``'s origin, or None when there is none."""
+    def place(self, fp: Footprint, z: float = BENCH_Z, *, commit: bool = True,
+              away: tuple[tuple[float, float], float] | None = None) -> tuple[float, float] | None:
+        """Best free position (x, y) of ``fp``'s origin, or None when there is none; with ``commit``
+        the object becomes an obstacle there; ``away = (point, d)`` keeps the origin ``d`` from ``point``.
+
+        Key points are first kept within the robot's comfortable reach and :data:`CLEARANCE` from
+        everything; where nothing fits (a tall instrument whose open door needs room in front), within
+        its full reach and :data:`TIGHT_CLEARANCE` from the robot's home pose and the other objects."""
+        spot = self._place(fp, z, commit, away, self.workspace.max_reach, CLEARANCE + fp.margin)
+        if spot is None:
+            spot = self._place(fp, z, commit, away, self.workspace.origin_reach, TIGHT_CLEARANCE)
+        return spot
+
+    def _place(self, fp: Footprint, z: float, commit: bool, away: tuple[tuple[float, float], float] | None,
+               max_reach: float, pad: float) -> tuple[float, float] | None:
         grid = self.grid
         boxes = fp.boxes
         world = np.repeat(boxes[None], len(grid), axis=0).copy()
@@ -84,12 +119,21 @@ class Layout:
         world[:, :, [2, 5]] += z
         lo, hi = world[:, :, :3].min(axis=1), world[:, :, 3:].max(axis=1)
         on_bench = (lo[:, 0] >= BENCH_X[0]) & (hi[:, 0] <= BENCH_X[1]) & (lo[:, 1] >= BENCH_Y[0]) & (hi[:, 1] <= BENCH_Y[1])
-        key = grid + np.asarray(fp.key)
-        reach = np.hypot(key[:, 0], key[:, 1])
         ws = self.workspace
-        ok = on_bench & (reach >= ws.min_reach) & (reach <= ws.max_reach)
+        ok = on_bench.copy()
+        for k in fp.keys or [(0.0, 0.0)]:
+            reach = np.hypot(grid[:, 0] + k[0], grid[:, 1] + k[1])
+            ok &= (reach >= ws.min_reach) & (reach <= max_reach + 1e-9)
+        if fp.origin_in_reach:
+            ok &= np.hypot(grid[:, 0], grid[:, 1]) <= ws.origin_reach + 1e-9
+        if fp.pressed:  # the nearest point of every box stays press_front away from the base
+            near_x = np.clip(0.0, lo[:, 0], hi[:, 0])
+            near_y = np.clip(0.0, lo[:, 1], hi[:, 1])
+            ok &= np.hypot(near_x, near_y) >= ws.press_front
+        if away is not None:
+            ok &= np.hypot(grid[:, 0] - away[0][0], grid[:, 1] - away[0][1]) >= away[1]
+        key = grid + np.asarray((fp.keys or [(0.0, 0.0)])[0])
         if len(self.obstacles):
-            pad = CLEARANCE + fp.margin
             obs = self.obstacles
             a_lo = world[ok][:, :, None, :3] - pad
             a_hi = world[ok][:, :, None, 3:] + pad
@@ -103,7 +147,8 @@ class Layout:
         cost[~ok] = np.inf
         best = int(np.argmin(cost))
         x, y = (round(float(v), 3) for v in grid[best])
-        self.add_obstacle(fp.boxes, (x, y, z), fp.margin)
+        if commit:
+            self.add_obstacle(fp.boxes, (x, y, z), fp.margin)
         return x, y
 
     def add_obstacle(self, boxes: np.ndarray, pos: tuple[float, float, float], margin: float = 0.0) -> None:

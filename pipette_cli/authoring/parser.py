@@ -1,10 +1,11 @@
-"""The offline backend's parser: an English description -> :class:`TaskDraftSpec`.
+"""The offline backend: an English description -> :class:`~pipette_cli.authoring.plan.TaskPlanSpec`.
 
-Deterministic and small: object mentions are found by the vocabulary's alias phrases
-(longest first) with the sizes and adjectives around them; the intent comes from the verbs
-and the prepositions that link the mentions ("into" the rack, "from" the balance, "over" the
-dish); roles follow from those prepositions. Words that name nothing known make the parse
-fail with the closest assets, rather than being ignored.
+Deterministic: the text is normalised (:mod:`.text`), split into steps at sequence words, each
+step read against the vocabulary (:mod:`.clause`), and the steps assembled into one plan. Objects
+named again ("the tube", "it") are the same object; an object of the same kind named with other
+sizes or "other" is a new one ("put the 50 mL beaker in the 250 mL beaker"). A pick followed by a
+placement of the same object is one step. What the simulator cannot do (liquids, screwing caps,
+running instruments) and words that name nothing known are refused with the reason.
 """
 
 from __future__ import annotations
@@ -12,581 +13,367 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from pipette_cli.authoring.draft import DraftError, DraftObjectSpec, DraftThresholdsSpec, TaskDraftSpec
-from pipette_cli.authoring.vocabulary import BENCH_WORDS, Vocabulary, size_class
-
-ROBOT_WORDS = {
-    "franka_panda": ("franka emika panda", "franka panda", "franka", "panda"),
-    "agilex_piper": ("agilex piper", "piper", "agilex"),
-    "ur5e_robotiq": ("ur5e", "ur 5e", "ur5", "universal robots", "universal robot"),
-}
-VERBS: dict[str, tuple[str, ...]] = {
-    "transfer": ("transfer", "relocate", "remove", "unload", "retrieve", "take out", "take off", "move from"),
-    "position": ("position", "hover", "align", "point"),
-    "insert": ("insert", "slot", "plug", "hang", "dock", "rack", "stick"),
-    "open": ("open", "unlatch", "pull out", "pull open", "swing open", "flip open"),
-    "close": ("close", "shut", "push in", "push shut", "swing shut", "flip shut"),
-    "press": ("press", "push", "hit", "tap", "activate", "trigger", "click", "actuate", "start"),
-    "place": ("place", "put", "set", "stand", "lay", "load", "move", "bring", "return", "deposit", "drop", "carry",
-              "rest", "slide", "transport", "deliver", "put back", "set down", "hold"),
-    "pick": ("pick up", "pick", "lift", "grab", "grasp", "raise", "take", "get", "collect", "fetch", "lower"),
-}
-PREPOSITIONS: dict[str, tuple[str, ...]] = {
-    "near": ("next to", "beside", "near", "close to", "in front of", "behind", "alongside", "by"),
-    "source": ("out of", "off of", "away from", "from", "off"),
-    "over": ("over", "above", "right above", "on top of"),
-    "dest": ("into", "inside", "onto", "on to", "in to", "in", "on", "to", "toward", "towards", "at", "back in", "back on"),
-    "of": ("of",),
-}
-PART_WORDS = {
-    "lid": "lid", "cover": "lid", "door": "door", "drawer": "drawer", "sash": "sash", "button": "button",
-    "release button": "button", "knob": "knob", "pan": "pan", "platform": "platform", "top shelf": "shelf_1",
-    "upper shelf": "shelf_1", "bottom shelf": "shelf_0", "lower shelf": "shelf_0", "shelf": "shelf",
-    "slot": "slot", "compartment": "slot", "rotor": "rotor", "block": "block", "cup": "cup", "seat": "seat",
-    "tray": "drawer", "carrier": "drawer", "well": "slot", "hole": "slot", "position": "slot",
-}
-ARTICLES = {"the", "a", "an", "this", "that", "its", "their", "one", "some", "each", "my", "our", "his", "her"}
-FILLERS = {
-    "please", "robot", "arm", "gripper", "it", "them", "then", "and", "carefully", "gently", "slowly", "quickly",
-    "firmly", "safely", "steadily", "steady", "so", "that", "is", "are", "be", "stays", "stay", "remains", "remain",
-    "fully", "all", "way", "completely", "empty", "full", "clean", "sterile", "new", "fresh", "used", "sample",
-    "samples", "with", "using", "up", "down", "back", "there", "again", "just", "free", "standing", "lying", "flat",
-    "upright", "vertical", "vertically", "position", "left", "right", "front", "side", "far", "end", "available",
-    "open", "opened", "closed", "shut", "without", "tilting", "spilling", "dropping", "it's", "keep", "keeping", "make",
-    "sure", "for", "while", "then", "after", "before", "first", "finally", "out", "off", "in", "into", "place", "spot",
-    "lab", "lab's", "bench's", "top", "surface", "s", "can", "you", "will", "should", "must", "to", "let", "go",
-    "release", "bottom", "middle", "center", "centre", "inside", "onto", "over", "above", "within", "seconds", "area",
-    "i", "we", "want", "need", "would", "like", "robot's", "empty", "half", "filled", "single", "channel", "upper",
-    "lower", "handle", "by", "from", "at", "on", "of", "the", "a", "an", "could", "would", "kindly", "now", "me",
-    "here", "i'd", "we'd", "hand", "wait", "done", "task",
-}
-MODIFIER_SYNONYMS = {"uncapped": "nocap", "capless": "nocap", "decapped": "nocap", "self-standing": "skirted",
-                     "selfstanding": "skirted", "opened": "open", "big": "large", "little": "small", "mini": "small",
-                     "disposable": "disposable", "plastic": "ps"}
-SIZE_PATTERNS: tuple[tuple[str, object], ...] = (
-    (r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+)\s*(?:mm)?\b", lambda m: [f"{m[1]}x{m[2]}", f"{m[1]}mm"]),
-    (r"(\d+(?:\.\d+)?)\s*(?:ml|millilit(?:er|re)s?|cc)\b", lambda m: [f"{float(m[1]):g}ml"]),
-    (r"(\d+(?:\.\d+)?)\s*(?:l|lit(?:er|re)s?)\b", lambda m: [f"{float(m[1]) * 1000:g}ml"]),
-    (r"(\d+(?:\.\d+)?)\s*(?:ul|microlit(?:er|re)s?)\b", lambda m: [f"{float(m[1]):g}ul"]),
-    (r"(\d+(?:\.\d+)?)\s*(?:mm|millimet(?:er|re)s?)\b", lambda m: [f"{float(m[1]):g}mm"]),
-    (r"(\d+(?:\.\d+)?)\s*(?:cm|centimet(?:er|re)s?)\b", lambda m: [f"{float(m[1]) * 10:g}mm"]),
-    (r"(\d+)\s*wells?\b", lambda m: [f"{m[1]}well"]),
-    (r"(\d+)\s*channels?\b", lambda m: [f"{m[1]}channel"]),
-    (r"\bp\s?(\d+)\b", lambda m: [f"p{m[1]}"]),
-    (r"\bt\s?(25|75|150|175|225)\b", lambda m: [f"t{m[1]}"]),
+from pipette_cli.authoring.clause import Clause, ClauseReader, Mention
+from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, PlanThresholdsSpec, TaskPlanSpec
+from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
+from pipette_cli.authoring.text import (
+    extract_robots, extract_thresholds, has_negation, normalise, split_steps, tokenise,
 )
-THRESHOLD_PATTERNS: tuple[tuple[str, str, float], ...] = (
-    # (regex, field, scale); the first group is the number
-    (r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it)\s+(\d+(?:\.\d+)?)\s*cm\b", "lift_height_m", 0.01),
-    (r"\b(?:by|at least|to a height of|a height of)\s+(\d+(?:\.\d+)?)\s*mm\b", "lift_height_m", 0.001),
-    (r"\bfor\s+(?:at least\s+)?(\d+(?:\.\d+)?)\s*(?:s|secs?|seconds?)\b", "hold_s", 1.0),
-    (r"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*(?:s|secs?|seconds?)\b", "timeout_s", 1.0),
-    (r"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*(?:min|mins|minutes?)\b", "timeout_s", 60.0),
-    (r"\btilt(?:ing|ed)?\s+(?:it\s+)?(?:more than|over|by more than|beyond|past)\s+(\d+(?:\.\d+)?)\s*(?:deg|degrees?)\b", "max_tilt_deg", 1.0),
-    (r"\bwithin\s+(\d+(?:\.\d+)?)\s*cm\s+of\b", "xy_tolerance_m", 0.01),
-    (r"\bwithin\s+(\d+(?:\.\d+)?)\s*mm\s+of\b", "xy_tolerance_m", 0.001),
-)
+from pipette_cli.authoring.vocabulary import Vocabulary
 
-
-@dataclass
-class Token:
-    text: str
-    kind: str = "word"  # word | size | punct
-    used: bool = False
-
-
-@dataclass
-class Mention:
-    start: int
-    end: int  # exclusive, alias end
-    kind: str
-    phrase: str
-    sizes: list[str] = field(default_factory=list)
-    modifiers: list[str] = field(default_factory=list)
-    window_start: int = 0
-    prep: str | None = None  # near | source | over | dest | None (direct object)
-    part: str | None = None
-    is_bench: bool = False
-    asset: str | None = None
-    part_before: bool = False
+HATCH_PARTS = ("lid", "door", "drawer", "sash")
+REMOVING = ("out of", "off", "off of", "out from", "from inside")
+"""Source prepositions that make "take X ..." a removal rather than a lift."""
+NEW_OBJECT = ("other", "another", "second", "new", "different")
+ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over"
 
 
 @dataclass
 class ParseResult:
-    """The draft and the remarks that become VERIFY comments (choices among equals)."""
+    """The plan and the remarks that become VERIFY notes (choices among equal assets)."""
 
-    draft: TaskDraftSpec
+    plan: TaskPlanSpec
     remarks: list[str]
 
 
-def _normalise(text: str) -> str:
-    s = text.lower().replace("µ", "u").replace("μ", "u").replace("×", "x").replace("’", "'").replace("°", " deg")
-    s = re.sub(r"(\d),(\d{3})\b", r"\1\2", s)  # 1,000 -> 1000
-    s = re.sub(r"without (?:its |a |the )?caps?\b|\bno caps?\b|\bcap(?:ped)? off\b", " nocap ", s)
-    s = re.sub(r"\bself[- ]standing\b", " skirted ", s)
-    s = re.sub(r"(?<=[a-z])-(?=[a-z])", " ", s)  # multi-channel -> multi channel
-    s = re.sub(r"(?<=\d)-(?=[a-z])|(?<=[a-z])-(?=\d)", " ", s)  # 96-well, t-75
-    s = s.replace("'s ", " ")
-    return s
+@dataclass(eq=False)
+class Obj:
+    """An object of the plan being built."""
+
+    mention: Mention
+    wanted: Wanted
+    asset: str | None = None
+    name: str = ""
 
 
-def _extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
-    found: dict[str, float] = {}
-    for pattern, name, scale in THRESHOLD_PATTERNS:
-        for m in re.finditer(pattern, text):
-            if name not in found:
-                found[name] = round(float(m.group(1)) * scale, 6)
-            text = text[: m.start()] + " " * (m.end() - m.start()) + text[m.end():]
-    if re.search(r"\b(upright|without tilting|not tilt|keep(?:ing)? it level|level)\b", text) and "max_tilt_deg" not in found:
-        found["max_tilt_deg"] = 15.0
-    return text, found
+@dataclass
+class RawStep:
+    action: str
+    object: Obj | None
+    target: Obj | None = None
+    source: Obj | None = None
+    part: str | None = None
 
 
-def _extract_robots(text: str) -> tuple[str, list[str]]:
-    robots: list[str] = []
-    for robot, words in ROBOT_WORDS.items():
-        for word in words:
-            pattern = rf"\b(?:with|using|by)?\s*(?:the\s+)?{re.escape(word)}(?:\s+(?:arm|robot))?\b"
-            if re.search(rf"\b{re.escape(word)}\b", text):
-                if robot not in robots:
-                    robots.append(robot)
-                text = re.sub(pattern, " ", text)
-    return text, robots
+@dataclass
+class Builder:
+    """Assembles the steps of one description into a plan."""
 
+    vocab: Vocabulary
+    objects: list[Obj] = field(default_factory=list)
+    steps: list[RawStep] = field(default_factory=list)
+    remarks: list[str] = field(default_factory=list)
 
-def _tokenise(text: str) -> list[Token]:
-    spans: list[tuple[int, int, list[str]]] = []
-    for pattern, make in SIZE_PATTERNS:
-        for m in re.finditer(pattern, text):
-            if any(s < m.end() and m.start() < e for s, e, _ in spans):
-                continue
-            spans.append((m.start(), m.end(), make(m)))  # type: ignore[operator]
-    spans.sort()
-    tokens: list[Token] = []
-    pos = 0
-    for start, end, tags in [*spans, (len(text), len(text), [])]:
-        for word in re.findall(r"[a-z0-9][a-z0-9']*|[,.;!?]", text[pos:start]):
-            tokens.append(Token(word, "punct" if word in ",.;!?" else "word"))
-        for tag in tags:
-            tokens.append(Token(tag, "size"))
-        pos = end
-    return tokens
+    # ------------------------------------------------------------------ objects
+    def _static(self, obj: Obj) -> bool:
+        return all(self.vocab.assets[a].static or not self.vocab.assets[a].graspable for a in self.vocab.members(obj.wanted.kind))
 
+    def _moved(self) -> list[Obj]:
+        return [s.object for s in self.steps if s.object is not None and s.action in ("pick", "place", "remove", "position")]
 
-def _match_phrase(tokens: list[Token], i: int, phrase: str) -> int:
-    """Tokens consumed by ``phrase`` at position ``i`` (0 when it does not match there)."""
-    words = phrase.split()
-    if i + len(words) > len(tokens):
-        return 0
-    for k, word in enumerate(words):
-        if tokens[i + k].kind != "word" or tokens[i + k].text != word:
-            return 0
-    return len(words)
+    def _holders(self) -> list[Obj]:
+        out = []
+        for s in self.steps:
+            out += [o for o in (s.target, s.source) if o is not None]
+            if s.action in ("open", "close", "press") and s.object is not None:
+                out.append(s.object)
+        return out
 
+    def pronoun(self, role: str, clause: Clause) -> Obj:
+        if role == "instrument":
+            pool = [o for s in self.steps for o in (s.object, s.target, s.source) if o is not None and self._static(o)]
+        elif role == "holder":
+            pool = self._holders() or [o for o in self.objects if self._static(o)]
+        else:
+            pool = self._moved() or [o for o in self.objects if not self._static(o)]
+        if not pool:
+            what = "instrument or holder" if role in ("instrument", "holder") else "object"
+            raise PlanError(f"'{clause.text}': nothing named before says which {what} is meant; name the {what}")
+        return pool[-1]
 
-def _verb_words() -> set[str]:
-    return {v.split()[0] for verbs in VERBS.values() for v in verbs}
-
-
-class DescriptionParser:
-    """Parses descriptions against one vocabulary."""
-
-    def __init__(self, vocabulary: Vocabulary) -> None:
-        self.vocab = vocabulary
-        self._aliases = vocabulary.aliases()
-        self._verbs = _verb_words()
-
-    # ----------------------------------------------------------------------- public
-    def parse(self, description: str) -> ParseResult:
-        """Parse ``description``.
-
-        Raises:
-            DraftError: unknown objects (with the closest assets), contradictions, missing parts.
-        """
-        text = _normalise(description)
-        if re.search(r"\b(don't|dont|do not|never|must not|mustn't|should not|shouldn't)\b", text):
-            raise DraftError("negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'")
-        text, thresholds = _extract_thresholds(text)
-        text, robots = _extract_robots(text)
-        if len(robots) > 1:
-            raise DraftError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
-        tokens = _tokenise(text)
-        verbs = self._find_verbs(tokens)
-        mentions = self._find_mentions(tokens, verbs)
-        self._attach_sizes_and_modifiers(tokens, mentions, verbs)
-        parts = self._find_parts(tokens, mentions)
-        self._assign_prepositions(tokens, mentions, verbs, parts)
-        unknown = self._unknown_phrases(tokens)
-        intent = self._intent(verbs, mentions, parts, tokens)
-        objects, remarks = self._roles(intent, mentions, parts, unknown, description)
-        instruction = instruction_from(description)
-        try:
-            draft = TaskDraftSpec(intent=intent, objects=objects, robot=robots[0] if robots else None,  # type: ignore[arg-type]
-                                  instruction=instruction, thresholds=DraftThresholdsSpec(**thresholds))
-        except ValueError as exc:
-            raise DraftError(f"could not make a task of {description!r}: {exc}") from None
-        return ParseResult(draft, remarks)
-
-    # ----------------------------------------------------------------------- steps
-    def _find_verbs(self, tokens: list[Token]) -> list[tuple[int, int, str, str]]:
-        """(start, end, intent, verb phrase) for every verb; longest phrase first at each position."""
-        table = sorted(((v, intent) for intent, vs in VERBS.items() for v in vs), key=lambda p: -len(p[0].split()))
-        found = []
-        i = 0
-        while i < len(tokens):
-            for phrase, intent in table:
-                n = _match_phrase(tokens, i, phrase)
-                if n:
-                    found.append((i, i + n, intent, phrase))
-                    i += n - 1
-                    break
-            i += 1
-        return found
-
-    def _find_mentions(self, tokens: list[Token], verbs) -> list[Mention]:
-        verb_at = {start: end for start, end, _, _ in verbs}
-        mentions: list[Mention] = []
-        i = 0
-        while i < len(tokens):
-            matched = False
-            for alias in [*self._aliases, *BENCH_WORDS]:
-                n = _match_phrase(tokens, i, alias)
-                if not n:
+    def obj(self, mention: Mention, clause: Clause, role: str, taken: list[Obj]) -> Obj:
+        """The plan object ``mention`` names: an earlier one of the same kind, or a new one."""
+        if mention.is_pronoun:
+            return self.pronoun(role, clause)
+        wanted = Wanted(mention.kind, tuple(mention.sizes), tuple(m for m in mention.modifiers if m not in NEW_OBJECT))
+        fresh = any(m in NEW_OBJECT for m in mention.modifiers)
+        if not fresh:
+            mine = set(self.vocab.members(mention.kind))
+            for old in reversed(self.objects):
+                if old in taken or not mine & set(self.vocab.members(old.wanted.kind)):
                     continue
-                single_verb = n == 1 and tokens[i].text in self._verbs and (i in verb_at)
-                previous = tokens[i - 1].text if i else ""
-                if single_verb and previous not in ARTICLES:
-                    continue  # "slide the drawer" is a verb, "the slide" a noun
-                if alias in PART_WORDS and previous in ("the", "its") and any(m.end == i for m in mentions):
+                if set(wanted.sizes) - set(old.wanted.sizes) or set(wanted.modifiers) - set(old.wanted.modifiers) - {"open"}:
                     continue
-                kind = self.vocab.alias_to_kind.get(alias, "bench")
-                mentions.append(Mention(i, i + n, kind, alias, is_bench=alias in BENCH_WORDS and alias not in self.vocab.alias_to_kind))
-                for k in range(i, i + n):
-                    tokens[k].used = True
-                i += n
-                matched = True
-                break
-            if not matched:
-                i += 1
-        for start, end, _, _ in verbs:
-            if not any(m.start <= start < m.end for m in mentions):
-                for k in range(start, end):
-                    tokens[k].used = True
-        return mentions
+                return old
+        made = Obj(mention, wanted)
+        self.objects.append(made)
+        return made
 
-    def _attach_sizes_and_modifiers(self, tokens: list[Token], mentions: list[Mention], verbs) -> None:
-        stops = {"punct"}
-        verb_tokens = {k for s, e, _, _ in verbs for k in range(s, e)}
-        prep_words = {w for ps in PREPOSITIONS.values() for p in ps for w in p.split()}
-        for index, m in enumerate(mentions):
-            floor = mentions[index - 1].end if index else 0
-            k = m.start - 1
-            while k >= floor and tokens[k].kind not in stops and k not in verb_tokens and tokens[k].text not in ARTICLES \
-                    and (tokens[k].kind == "size" or tokens[k].text not in prep_words):
-                if tokens[k].kind == "size":
-                    m.sizes.append(tokens[k].text)
-                elif not tokens[k].used:
-                    m.modifiers.append(MODIFIER_SYNONYMS.get(tokens[k].text, tokens[k].text))
-                tokens[k].used = True
-                k -= 1
-            m.window_start = k + 1
-            ceiling = mentions[index + 1].start if index + 1 < len(mentions) else len(tokens)
-            k = m.end
-            while k < min(ceiling, m.end + 3) and tokens[k].kind != "punct":
-                if tokens[k].kind == "size" and not tokens[k].used:
-                    m.sizes.append(tokens[k].text)
-                    tokens[k].used = True
-                elif tokens[k].text in ("nocap", "skirted", "open", "capped"):
-                    m.modifiers.append(tokens[k].text)
-                    tokens[k].used = True
-                elif tokens[k].text not in ("with", "of", "(", ")"):
-                    break
-                k += 1
+    # ------------------------------------------------------------------ steps
+    def add(self, clause: Clause) -> None:
+        action = clause.action
+        direct = [m for m in clause.mentions if not m.is_bench and (m.prep is None or (m.prep == "of" and m.part))]
+        if action is None:
+            if not self.steps or not direct:
+                raise PlanError(f"no action in '{clause.text}': start with a verb such as {ACTION_WORDS}")
+            action = self.steps[-1].action  # "put the tube in the rack, the vial in the box"
+        hatch = next((p for p in clause.parts if p.name in HATCH_PARTS), None)
+        words = {t.text for t in clause.tokens}
+        if hatch is not None and (not direct or all(m is hatch.owner for m in direct)):
+            if action in ("pick", "remove") or (action == "place" and not clause.with_prep("dest", "over")
+                                                 and ({"up", "open", "opened"} & words)):
+                action = "open"  # "lift the lid", "take the lid off the water bath", "pull the drawer out"
+            elif action in ("place", "press"):
+                action = "close"  # "put the lid back on the bath", "push the drawer in", "lower the lid"
+            if action in ("open", "close", "place", "press"):
+                if {"open", "opened", "out"} & words and action != "open":
+                    action = "open" if "out" not in words or hatch.name in ("drawer", "sash") else action
+                if {"closed", "shut"} & words:
+                    action = "close"
+        if action in ("open", "close", "press"):
+            self._hatch(action, clause, direct, hatch)
+        else:
+            self._movement(action, clause, direct)
 
-    def _find_parts(self, tokens: list[Token], mentions: list[Mention]) -> list[tuple[int, int, str, Mention | None]]:
-        parts = []
-        phrases = sorted(PART_WORDS, key=lambda p: -len(p.split()))
-        i = 0
-        while i < len(tokens):
-            if tokens[i].used and tokens[i].kind == "word" and not any(m.start <= i < m.end for m in mentions):
-                pass
-            if any(m.start <= i < m.end for m in mentions):
-                i += 1
-                continue
-            for phrase in phrases:
-                n = _match_phrase(tokens, i, phrase)
-                if not n:
-                    continue
-                owner = None
-                nxt = next((m for m in mentions if m.start >= i + n), None)
-                prev = next((m for m in reversed(mentions) if m.end <= i), None)
-                link = {"of", "on", "in", "at", "off", "from", "inside", "onto"}
-                between = [t.text for t in tokens[i + n : nxt.window_start] if t.text != "back"] if nxt is not None else []
-                if prev is not None and all(t.text in ARTICLES for t in tokens[prev.end : i]):
-                    owner = prev  # "the centrifuge lid", "the incubator's door"
-                elif nxt is not None and between and between[0] in link and all(w in ARTICLES for w in between[1:]):
-                    owner = nxt  # "the lid of the centrifuge", "the button on the centrifuge"
-                    for k in range(i + n, nxt.window_start):
-                        tokens[k].used = True
-                    owner.part_before = True
-                parts.append((i, i + n, PART_WORDS[phrase], owner))
-                for k in range(i, i + n):
-                    tokens[k].used = True
-                if owner is not None:
-                    owner.part = PART_WORDS[phrase]
-                i += n - 1
-                break
-            i += 1
-        return parts
+    def _hatch(self, action: str, clause: Clause, direct: list[Mention], hatch) -> None:
+        button = next((p for p in clause.parts if p.name == "button"), None)
+        part = button if action == "press" else hatch
+        owner = part.owner if part is not None and part.owner is not None else None
+        if owner is None:
+            owner = next(iter(direct), None) or next((m for m in clause.mentions if not m.is_bench and m.prep in ("dest", "source", "of")), None)
+        obj = self.obj(owner, clause, "instrument", []) if owner is not None else None
+        if action == "press" and part is None and obj is not None and hatch is None:
+            part = None
+        self.steps.append(RawStep(action, obj, part=part.name if part is not None else ("button" if action == "press" else None)))
 
-    def _assign_prepositions(self, tokens: list[Token], mentions: list[Mention], verbs, parts) -> None:
-        table = sorted(((p, role) for role, ps in PREPOSITIONS.items() for p in ps), key=lambda x: -len(x[0].split()))
-        anchors = sorted([(e, "verb") for _, e, _, _ in verbs] + [(m.end, "mention") for m in mentions] + [(e, "part") for _, e, _, _ in parts])
+    def _movement(self, action: str, clause: Clause, direct: list[Mention]) -> None:
+        taken: list[Obj] = []
+        items = []
+        for m in direct:
+            o = self.obj(m, clause, "item", taken)
+            taken.append(o)
+            items.append(o)
+        if not items:
+            raise PlanError(f"found no object to {clause.verb or action} in '{clause.text}'; name one from the asset library")
+        dests = [m for m in clause.with_prep("dest") if not m.is_bench]
+        overs = clause.with_prep("over")
+        sources = [m for m in clause.with_prep("source") if not m.is_bench]
+        on_bench = any(m.is_bench and m.prep == "dest" for m in clause.mentions)
+        source = self.obj(sources[0], clause, "holder", taken) if sources else None
+        for m in clause.with_prep("near"):
+            if not m.is_bench and not m.is_pronoun:
+                taken.append(self.obj(m, clause, "distractor", taken))  # "next to the beaker": on the bench, unused
+        targets: list[tuple[Obj, str | None]] = []
+        for m in (dests or overs):
+            o = self.obj(m, clause, "holder", taken)
+            taken.append(o)
+            targets.append((o, m.part))
+        if clause.implied_target and not targets:
+            implied = Mention(0, 0, clause.implied_target, clause.implied_target)
+            targets.append((self.obj(implied, clause, "holder", taken), None))
+        if overs and not dests or (action == "position"):
+            action = "position"
+        elif targets:
+            action = "place"
+        elif action == "place" and self._dangling_dest(clause) and not on_bench:
+            targets.append((self.pronoun("holder", clause), None))
+        elif action == "pick" and source is not None and sources[0].prep_phrase in REMOVING:
+            action = "remove"
+        elif action == "place" and (on_bench or source is not None):
+            action = "remove"
+        elif action == "place" and not on_bench and self._opened():
+            targets.append((self._opened()[-1], None))  # "open the cycler, load the plate, close it"
+        elif action == "place" and not on_bench:
+            what = " and ".join(o.wanted.words() if not o.mention.is_pronoun else "it" for o in items)
+            raise PlanError(f"say where to put the {what} (e.g. 'on the balance', 'into the tube rack')")
+        if action == "remove" and source is None:
+            source = self._last_place_of(items[0])
+            if source is None:
+                if on_bench:
+                    raise PlanError("the object already stands on the bench; name where it should go, or where it "
+                                    "comes from ('from the balance')")
+                raise PlanError(f"say where the {items[0].wanted.words()} is taken from ('out of the rack', 'off the balance')")
+        for k, item in enumerate(items):
+            target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
+            self.steps.append(RawStep(action, item, target, source, part))
 
-        def prep_before(position: int) -> tuple[str | None, int]:
-            floor = max([a for a, _ in anchors if a <= position] or [0])
-            found: tuple[str | None, int] = (None, -1)
-            k = floor
-            while k < position:
-                for phrase, role in table:
-                    n = _match_phrase(tokens, k, phrase)
-                    if n and k + n <= position:
-                        found = (role, k)
-                        for j in range(k, k + n):
-                            tokens[j].used = True
-                        k += n - 1
-                        break
-                k += 1
-            return found
+    def _opened(self) -> list[Obj]:
+        """Instruments an earlier step opened (or pressed open): where a bare "insert X" goes."""
+        return [s.object for s in self.steps if s.action in ("open", "press") and s.object is not None]
 
-        for m in mentions:
-            owned = [p for p in parts if p[3] is m and p[0] < m.start and m.part_before]
-            start = owned[0][0] if owned else m.window_start
-            m.prep = prep_before(start)[0]
-            if m.prep == "of":
-                m.prep = None
+    def _dangling_dest(self, clause: Clause) -> bool:
+        """A destination word with no object after it: "put the tube in"."""
+        preps = {"in", "inside", "into", "on", "onto", "back", "there"}
+        return any(t.kind == "word" and not t.used and t.text in preps for t in clause.tokens[1:])
 
-    def _unknown_phrases(self, tokens: list[Token]) -> list[str]:
-        phrases: list[str] = []
-        current: list[str] = []
-        for token in tokens:
-            unknown = token.kind == "word" and not token.used and token.text not in FILLERS and token.text not in ARTICLES \
-                and not token.text.isdigit()
-            if unknown:
-                current.append(token.text)
-            elif current:
-                phrases.append(" ".join(current))
-                current = []
-        if current:
-            phrases.append(" ".join(current))
-        return phrases
-
-    def _intent(self, verbs, mentions: list[Mention], parts, tokens: list[Token]) -> str:
-        found = [intent for _, _, intent, _ in verbs]
-        phrases = [phrase for _, _, _, phrase in verbs]
-        part_names = {p[2] for p in parts}
-        preps = {m.prep for m in mentions}
-        hatch = [i for i in found if i in ("open", "close", "press")]
-        text = " ".join(t.text for t in tokens)
-        if "press" in hatch and "button" not in part_names and not any(
-            self._has_site(m, "button") for m in mentions if m.prep is None
-        ):
-            hatch = [h for h in hatch if h != "press"]
-            if "push" in phrases and ("drawer" in part_names or re.search(r"\bpush\w* .* (in|shut|closed)\b", text)):
-                hatch.append("close")
-        if {"lid", "drawer", "door", "sash"} & part_names:
-            if re.search(r"\b(lift|raise|take off|remove|pull out|pull)\b", text) and not hatch:
-                hatch.append("open")
-            if re.search(r"\b(lower)\b", text) and not hatch:
-                hatch.append("close")
-        if re.search(r"\b(closed|shut)\s*[.!]?$", text) and not hatch and ({"lid", "drawer", "door", "sash"} & part_names or "slide" in phrases):
-            hatch.append("close")
-        lid_owner = next((owner for _, _, part, owner in parts if part == "lid" and owner is not None), None)
-        if lid_owner is not None and not hatch and any(i in ("place", "pick") for i in found) and re.search(
-                r"separate asset", " ".join(self.vocab.assets[a].description for a in self.vocab.members(lid_owner.kind))):
-            hatch.append("open" if re.search(r"\b(lift|raise|take off|remove|pull)\b", text) else "close")
-        if set(hatch) >= {"open", "close"}:
-            raise DraftError("contradictory request: it asks to both open and close; describe one of them")
-        if "press" in hatch and "close" in hatch:
-            raise DraftError("contradictory request: pressing the release button opens the lid, it cannot close it")
-        movers = [i for i in found if i not in ("open", "close", "press")]
-        objects = [m for m in mentions if not m.is_bench]
-        if hatch and (any(m.prep in ("dest", "over") for m in mentions)
-                      or (any(i in ("place", "insert", "transfer", "position") for i in movers) and len(objects) > 1)):
-            raise DraftError(
-                f"the description holds two tasks ({hatch[0]} and {movers[0] if movers else 'place'}); "
-                "draft one task at a time, e.g. the placement with the instrument already open"
-            )
-        if hatch:
-            return "press" if "press" in hatch else hatch[0]
-        if "transfer" in found and "dest" not in preps and "source" not in preps and found == ["transfer"]:
-            raise DraftError("a transfer needs a source: say where the object is taken from ('from the balance')")
-        if "transfer" in found or ("source" in preps and "dest" in preps):
-            return "transfer"
-        if "position" in found or ("over" in preps and "insert" not in found):
-            return "position"
-        if "insert" in found:
-            return "insert"
-        if "dest" in preps:
-            dest = next(m for m in mentions if m.prep == "dest")
-            return "insert" if self._is_holder(dest) else "place"
-        if "source" in preps and any(p in phrases for p in ("take", "move", "lower", "bring", "carry")):
-            return "transfer"
-        if "pick" in found or "place" in found:
-            return "pick"
-        raise DraftError(
-            "no action found: start with a verb such as 'pick up', 'place', 'insert', 'open', 'close', "
-            "'press', 'transfer' or 'position'"
-        )
-
-    def _has_site(self, m: Mention, site: str) -> bool:
-        candidates = self.vocab.members(m.kind) if not m.is_bench else []
-        return any(site in self.vocab.assets[a].semantics.get("sites", []) for a in candidates)
-
-    def _is_holder(self, m: Mention) -> bool:
-        if m.is_bench:
-            return False
-        return any(
-            any(s.startswith("slot_") for s in self.vocab.assets[a].semantics.get("sites", []))
-            or {"cuvette_slot", "rotor_center", "cup_center", "block_center"} & set(self.vocab.assets[a].semantics.get("sites", []))
-            for a in self.vocab.members(m.kind)
-        )
-
-    # ----------------------------------------------------------------------- roles and assets
-    def _roles(self, intent: str, mentions: list[Mention], parts, unknown: list[str], description: str):
-        remarks: list[str] = []
-        objects: list[Mention] = []
-        roles: list[str] = []
-        direct = "instrument" if intent in ("open", "close", "press") else "item"
-        by_prep = {None: direct, "near": "distractor", "source": "source", "over": "target", "of": direct,
-                   "dest": "target" if intent == "position" else "destination"}
-        if direct == "instrument":
-            by_prep.update(source=direct, over=direct, dest=direct)
-        for m in mentions:
-            role = by_prep[m.prep]
-            if m.is_bench:
-                if role == "destination" and intent in ("place", "insert"):
-                    raise DraftError("the object already stands on the bench; name where it should go, "
-                                     "or where it comes from ('from the balance')")
-                continue
-            objects.append(m)
-            roles.append(role)
-        if intent in ("open", "close") and "item" in roles:
-            roles = ["instrument" if r == "item" else r for r in roles]
-        if unknown:
-            hints = []
-            for phrase in unknown:
-                closest = self.vocab.closest(phrase)
-                hint = f"closest assets: {', '.join(closest)}" if closest else "no asset resembles it"
-                hints.append(f"unknown object or word {phrase!r} ({hint})")
-            raise DraftError(hints + ["see `pipette assets list`, or describe a new asset with `pipette assets new`"])
-        needed = {"pick": "item", "place": "item", "insert": "item", "transfer": "item", "position": "item",
-                  "open": "instrument", "close": "instrument", "press": "instrument"}[intent]
-        if needed not in roles:
-            raise DraftError(f"found no object to {intent} in {description!r}; name one from the asset library")
-        for role in set(roles):
-            if role != "distractor" and roles.count(role) > 1:
-                names = [m.phrase for m, r in zip(objects, roles, strict=True) if r == role]
-                raise DraftError(f"one task handles one {role} at a time; the description names {len(names)}: {', '.join(names)}")
-        self._resolve_assets(objects, roles, remarks)
-        specs = [DraftObjectSpec(asset=m.asset, role=r, part=m.part, mention=(m.phrase if not m.sizes else f"{' '.join(m.sizes)} {m.phrase}"))  # type: ignore[arg-type]
-                 for m, r in zip(objects, roles, strict=True)]
-        return specs, remarks
-
-    def _candidates(self, m: Mention) -> list[str]:
-        members = self.vocab.members(m.kind)
-        kind = self.vocab.kinds[m.kind]
-        for tag in m.sizes:
-            keep = [a for a in members if tag in self.vocab.assets[a].size_tags]
-            if not keep:
-                same_class = sorted({t for a in members for t in self.vocab.assets[a].size_tags if size_class(t) == size_class(tag)})
-                if not same_class and size_class(tag) in ("ml", "mm", "ul"):
-                    continue  # sizes the kind does not vary by (a "250 mL" pipette stand) carry no choice
-                sizes = ", ".join(same_class) if same_class else "no sizes"
-                raise DraftError(
-                    f"no {tag} {kind.name} in the asset library ({kind.name} sizes: {sizes}); pick one of those, "
-                    f"or make it with `pipette assets new \"a {tag} {kind.name}\"`"
-                )
-            members = keep
-        variants = ("nocap", "open", "skirted", "quartz", "large", "small", "carousel", "linear", "deep")
-        wanted = {w for w in m.modifiers}
-        scored = []
-        for a in members:
-            info = self.vocab.assets[a]
-            id_words = set(a.split("_"))
-            score = len(wanted & (info.words | id_words))
-            score -= sum(1 for v in variants if v in id_words and v not in wanted)  # plain variants first
-            score += 0.5 if a == kind.default else 0.0
-            scored.append((-score, a))
-        return [a for _, a in sorted(scored)]
-
-    def _resolve_assets(self, mentions: list[Mention], roles: list[str], remarks: list[str]) -> None:
-        options = {id(m): self._candidates(m) for m in mentions}
-        item = next((m for m, r in zip(mentions, roles, strict=True) if r == "item"), None)
-        holder = next((m for m, r in zip(mentions, roles, strict=True) if r == "destination"), None) or \
-            next((m for m, r in zip(mentions, roles, strict=True) if r == "source"), None)
-        if item is not None and holder is not None:
-            pairs = [(i, h) for i in options[id(item)] for h in options[id(holder)]]
-            fitting = [(i, h) for i, h in pairs if _fits(self.vocab, i, h) is not False]
-            if fitting:
-                best = min(fitting, key=lambda p: (options[id(item)].index(p[0]), -_affinity(self.vocab, *p),
-                                                   options[id(holder)].index(p[1]), _slack(self.vocab, *p)))
-                options[id(item)] = [best[0], *[a for a in options[id(item)] if a != best[0]]]
-                options[id(holder)] = [best[1], *[a for a in options[id(holder)] if a != best[1]]]
-        for m in mentions:
-            choice = options[id(m)]
-            m.asset = choice[0]
-            equal = [a for a in choice[1:4]]
-            if len(choice) > 1 and not m.sizes:
-                remarks.append(f"'{m.phrase}' could be {', '.join([choice[0], *equal])}; chose {choice[0]}")
-
-
-def _hole(vocab: Vocabulary, holder: str) -> float | None:
-    sem = vocab.assets[holder].semantics
-    if "hole" in sem:
-        return float(sem["hole"])
-    return None
-
-
-def _diameter(vocab: Vocabulary, item: str) -> float | None:
-    sem = vocab.assets[item].semantics
-    for key in ("outer_diameter", "base_diameter", "diameter"):
-        if key in sem:
-            return float(sem[key])
-    return None
-
-
-def _fits(vocab: Vocabulary, item: str, holder: str) -> bool | None:
-    """Whether ``item`` fits the holes of ``holder`` (None when the holder has no holes)."""
-    hole, diameter = _hole(vocab, holder), _diameter(vocab, item)
-    if hole is None or diameter is None:
+    def _last_place_of(self, item: Obj) -> Obj | None:
+        for step in reversed(self.steps):
+            if step.object is item and step.action == "place":
+                return step.target
         return None
-    return diameter + 0.0002 <= hole
+
+    # ------------------------------------------------------------------ finishing
+    def finish(self, robot: str | None, thresholds: dict[str, float], instruction: str) -> TaskPlanSpec:
+        self._fill_elided()
+        steps = self._merged()
+        self._choose_assets(steps)
+        used = [o for o in self.objects if any(o in (s.object, s.target, s.source) for s in steps)]
+        extra = [o for o in self.objects if o not in used]
+        self._name(used + extra)
+        roles = _roles(steps)
+        objects = [PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra]  # type: ignore[arg-type]
+        plan_steps = [PlanStepSpec(action=s.action, object=s.object.name, target=s.target.name if s.target else None,  # type: ignore[arg-type, union-attr]
+                                   source=s.source.name if s.source else None, part=s.part) for s in steps]  # type: ignore[arg-type]
+        try:
+            return TaskPlanSpec(objects=objects, steps=plan_steps, robot=robot, instruction=instruction,  # type: ignore[arg-type]
+                                thresholds=PlanThresholdsSpec(**thresholds))
+        except ValueError as exc:
+            raise PlanError(f"could not make a plan: {exc}") from None
+
+    def _fill_elided(self) -> None:
+        """A hatch step without its instrument ("open and close the lid", "open the lid, then ...")
+        takes the instrument with that part named in a neighbouring step, or the plan's only one."""
+        for i, step in enumerate(self.steps):
+            if step.object is not None:
+                continue
+            near = [s.object for s in self.steps[i + 1:] + self.steps[:i][::-1] if s.action in ("open", "close", "press") and s.object]
+            near += [o for o in self.objects if self._static(o)]
+            if not near:
+                raise PlanError(f"say which instrument to {step.action} (e.g. '{step.action} the centrifuge lid')")
+            step.object = near[0]
+
+    def _merged(self) -> list[RawStep]:
+        out: list[RawStep] = []
+        for step in self.steps:
+            last = out[-1] if out else None
+            if last is not None and last.object is step.object and last.action == "pick" and step.action in ("place", "position", "pick", "remove"):
+                step.source = step.source or last.source
+                out[-1] = step  # "pick up the tube and put it on the balance" is one placement
+                continue
+            if last is not None and last.object is step.object and last.action == "remove" and step.action in ("place", "position"):
+                step.source = step.source or last.source
+                out[-1] = step  # "take the tube out of the rack and put it on the balance"
+                continue
+            if last is not None and (last.action, last.object, last.part, last.target) == \
+                    (step.action, step.object, step.part, step.target) and step.action in ("open", "close", "press", "position", "place"):
+                continue  # "hold it over the beaker and keep it there": said twice, done once
+            out.append(step)
+        return out
+
+    def _choose_assets(self, steps: list[RawStep]) -> None:
+        options = {id(o): candidates(self.vocab, o.wanted) for o in self.objects}
+        for step in steps:
+            item = step.object
+            for holder in (step.target if step.action == "place" else None, step.source):
+                if item is None or holder is None or holder.asset:
+                    continue
+                if any(hole(self.vocab, h) is not None for h in options[id(holder)]):
+                    items = [item.asset] if item.asset else options[id(item)]
+                    i, h = choose_pair(self.vocab, items, options[id(holder)])
+                    item.asset, holder.asset = i, h
+        for o in self.objects:
+            choice = options[id(o)]
+            o.asset = o.asset or choice[0]
+            kind = self.vocab.kinds[o.wanted.kind]
+            if len(choice) > 1 and not o.wanted.sizes and o.asset != kind.default:
+                self.remarks.append(f"'{o.mention.phrase}' could be {', '.join(choice[:4])}; chose {o.asset}")
+
+    def _name(self, objects: list[Obj]) -> None:
+        taken: set[str] = set()
+        for o in objects:
+            kind = o.wanted.kind
+            base = re.sub(r"[^a-z0-9]+", "_", kind.split()[-1]).strip("_") or "object"
+            if base in taken and not any(p.name == base and p.wanted.kind == kind for p in objects if p.name):
+                base = re.sub(r"[^a-z0-9]+", "_", kind).strip("_")
+            name, n = base, 2
+            while name in taken:
+                name, n = f"{base}_{n}", n + 1
+            o.name = name
+            taken.add(name)
 
 
-def _affinity(vocab: Vocabulary, item: str, holder: str) -> int:
-    """Shared size tags and id words: a 15 mL conical tube belongs in the 15 mL conical tube rack."""
-    a, b = vocab.assets[item], vocab.assets[holder]
-    return 2 * len(a.size_tags & b.size_tags) + len((set(item.split("_")) & set(holder.split("_"))) - {"tube"})
+def _roles(steps: list[RawStep]) -> dict[int, str]:
+    roles: dict[int, str] = {}
+    for s in steps:
+        if s.action in ("open", "close", "press"):
+            roles.setdefault(id(s.object), "instrument")
+            continue
+        roles.setdefault(id(s.object), "item")
+        if s.target is not None:
+            roles.setdefault(id(s.target), "target" if s.action == "position" else "destination")
+        if s.source is not None:
+            roles.setdefault(id(s.source), "source")
+    return roles
 
 
-def _slack(vocab: Vocabulary, item: str, holder: str) -> float:
-    hole, diameter = _hole(vocab, holder), _diameter(vocab, item)
-    return (hole - diameter) if hole is not None and diameter is not None else 1.0
+def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
+    """Refuse (finally) what the simulator cannot do, with the vocabulary's reason."""
+    groups = vocab.words.unsupported
+    for clause in clauses:
+        for group, phrase in clause.unsupported:
+            if clause.action is None or clause.verb == phrase:
+                raise PlanError(f"cannot '{phrase}': {groups[group].reason}", final=True)
+        leftover = " ".join(clause.unknown)  # "the buffer bottle" names a bottle: moving it is fine
+        for group, spec in groups.items():
+            for word in spec.words:
+                if re.search(rf"\b{re.escape(word)}\b", leftover):
+                    raise PlanError(f"'{word}': {spec.reason}", final=True)
+
+
+def refuse_unknown(clauses: list[Clause], vocab: Vocabulary) -> list[str]:
+    """``unknown object 'X'; nearest: ...`` for words that name nothing; adjectives of a known
+    object ("the blue tube") are only remarked on."""
+    remarks = []
+    for clause in clauses:
+        modifiers = {w for m in clause.mentions for w in m.modifiers}
+        for phrase in clause.unknown:
+            if set(phrase.split()) <= modifiers:
+                remarks.append(f"ignored '{phrase}': no asset variant is described by it")
+                continue
+            if clause.action is None and clause.tokens and phrase.split()[0] == clause.tokens[0].text:
+                raise PlanError(f"unknown action '{phrase}'; actions: {ACTION_WORDS}")
+            nearest = vocab.nearest(phrase)
+            hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
+            raise PlanError(f"unknown object '{phrase}'; nearest: {hint}")
+    return remarks
 
 
 def instruction_from(description: str) -> str:
     """The description as one clean imperative sentence."""
     text = re.sub(r"\s+", " ", description).strip()
-    text = re.sub(r"^(please|robot,?|hey robot,?)\s+", "", text, flags=re.I)
-    text = re.sub(r",?\s*(?:with|using) (?:the )?(?:franka(?: emika)? panda|franka|panda|agilex piper|piper|agilex|ur5e?|universal robots?)(?: arm| robot)?", "", text, flags=re.I)
-    text = re.sub(r"\s*,?\s*please\s*[.!]?$", "", text, flags=re.I)
-    text = text.rstrip(" .!")
+    text = re.sub(r"^(please|robot,?|hey robot,?|could you|can you|would you|kindly)\s+", "", text, flags=re.I)
+    text = re.sub(r"^(please)\s+", "", text, flags=re.I)
+    text = re.sub(r"\s*,?\s*(please|thanks|thank you)\s*[.!?]*$", "", text, flags=re.I)
+    text = text.rstrip(" .!?")
     return (text[:1].upper() + text[1:] + ".") if text else text
 
 
-def parse_description(description: str, vocabulary: Vocabulary) -> ParseResult:
-    """Parse ``description`` into a draft (see :class:`DescriptionParser`)."""
-    if not description.strip():
-        raise DraftError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
-    return DescriptionParser(vocabulary).parse(description)
+def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
+    """Parse ``description`` into a plan (see the module docstring).
+
+    Raises:
+        PlanError: the description is empty, negated, asks for what cannot be simulated, names
+            unknown objects, or leaves out what a step needs (each with what to change).
+    """
+    words = vocab.words
+    text = normalise(description, words)
+    if not re.search(r"[a-z]", text):
+        raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
+    if has_negation(text):
+        raise PlanError("negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'")
+    text, thresholds = extract_thresholds(text)
+    text, robots = extract_robots(text, words)
+    if len(robots) > 1:
+        raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
+    reader = ClauseReader(vocab)
+    tokens = tokenise(text, vocab)
+    clauses = [reader.read(part) for part in split_steps(tokens, vocab, reader.is_verb)]
+    if not clauses:
+        raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
+    refuse_unsupported(clauses, vocab)
+    builder = Builder(vocab)
+    builder.remarks += refuse_unknown(clauses, vocab)
+    for clause in clauses:
+        builder.add(clause)
+    plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
+    return ParseResult(plan, builder.remarks)

@@ -1,28 +1,38 @@
-"""``pipette new-task``: description -> draft -> plan -> YAML -> validated, built task.
+"""``pipette new-task``: description -> plan -> checked plan -> composed task -> YAML -> built task.
 
-The same path serves every backend: the backend produces a :class:`TaskDraftSpec`; the
-draft is accepted only when it composes, renders, validates against the registry rules and
-its scene builds. LLM backends re-ask with the problems of a rejected draft.
+The same path serves every backend. The offline backend parses the description into a
+:class:`~pipette_cli.authoring.plan.TaskPlanSpec`; an LLM backend fills the same model through
+structured output. A plan is accepted only when it validates (:mod:`.validate`), composes, renders
+to YAML that the registry's own rules accept, builds, and passes the caller's ``gate`` (``--check``).
+LLM backends are sent every rejection back for a corrected answer, a bounded number of times;
+what cannot be simulated (liquids, screwing caps) is refused before any request.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from pipette_cli.authoring.backends import AuthoringBackend
-from pipette_cli.authoring.compose import DEFAULT_ROBOT, TaskPlan, compose
-from pipette_cli.authoring.draft import INTENTS, ROLES_BY_INTENT, DraftError, TaskDraftSpec
-from pipette_cli.authoring.render import environment, render_plan
+from pipette_cli.authoring.clause import ClauseReader
+from pipette_cli.authoring.compose import ComposedTask, compose
+from pipette_cli.authoring.parser import refuse_unknown, refuse_unsupported
+from pipette_cli.authoring.plan import PlanError, TaskPlanSpec, plan_json_schema
+from pipette_cli.authoring.render import environment, render_task
+from pipette_cli.authoring.text import normalise, split_steps, tokenise
+from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_plan
 from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
-from pipette_cli.errors import PipetteError, SimError, SpecError
+from pipette_cli.errors import SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 
 PROMPT_TEMPLATE = "prompts/task_draft.md.j2"
+Gate = Callable[["DraftedTask"], None]
+"""Called on a built draft; raises :class:`PlanError` to reject it (``--check``)."""
 
 
 @dataclass
@@ -31,84 +41,154 @@ class DraftedTask:
 
     description: str
     backend: str
-    draft: TaskDraftSpec
-    plan: TaskPlan
+    plan: TaskPlanSpec
+    composed: ComposedTask
     yaml_text: str
     spec: TaskSpec
+    remarks: list[str] = field(default_factory=list)
+    report: object | None = None
+    """What the gate found (a :class:`~pipette_cli.authoring.check.CheckReport` with ``--check``)."""
 
     def target_path(self, out: Path | None) -> Path:
         """Where ``--out`` (a file or a folder) puts this task (default: ./<stem>.yaml)."""
-        target = out or Path(f"{self.plan.file_stem}.yaml")
+        target = out or Path(f"{self.composed.file_stem}.yaml")
         if target.is_dir() or target.suffix not in (".yaml", ".yml"):
-            target = target / f"{self.plan.file_stem}.yaml"
+            target = target / f"{self.composed.file_stem}.yaml"
         return target
 
 
 def task_prompt(vocab: Vocabulary) -> str:
-    """The system prompt for LLM backends: intents, roles, robots and every asset."""
-    assets = [{"id": a, "description": i.description, "graspable": i.graspable,
-               "sites": [s for s in i.semantics.get("sites", []) if not re.match(r"slot_([1-9]|\d\d)", s)],
-               "joints": i.semantics.get("joints", [])}
-              for a, i in sorted(vocab.assets.items()) if a != "lab_bench"]
+    """The system prompt for LLM backends: the plan's fields, an example, and every asset id."""
+    ids = sorted(vocab.assets)
     return environment().get_template(PROMPT_TEMPLATE).render(
-        intents=INTENTS, roles_by_intent=ROLES_BY_INTENT, robots=robot_names(), default_robot=DEFAULT_ROBOT,
-        assets=assets)
+        robots=robot_names(), graspable=[a for a in ids if vocab.assets[a].graspable],
+        fixed=[a for a in ids if not vocab.assets[a].graspable])
 
 
-def finish_draft(draft: TaskDraftSpec, description: str, backend: str, *, vocab: Vocabulary,
-                 namespace: str = "generated", task_id: str | None = None, remarks: tuple[str, ...] = (),
-                 registry: Registry | None = None, build: bool = True) -> DraftedTask:
-    """Compose, render, validate and build one draft.
+def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vocabulary, namespace: str = "generated",
+                task_id: str | None = None, remarks: tuple[str, ...] = (), registry: Registry | None = None,
+                build: bool = True, gate: Gate | None = None) -> DraftedTask:
+    """Validate, compose, render, check against the registry rules, build and gate one plan.
 
     Raises:
-        DraftError: the draft is impossible (unknown assets, no room, ...), the id is taken, or
-            the generated YAML fails validation or does not build (each with the reason).
+        PlanError: the plan is impossible (each problem says what to change), the id is taken, or
+            the task fails to build or to pass ``gate``.
     """
-    plan = compose(draft, vocab, namespace=namespace, task_id=task_id, remarks=remarks)
-    if not re.match(TASK_ID_PATTERN, plan.task_id):
-        raise DraftError(f"task id {plan.task_id!r} must look like namespace/Name-v1")
-    if registry is not None and plan.task_id in registry.tasks:
-        raise DraftError(f"task id {plan.task_id!r} is already registered ({registry.entry(plan.task_id).path}); "
-                         "pass --id to name the new task")
-    text = render_plan(plan, description=description, backend=backend)
-    source = f"<draft {plan.file_stem}.yaml>"
+    checked = validate_plan(plan, vocab)
+    composed = compose(checked, namespace=namespace, task_id=task_id, remarks=remarks)
+    if not re.match(TASK_ID_PATTERN, composed.task_id):
+        raise PlanError(f"task id {composed.task_id!r} must look like namespace/Name-v1")
+    if registry is not None and composed.task_id in registry.tasks:
+        raise PlanError(f"task id {composed.task_id!r} is already registered ({registry.entry(composed.task_id).path}); "
+                        "pass --id to name the new task")
+    text = render_task(composed, description=description, backend=backend)
+    source = f"<draft {composed.file_stem}.yaml>"
     try:
         doc = parse_yaml(text, source)
         spec = validate_task_document(doc, source)
     except SpecError as exc:
-        raise DraftError(["the drafted YAML does not validate (a bug in the template or plan):", *exc.problems]) from None
+        raise PlanError(["the drafted YAML does not validate (a bug in the template or composition):", *exc.problems]) from None
     text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
+    drafted = DraftedTask(description, backend, checked.plan, composed, text, spec, list(remarks))
     if build:
         from pipette_cli.sim.world import World
 
         try:
             World(spec)
         except SimError as exc:
-            raise DraftError(f"the drafted scene does not build: {exc}") from None
-    return DraftedTask(description, backend, draft, plan, text, spec)
+            raise PlanError(f"impossible layout: the drafted scene does not build: {exc}") from None
+    if gate is not None:
+        gate(drafted)
+    return drafted
+
+
+def screen(description: str, vocab: Vocabulary) -> set[str]:
+    """Refuse what no plan can do before asking an LLM (liquids, caps...: final), and return the
+    kinds of object the description names (an LLM's plan may only use those)."""
+    reader = ClauseReader(vocab)
+    tokens = tokenise(normalise(description, vocab.words), vocab)
+    clauses = [reader.read(part) for part in split_steps(tokens, vocab, reader.is_verb)]
+    refuse_unsupported(clauses, vocab)
+    kinds = {m.kind for c in clauses for m in c.mentions if not m.is_bench and not m.is_pronoun}
+    kinds |= {c.implied_target for c in clauses if c.implied_target}
+    if not kinds:
+        refuse_unknown(clauses, vocab)
+        raise PlanError("found no object of the asset library in the description; name one (see `pipette assets list`)",
+                        final=True)
+    return kinds
+
+
+def grounding_problems(checked: CheckedPlan, kinds: set[str], vocab: Vocabulary) -> list[str]:
+    """Objects of an LLM's plan that the description does not name."""
+    from pipette_cli.authoring.measure import measure_asset
+
+    named = {a for k in kinds for a in vocab.members(k)}
+    lids = {separate_lid(measure_asset(a)) for a in named if vocab.assets[a].static}
+    problems = []
+    for name, obj in checked.objects.items():
+        if obj.asset not in named and obj.asset not in lids:
+            problems.append(f"objects: {name!r} is {obj.asset}, but the description names no "
+                            f"{obj.info.kinds[0] if obj.info.kinds else obj.asset}; use only the objects it names "
+                            f"({', '.join(sorted(kinds))})")
+    return problems
 
 
 def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = "generated", task_id: str | None = None,
-               registry: Registry | None = None, build: bool = True) -> DraftedTask:
+               registry: Registry | None = None, build: bool = True, gate: Gate | None = None) -> DraftedTask:
     """Turn ``description`` into a :class:`DraftedTask` with ``backend``.
 
     Raises:
-        DraftError: the description cannot become a task (the offline backend says why).
+        PlanError: the description cannot become a task (says why).
         BackendError: an LLM backend gave no acceptable answer within its attempts.
     """
     if not description.strip():
-        raise DraftError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
+        raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     vocab = load_vocabulary()
-    options = dict(vocab=vocab, namespace=namespace, task_id=task_id, registry=registry, build=build)
+    options = dict(vocab=vocab, namespace=namespace, task_id=task_id, registry=registry, build=build, gate=gate)
     parsed = backend.parse_task(description)
     if parsed is not None:
-        return finish_draft(parsed.draft, description, backend.name, remarks=tuple(parsed.remarks), **options)
+        return finish_plan(parsed.plan, description, backend.name, remarks=tuple(parsed.remarks), **options)
+    kinds = screen(description, vocab)
 
-    def accept(draft: TaskDraftSpec) -> DraftedTask:
-        return finish_draft(draft, description, backend.name, **options)
+    def accept(plan: TaskPlanSpec) -> DraftedTask:
+        checked = validate_plan(plan, vocab)
+        problems = grounding_problems(checked, kinds, vocab)
+        if problems:
+            raise PlanError(problems)
+        return finish_plan(plan, description, backend.name, **options)
 
-    return backend.complete(system=task_prompt(vocab), user=f"Task description: {description}",
-                            schema=TaskDraftSpec, accept=accept)
+    return backend.complete(system=task_prompt(vocab), user=f"Task: {description}", schema=TaskPlanSpec,
+                            accept=accept, json_schema=plan_json_schema(list(vocab.assets)))
+
+
+def check_gate(episodes: int, *, enforce: bool = True) -> Gate:
+    """The ``--check`` gate: build, an idle rollout that must not succeed, and the expert on
+    ``episodes`` seeds (at least 4 of 5 must succeed). The report is kept on the draft; with
+    ``enforce`` a failed check raises :class:`PlanError` naming the stage and step that failed (an
+    LLM backend is sent it for a corrected answer)."""
+    from pipette_cli.authoring.check import check_task
+
+    def gate(drafted: DraftedTask) -> None:
+        report = check_task(drafted.spec, episodes, stage_names=drafted.composed.stage_names)
+        drafted.report = report
+        if not enforce:
+            return
+        if not report.ok:
+            raise PlanError(f"--check failed for {drafted.spec.id}: {'; '.join(report.problems)}")
+        if report.solve.status != "solved":
+            raise PlanError(f"--check failed for {drafted.spec.id}: {report.solve.summary()}")
+
+    return gate
+
+
+def plan_summary(checked: CheckedPlan) -> list[str]:
+    """The plan in one line per step: ``action object-asset [target-or-source-asset]``."""
+    lines = []
+    for step in checked.steps:
+        other = step.target or (step.source if step.action == "remove" else None)
+        words = [step.action, checked.asset(step.object), *([checked.asset(other)] if other else [])]
+        lines.append(" ".join(words))
+    return lines
 
 
 def write_task(drafted: DraftedTask, target: Path, *, force: bool = False) -> Path:
@@ -117,6 +197,8 @@ def write_task(drafted: DraftedTask, target: Path, *, force: bool = False) -> Pa
     Raises:
         PipetteError: the file exists and ``force`` is false.
     """
+    from pipette_cli.errors import PipetteError
+
     if target.exists() and not force:
         raise PipetteError(f"{target} exists; pass --force to overwrite")
     target.parent.mkdir(parents=True, exist_ok=True)

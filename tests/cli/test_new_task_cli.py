@@ -28,29 +28,57 @@ def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
     assert again.exit_code == 1 and "already registered" in again.stderr
 
 
-def test_check_reports_the_idle_rollout_and_solvability(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", "Close the lid of the thermal cycler", "--check", "--dry-run", "--id", "mylab/ShutCycler-v1")
+def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", "Close the lid of the thermal cycler", "--check", "--episodes", "2", "--dry-run",
+                     "--id", "mylab/ShutCycler-v1")
     assert result.exit_code == 0, result.stderr
-    assert "check: ok" in result.stderr and "expert 'derived program' solved 2/2" in " ".join(result.stderr.split())
-    assert "nothing written" in result.stderr and not list(tmp_path.iterdir())
+    text = " ".join(result.stderr.split())
+    assert "check: ok" in text and "expert 'program' solved 2/2 episodes (needs 2)" in text
+    assert "nothing written" in text and not list(tmp_path.iterdir())
 
 
-def test_check_refuses_a_task_the_family_expert_cannot_solve(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", TEXT, "--check", "--out", tmp_path, "--yes")
-    assert result.exit_code == 1 and "did not solve it; nothing written" in " ".join(result.stderr.split())
-    assert not list(tmp_path.iterdir())
+def test_check_failure_names_the_stage_and_writes_nothing_without_force(run_cli, tmp_path, monkeypatch) -> None:
+    from pipette_cli.authoring import check
 
-
-def test_check_json_has_the_report(run_cli) -> None:
-    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--dry-run", "--json", "--id", "mylab/ShutSpectro-v1").stdout)
-    assert data["id"] == "mylab/ShutSpectro-v1" and data["check"]["ok"] is True
-    assert data["draft"]["intent"] == "close" and data["check"]["idle_steps"] > 0
-
-
-def test_unknown_object_exits_1_and_writes_nothing(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", "Put the 15 mL tube in the autoclave", "--out", tmp_path, "--yes")
-    assert result.exit_code == 1 and "unknown object or word 'autoclave'" in result.stderr
+    monkeypatch.setattr(check, "SOLVE_SHARE", 1.01)  # no expert can pass: the gate must refuse
+    result = run_cli("new-task", TEXT, "--check", "--episodes", "1", "--out", tmp_path, "--yes")
+    text = " ".join(result.stderr.split())
+    assert result.exit_code == 1 and "--check failed for generated/PlaceWellPlate96OnOrbitalShaker-v1" in text
     assert "Traceback" not in result.stderr and not list(tmp_path.iterdir())
+    forced = run_cli("new-task", TEXT, "--check", "--episodes", "1", "--out", tmp_path, "--yes", "--force")
+    assert forced.exit_code == 0 and "FAILED (written anyway: --force)" in " ".join(forced.stderr.split())
+    assert len(list(tmp_path.iterdir())) == 1
+
+
+def test_json_has_the_plan_and_the_check(run_cli) -> None:
+    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--episodes", "1", "--dry-run",
+                              "--json", "--id", "mylab/ShutSpectro-v1").stdout)
+    assert data["id"] == "mylab/ShutSpectro-v1" and data["check"]["ok"] is True
+    assert data["steps"] == ["close spectrophotometer"] and data["plan"]["steps"][0]["action"] == "close"
+    assert data["check"]["idle_steps"] > 0
+
+
+def test_multi_step_description_becomes_a_sequence_task(run_cli, tmp_path) -> None:
+    result = run_cli("new-task", "Open the PCR machine, load the PCR plate, and then close the lid", "--out", tmp_path, "--yes")
+    assert result.exit_code == 0, result.stderr
+    path = next(tmp_path.iterdir())
+    spec = load_task_file(path)
+    assert spec.success.type == "sequence" and len(spec.success.of) == 3
+    assert [s.skill for s in spec.expert][0] == "open_hinge" and spec.expert[-1].skill == "close_hinge"
+    assert run_cli("tasks", "validate", path).exit_code == 0
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("Put the 15 mL tube in the autoclave", "unknown object 'autoclave'; nearest:"),
+    ("Pour the buffer into the beaker", "liquids are not simulated"),
+    ("Unscrew the cap of the falcon tube", "screwing caps on or off is not supported"),
+    ("Pick up the 1000 mL beaker", "the franka_panda's gripper opens 80 mm"),
+])
+def test_refusals_exit_1_with_one_line_and_write_nothing(run_cli, tmp_path, text, message) -> None:
+    result = run_cli("new-task", text, "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and message in " ".join(result.stderr.split())
+    assert "Traceback" not in result.stderr and not list(tmp_path.iterdir())
+    assert len(result.stderr.strip().splitlines()) == 1
 
 
 def test_answering_no_writes_nothing(run_cli, tmp_path, monkeypatch) -> None:

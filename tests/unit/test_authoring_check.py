@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.check import check_task, solve_check
+from pipette_cli.authoring.check import SolveReport, check_task, solve_check
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.demos.experts import base as experts
 from pipette_cli.specs.task import TaskSpec
@@ -70,7 +70,23 @@ def test_solve_check_runs_the_tasks_expert(plate_task, monkeypatch) -> None:
     monkeypatch.setitem(experts._CUSTOM, plate_task.id.rsplit("-v", 1)[0], StandStill)
     report = solve_check(plate_task, episodes=2)
     assert report.status == "unsolved" and report.expert.endswith("StandStill") and report.successes == 0
-    assert report.reasons == ["out_of_region", "out_of_region"]
+    assert report.reasons == ["seed 0: the criterion not met; evaluator: out_of_region",
+                              "seed 1: the criterion not met; evaluator: out_of_region"]
+    assert "seeds 0, 1: the criterion not met" in report.summary()
     easy = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3})
     solved = solve_check(easy, episodes=2)
     assert solved.status == "solved" and solved.successes == 2
+
+
+def test_four_of_five_seeds_pass_the_gate() -> None:
+    assert SolveReport("unsolved", episodes=5).required == 4
+    assert SolveReport("unsolved", episodes=2).required == 2
+
+
+def test_a_failed_sequence_names_the_stage_it_stopped_at(monkeypatch) -> None:
+    drafted = draft_task("Open the thermal cycler, then close it", make_backend("offline"))
+    spec = drafted.spec
+    assert drafted.composed.stage_names == ["open the thermal cycler", "close the thermal cycler"]
+    monkeypatch.setitem(experts._CUSTOM, spec.id.rsplit("-v", 1)[0], StandStill)
+    report = solve_check(spec, 1, drafted.composed.stage_names)
+    assert report.reasons == ["seed 0: stage 1 of 2 (open the thermal cycler) not met; evaluator: not_reached"]

@@ -17,14 +17,14 @@ import pytest
 from pipette_cli.authoring.assets_new import draft_asset
 from pipette_cli.authoring.backends import make_backend
 from pipette_cli.authoring.workflow import draft_task
-from pipette_cli.errors import BackendError
+from pipette_cli.errors import BackendError, PipetteError
 
 GOOD_DRAFT = {
-    "intent": "place",
     "objects": [
-        {"asset": "conical_tube_50ml_skirted", "role": "item", "part": None, "mention": "tube"},
-        {"asset": "electronic_balance", "role": "destination", "part": None, "mention": "balance"},
+        {"name": "tube", "asset": "conical_tube_50ml_skirted", "role": "item"},
+        {"name": "balance", "asset": "electronic_balance", "role": "destination"},
     ],
+    "steps": [{"action": "place", "object": "tube", "target": "balance", "source": None, "part": None}],
     "robot": None,
     "instruction": "Put the tube on the balance.",
     "thresholds": {"lift_height_m": None, "hold_s": None, "timeout_s": None, "max_tilt_deg": None, "xy_tolerance_m": None},
@@ -95,15 +95,17 @@ def test_valid_structured_reply_becomes_a_built_task(server) -> None:
     request = server.requests[0]
     assert request["path"] == "/v1/chat/completions" and request["auth"] == "Bearer sk-test"
     fmt = request["body"]["response_format"]
-    assert fmt["type"] == "json_schema" and fmt["json_schema"]["name"] == "TaskDraftSpec"
+    assert fmt["type"] == "json_schema" and fmt["json_schema"]["name"] == "TaskPlanSpec"
     schema = fmt["json_schema"]["schema"]
     assert schema["additionalProperties"] is False and set(schema["required"]) == set(schema["properties"])
+    assert "conical_tube_50ml_skirted" in schema["$defs"]["PlanObjectSpec"]["properties"]["asset"]["enum"]
     system = request["body"]["messages"][0]["content"]
     assert "conical_tube_50ml_skirted" in system and "electronic_balance" in system  # the vocabulary is in the prompt
+    assert len(system) < 6000  # with the schema, well inside a 4k-token context
 
 
 def test_malformed_json_is_reasked_with_the_parse_error(server) -> None:
-    server.script = [(200, chat_reply('{"intent": "place", "objects": [ oops'), 0.0),
+    server.script = [(200, chat_reply('{"steps": [{"action": "place", "objects": [ oops'), 0.0),
                      (200, chat_reply("```json\n" + json.dumps(GOOD_DRAFT) + "\n```"), 0.0)]
     drafted = draft_task("Put the tube on the balance", openai(server))
     assert drafted.spec.id.endswith("OnElectronicBalance-v1")
@@ -113,20 +115,53 @@ def test_malformed_json_is_reasked_with_the_parse_error(server) -> None:
 
 
 def test_schema_violation_is_reasked_with_the_field_errors(server) -> None:
-    bad = dict(GOOD_DRAFT, intent="juggle", thresholds=dict(GOOD_DRAFT["thresholds"], timeout_s=-3))
+    bad = dict(GOOD_DRAFT, steps=[dict(GOOD_DRAFT["steps"][0], action="juggle")],
+               thresholds=dict(GOOD_DRAFT["thresholds"], timeout_s=-3))
     server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
     draft_task("Put the tube on the balance", openai(server))
     reask = server.requests[1]["body"]["messages"][-1]["content"]
-    assert "intent" in reask and "thresholds.timeout_s" in reask
+    assert "steps.0.action" in reask and "thresholds.timeout_s" in reask
+
+
+def test_a_step_naming_a_missing_object_is_reasked_with_the_names(server) -> None:
+    bad = dict(GOOD_DRAFT, steps=[dict(GOOD_DRAFT["steps"][0], target="scale")])
+    server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
+    draft_task("Put the tube on the balance", openai(server))
+    reask = server.requests[1]["body"]["messages"][-1]["content"]
+    assert "steps.0.target: 'scale' is not one of the objects (tube, balance)" in reask
+
+
+def test_an_object_the_description_does_not_name_is_reasked(server) -> None:
+    bad = json.loads(json.dumps(GOOD_DRAFT))
+    bad["objects"][1]["asset"] = "orbital_shaker"
+    server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
+    draft_task("Put the tube on the balance", openai(server))
+    reask = server.requests[1]["body"]["messages"][-1]["content"]
+    assert "the description names no shaker" in reask
+
+
+def test_an_impossible_plan_is_reasked_with_the_robot_limit(server) -> None:
+    bad = json.loads(json.dumps(GOOD_DRAFT))
+    bad["objects"][0]["asset"] = "beaker_1000ml"
+    server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
+    draft_task("Put the tube on the balance", openai(server))
+    reask = server.requests[1]["body"]["messages"][-1]["content"]
+    assert "gripper opens 80 mm" in reask
+
+
+def test_liquids_are_refused_before_any_request(server) -> None:
+    with pytest.raises(PipetteError, match="liquids are not simulated"):
+        draft_task("Pour the buffer into the beaker", openai(server))
+    assert server.requests == []
 
 
 def test_unknown_asset_is_reasked_with_a_suggestion(server) -> None:
     bad = json.loads(json.dumps(GOOD_DRAFT))
-    bad["objects"][1]["asset"] = "electronic_balanse"
+    bad["objects"][1]["asset"] = "flux capacitor"
     server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
     draft_task("Put the tube on the balance", openai(server))
     reask = server.requests[1]["body"]["messages"][-1]["content"]
-    assert "unknown asset 'electronic_balanse'" in reask and "electronic_balance" in reask
+    assert "objects.1.asset: unknown object 'flux capacitor'; nearest:" in reask
 
 
 def test_timeout_is_retried_then_succeeds(server) -> None:
@@ -175,7 +210,7 @@ def test_ollama_native_chat_with_format_schema(server) -> None:
     drafted = draft_task("Put the tube on the balance", backend)
     body = server.requests[0]["body"]
     assert server.requests[0]["path"] == "/api/chat" and body["stream"] is False
-    assert body["format"]["properties"]["intent"]["enum"][0] == "pick" and drafted.backend == "ollama"
+    assert body["format"]["$defs"]["PlanStepSpec"]["properties"]["action"]["enum"][0] == "pick" and drafted.backend == "ollama"
 
 
 def test_asset_generation_through_the_llm_backend(server) -> None:

@@ -1,6 +1,6 @@
 """The backend protocol, and the LLM backends' adapter to the shared structured-output loop.
 
-A backend turns a description into a pydantic model (a :class:`TaskDraftSpec` or an
+A backend turns a description into a pydantic model (a :class:`TaskPlanSpec` or an
 :class:`AssetDraftSpec`) and hands it to ``accept``, which finishes the work (lay out,
 render, validate) or raises a :class:`~pipette_cli.errors.PipetteError` with ``problems``.
 LLM backends ask through :mod:`pipette_cli.llm` (the server's structured-output form is
@@ -27,9 +27,11 @@ class AuthoringBackend(Protocol):
 
     name: str
 
-    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T]) -> T:
+    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
+                 json_schema: dict[str, Any] | None = None) -> T:
         """Produce a ``schema`` instance for ``user`` (``system`` is the LLM instructions) and
-        return ``accept(instance)``; ``accept`` raises PipetteError to reject it."""
+        return ``accept(instance)``; ``accept`` raises PipetteError to reject it. ``json_schema``
+        is what the server is sent (default: the schema's own, strict)."""
         ...
 
     def parse_task(self, description: str) -> Any | None:
@@ -52,10 +54,12 @@ class ChatBackend:
     def parse_task(self, description: str) -> None:
         return None
 
-    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T]) -> T:
+    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
+                 json_schema: dict[str, Any] | None = None) -> T:
         trace: list[str] = []
         try:
             return ask_structured(self.client, system=system, user=user, schema=schema, accept=accept,
-                                  fix_hint="Fix it (use only names from the lists above)", trace=trace)
+                                  json_schema=json_schema, fix_hint="Fix it (use only names from the lists above)",
+                                  trace=trace)
         finally:
             self.attempts_used = len(trace)

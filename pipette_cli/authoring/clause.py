@@ -1,0 +1,284 @@
+"""One step of a description ("put the 15 mL tube in the rack") read against the vocabulary:
+its verb, the objects it mentions with their sizes, words and prepositions, the parts it names
+("the lid of the centrifuge"), and the words nothing explains.
+
+A word that is both a verb and a noun ("stand", "rack", "slide") is a verb at the start of the
+step and a noun after an article. Object mentions are the vocabulary's alias phrases, longest
+first; a pronoun ("it", "them") is a mention the parser resolves from the earlier steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from pipette_cli.authoring.text import Token, first_match, match
+from pipette_cli.authoring.vocabulary import Vocabulary
+
+PART_LINKS = ("of", "on", "in", "inside", "at")
+"""Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
+
+
+@dataclass
+class Mention:
+    """An object (or the bench, or a pronoun) named in a step."""
+
+    start: int
+    end: int  # exclusive
+    kind: str  # a vocabulary kind; "bench" or "pronoun" otherwise
+    phrase: str
+    sizes: list[str] = field(default_factory=list)
+    modifiers: list[str] = field(default_factory=list)
+    window_start: int = 0
+    prep: str | None = None  # near | source | over | dest | of | None (the direct object)
+    prep_phrase: str | None = None
+    part: str | None = None
+
+    @property
+    def is_bench(self) -> bool:
+        return self.kind == "bench"
+
+    @property
+    def is_pronoun(self) -> bool:
+        return self.kind == "pronoun"
+
+    def words(self) -> str:
+        return " ".join([*self.sizes, *self.modifiers, self.phrase]).strip()
+
+
+@dataclass
+class Part:
+    """A part word ("lid", "top shelf", "button") and the mention it belongs to, if said."""
+
+    start: int
+    end: int
+    name: str
+    phrase: str
+    owner: Mention | None = None
+
+
+@dataclass
+class Clause:
+    """What one step says."""
+
+    tokens: list[Token]
+    action: str | None = None
+    verb: str | None = None
+    implied_target: str | None = None
+    unsupported: list[tuple[str, str]] = field(default_factory=list)  # (group, phrase)
+    mentions: list[Mention] = field(default_factory=list)
+    parts: list[Part] = field(default_factory=list)
+    unknown: list[str] = field(default_factory=list)
+
+    @property
+    def text(self) -> str:
+        return " ".join(t.text for t in self.tokens)
+
+    def objects(self) -> list[Mention]:
+        return [m for m in self.mentions if not m.is_bench]
+
+    def with_prep(self, *preps: str | None) -> list[Mention]:
+        return [m for m in self.mentions if m.prep in preps]
+
+
+class ClauseReader:
+    """Reads steps against one vocabulary (tables built once)."""
+
+    def __init__(self, vocab: Vocabulary) -> None:
+        self.vocab = vocab
+        words = vocab.words
+        self.aliases = vocab.aliases()
+        self.bench = sorted(words.bench, key=lambda p: -len(p.split()))
+        self.verbs = sorted(((p, a) for a, ps in words.actions.items() for p in ps), key=lambda pa: -len(pa[0].split()))
+        self.implied = dict(words.implied_targets)
+        self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
+        self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
+        self.preps = sorted(((p, role) for role, ps in words.prepositions.model_dump().items() for p in ps),
+                            key=lambda pr: -len(pr[0].split()))
+        self.prep_words = {w for p, _ in self.preps for w in p.split()}
+        self.articles = set(words.articles)
+        self.fillers = set(words.fillers)
+        self.pronouns = sorted(words.pronouns, key=lambda p: -len(p.split()))
+        self.modifiers = words.modifiers
+
+    # ------------------------------------------------------------------ verbs
+    def verb_at(self, tokens: list[Token], i: int) -> tuple[str, str, int] | None:
+        """``(kind, phrase, length)`` of a verb starting at ``i``: kind is an action, ``implied`` or
+        ``unsupported``. A word after an article or a size is a noun ("the stand")."""
+        if i > 0 and (tokens[i - 1].text in self.articles or tokens[i - 1].kind == "size"):
+            return None
+        best: tuple[str, str, int] | None = None
+        for phrase, action in self.verbs:
+            n = match(tokens, i, phrase)
+            if n and (best is None or n > best[2]):
+                best = (action, phrase, n)
+        for table, kind in ((self.implied, "implied"), (self.unsupported_verbs, "unsupported")):
+            found = first_match(tokens, i, list(table))
+            if found and (best is None or found[1] > best[2] or (kind == "unsupported" and found[1] == best[2] and i == 0)):
+                best = (kind, found[0], found[1])
+        return best
+
+    def is_verb(self, tokens: list[Token], i: int) -> bool:
+        """Whether a verb starts at ``i`` (used to split steps at "and" / ",")."""
+        found = self.verb_at(tokens, i)
+        if found is None:
+            return False
+        # "and rack" after a noun list is a noun; a verb phrase is followed by an object or a pronoun
+        return found[0] != "place" or i + found[2] >= len(tokens) or tokens[i + found[2]].text not in ("and", ",")
+
+    # ------------------------------------------------------------------ reading
+    def read(self, tokens: list[Token]) -> Clause:
+        clause = Clause(tokens)
+        verbs = self._verbs(clause)
+        self._mentions(clause, verbs)
+        self._sizes_and_modifiers(clause, verbs)
+        self._parts(clause)
+        self._prepositions(clause, verbs)
+        self._unknown(clause)
+        return clause
+
+    def _verbs(self, clause: Clause) -> set[int]:
+        tokens = clause.tokens
+        at: set[int] = set()
+        i = 0
+        while i < len(tokens):
+            found = self.verb_at(tokens, i) if tokens[i].kind == "word" else None
+            # a verb-noun word ("stand", "rack") is a verb only where no action was found yet
+            if found is not None and (clause.action is None or found[0] == "unsupported"):
+                kind, phrase, n = found
+                if kind == "unsupported":
+                    clause.unsupported.append((self.unsupported_verbs[phrase], phrase))
+                    if clause.action is None:
+                        clause.verb = phrase
+                elif clause.action is None and not clause.unsupported:
+                    if kind == "implied":
+                        clause.action, clause.implied_target = "place", self.implied[phrase]
+                    else:
+                        clause.action = kind
+                    clause.verb = phrase
+                at.update(range(i, i + n))
+                for k in range(i, i + n):
+                    tokens[k].used = True
+                i += n
+                continue
+            i += 1
+        return at
+
+    def _mentions(self, clause: Clause, verbs: set[int]) -> None:
+        tokens = clause.tokens
+        i = 0
+        while i < len(tokens):
+            if i in verbs or tokens[i].kind != "word":
+                i += 1
+                continue
+            alias = first_match(tokens, i, self.aliases)
+            bench = first_match(tokens, i, self.bench)
+            pronoun = first_match(tokens, i, self.pronouns)
+            part = first_match(tokens, i, list(self.part_words))
+            found: tuple[str, str, int] | None = None
+            if alias and (not part or alias[1] > part[1] or not self._part_has_owner(clause, i, part[1])):
+                found = (self.vocab.alias_to_kind[alias[0]], alias[0], alias[1])
+            if bench and (found is None or bench[1] > found[2]):
+                found = ("bench", bench[0], bench[1])
+            if found is None and pronoun and not part:
+                found = ("pronoun", pronoun[0], pronoun[1])
+            if found is None:
+                i += 1
+                continue
+            kind, phrase, n = found
+            clause.mentions.append(Mention(i, i + n, kind, phrase, window_start=i))
+            for k in range(i, i + n):
+                tokens[k].used = True
+            i += n
+
+    def _part_has_owner(self, clause: Clause, i: int, n: int) -> bool:
+        """A part word directly after a mention ("incubator shelf") or before "of the X"."""
+        tokens = clause.tokens
+        before = clause.mentions[-1] if clause.mentions and clause.mentions[-1].end == i else None
+        if before is not None and not before.is_bench and not before.is_pronoun:
+            return True
+        k = i + n
+        return k < len(tokens) and tokens[k].text in PART_LINKS and any(
+            first_match(clause.tokens, j, self.aliases) for j in range(k + 1, min(k + 4, len(tokens))))
+
+    def _sizes_and_modifiers(self, clause: Clause, verbs: set[int]) -> None:
+        tokens = clause.tokens
+        for index, m in enumerate(clause.mentions):
+            floor = clause.mentions[index - 1].end if index else 0
+            k = m.start - 1
+            while k >= floor and tokens[k].kind != "punct" and k not in verbs and tokens[k].text not in self.articles \
+                    and (tokens[k].kind == "size" or tokens[k].text not in self.prep_words):
+                if tokens[k].kind == "size":
+                    m.sizes.append(tokens[k].text)
+                    tokens[k].used = True
+                elif not tokens[k].used:
+                    two = f"{tokens[k].text} {tokens[k + 1].text}" if k + 1 < m.start else ""
+                    modifier = self.modifiers.get(two) or self.modifiers.get(tokens[k].text)
+                    m.modifiers.append(modifier or tokens[k].text)
+                    if modifier or tokens[k].text in self.vocab.assets_words():
+                        tokens[k].used = True
+                k -= 1
+            m.window_start = k + 1
+            m.sizes.reverse()
+            m.modifiers.reverse()
+            after = tokens[m.end] if m.end < len(tokens) else None  # "the tube without its cap" (-> nocap)
+            if after is not None and not after.used and after.text in set(self.modifiers.values()):
+                m.modifiers.append(after.text)
+                after.used = True
+
+    def _parts(self, clause: Clause) -> None:
+        tokens = clause.tokens
+        i = 0
+        while i < len(tokens):
+            part = first_match(tokens, i, list(self.part_words)) if not tokens[i].used else None
+            if part is None:
+                i += 1
+                continue
+            phrase, n = part
+            name = self.part_words[phrase]
+            prev = next((m for m in reversed(clause.mentions) if m.end <= i), None)
+            nxt = next((m for m in clause.mentions if m.start >= i + n), None)
+            owner = None
+            if prev is not None and not prev.is_bench and all(t.text in self.articles for t in tokens[prev.end:i]):
+                owner = prev  # "the centrifuge lid", "the incubator's door"
+            elif nxt is not None and not nxt.is_bench:
+                between = [t.text for t in tokens[i + n:nxt.window_start]]
+                if between and between[0] in PART_LINKS and all(w in self.articles for w in between[1:]):
+                    owner = nxt  # "the lid of the centrifuge", "the button on the centrifuge"
+                    for k in range(i + n, nxt.window_start):
+                        tokens[k].used = True
+            clause.parts.append(Part(i, i + n, name, phrase, owner))
+            if owner is not None and owner.part is None:
+                owner.part = name
+            for k in range(i, i + n):
+                tokens[k].used = True
+            i += n
+
+    def _prepositions(self, clause: Clause, verbs: set[int]) -> None:
+        tokens = clause.tokens
+        anchors = sorted({max(verbs) + 1 if verbs else 0, *(m.end for m in clause.mentions), *(p.end for p in clause.parts)})
+        for m in clause.mentions:
+            owned = [p for p in clause.parts if p.owner is m and p.start < m.start]
+            start = owned[0].start if owned else m.window_start
+            floor = max([a for a in anchors if a <= start] or [0])
+            k = floor
+            while k < start:
+                for phrase, role in self.preps:
+                    n = match(tokens, k, phrase)
+                    if n and k + n <= start:
+                        m.prep, m.prep_phrase = role, phrase
+                        for j in range(k, k + n):
+                            tokens[j].used = True
+                        k += n - 1
+                        break
+                k += 1
+
+    def _unknown(self, clause: Clause) -> None:
+        current: list[str] = []
+        for token in [*clause.tokens, Token(".", "punct")]:
+            unknown = token.kind == "word" and not token.used and token.text not in self.fillers \
+                and token.text not in self.articles and not token.text.isdigit() and token.text not in self.prep_words
+            if unknown:
+                current.append(token.text)
+            elif current:
+                clause.unknown.append(" ".join(current))
+                current = []

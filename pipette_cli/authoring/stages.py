@@ -1,0 +1,405 @@
+"""Each plan step becomes a *stage*: a success criterion (a typed evaluator spec) and the skill steps
+that satisfy it (typed expert steps), with thresholds read off the assets' geometry and a comment
+saying where every derived number comes from.
+
+| step | criterion | skills |
+| --- | --- | --- |
+| pick | ``lift_and_hold``: half the resting height, 3-8 cm | ``pick`` (``remove_from`` out of an enclosure) |
+| place on a surface | ``region_hold`` disc on the site (0.5 x half the surface, the footprint fits), z band, tilt | ``pick`` + ``place_on`` |
+| place into a rack | ``region_hold`` over the slot grid, below 40 % of the rack | ``pick`` + ``insert_into`` a free slot |
+| place into a slot, rotor, cup | small disc on the site | ``pick`` + ``insert_into`` / ``place_on`` |
+| place into a deep bin | disc over the opening, below its rim | ``pick`` + ``move`` over it + ``retreat`` (let go) |
+| remove | ``displacement`` to a free bench spot (and down, off a raised source) | ``remove_from`` to that spot |
+| open / close a hinge or slide | ``joint_threshold`` past 75 % open / within 5 deg (1 cm) of shut | ``open_hinge`` / ``close_hinge`` / ``slide`` |
+| open / close a lift-off lid | lid lifted 10 cm and drawn back / seated on ``lid_seat`` | ``pick`` + ``move`` / ``place_on`` |
+| press | ``mechanism_triggered`` (a ``button_release`` mechanism) | ``press`` + ``wait`` |
+| position | ``near_target`` above the target | ``pick`` + ``position_over`` |
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pipette_cli.authoring.layout import PlacedObject
+from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
+from pipette_cli.authoring.scene import (
+    HANDLES, SceneBuilder, covered, hatch_joint, open_value, r, receiving_site,
+)
+from pipette_cli.authoring.validate import separate_lid
+from pipette_cli.specs import evaluators as ev
+from pipette_cli.specs import expert as sk
+from pipette_cli.specs.base import BoundSpec
+from pipette_cli.specs.mechanisms import ButtonReleaseSpec
+
+RECEPTACLES = ("cuvette_slot", "rotor_center", "cup_center", "block_center", "drawer_center")
+SLOTS = ("cuvette_slot",)
+"""Receptacles an object goes *into* (``insert_into``); the others are surfaces it is set on."""
+SURFACE_SIZE = {"pan_center": "pan_size", "platform_center": "platform_size", "plate_center": "plate_size",
+                "shelf_0_center": "shelf_size", "shelf_1_center": "shelf_size", "top_center": "top_size",
+                "center": "inner_size", "drawer_center": "plate_pocket", "block_center": "block_size",
+                "cuvette_slot": "cuvette_size"}
+DEEP = 0.05
+"""Metres a container's walls rise above its floor site for objects to be dropped in rather than set down."""
+
+
+@dataclass
+class Stage:
+    """One step as a criterion and the skills that satisfy it."""
+
+    step: PlanStepSpec
+    criterion: ev.EvaluatorSpec
+    program: list[sk.StepSpec]
+    comments: dict[str, str] = field(default_factory=dict)  # criterion field path -> comment
+    targets: list[str] = field(default_factory=list)
+    mechanisms: list[ButtonReleaseSpec] = field(default_factory=list)
+
+
+def _reference(name: str, geom: AssetGeometry) -> tuple[str, float]:
+    """The point whose position is tested and its height above the surface at rest: an upright
+    object's origin; a lying one's ``grasp`` site (its middle)."""
+    if not geom.semantics.get("upright", True) and "grasp" in geom.sites:
+        return f"{name}/grasp", geom.origin_height + float(geom.sites["grasp"][2])
+    return name, geom.origin_height
+
+
+class StageBuilder:
+    """Turns the steps of a laid-out plan into stages (see the module docstring)."""
+
+    def __init__(self, scene: SceneBuilder, thresholds: PlanThresholdsSpec, multi: bool) -> None:
+        self.scene = scene
+        self.checked = scene.checked
+        self.placed: dict[str, PlacedObject] = scene.out.placed
+        self.th = thresholds
+        self.multi = multi
+        self.ws = scene.ws
+        self.bench = scene.ws.bench_z
+        self.held_at: dict[str, tuple[str, str]] = dict(scene.out.start_site)  # item -> (holder, site) now
+
+    def geom(self, name: str) -> AssetGeometry:
+        return measure_asset(self.placed[name].asset)
+
+    def human(self, name: str) -> str:
+        return self.scene.human(name)
+
+    def hold(self, default: float) -> float:
+        return self.th.hold_s if self.th.hold_s is not None and not self.multi else default
+
+    def timeout(self, default: float) -> float | None:
+        if self.multi:
+            return default
+        return self.th.timeout_s or default
+
+    def build(self, step: PlanStepSpec) -> Stage:
+        stage = getattr(self, f"_{step.action}")(step)
+        return stage
+
+    # ------------------------------------------------------------------ taking hold
+    def _take(self, name: str, lift: float | None = None, hold_s: float = 0.0) -> list[sk.StepSpec]:
+        """Grasp ``name`` where it is: out of an enclosure with ``remove_from``, else ``pick``."""
+        where = self.held_at.get(name)
+        if where is not None and where[1] != "slot_grid" and where[1] in self.geom(where[0]).sites \
+                and covered(self.geom(where[0]), where[1]):
+            return [sk.RemoveFromSpec(object=name, source=where[0], to="hold", hold_s=0.3)]
+        if lift is None:
+            return [sk.PickSpec(object=name)]
+        return [sk.PickSpec(object=name, lift=lift, hold_s=hold_s)]
+
+    # ------------------------------------------------------------------ pick
+    def _pick(self, step: PlanStepSpec) -> Stage:
+        name = step.object
+        geom = self.geom(name)
+        gain = self.th.lift_height_m or r(max(0.03, min(0.08, 0.5 * geom.height)))
+        hold = self.hold(0.5)
+        upright = geom.semantics.get("upright", True) and geom.height > 1.5 * 2 * max(geom.half_xy)
+        tilt = self.th.max_tilt_deg or (35.0 if upright else None)
+        criterion = ev.LiftAndHoldSpec(object=name, min_height_gain=gain, hold_s=hold, max_tilt_deg=tilt,
+                                       timeout_s=self.timeout(10))
+        comments = {"min_height_gain": "from the description" if self.th.lift_height_m else
+                    f"VERIFY: half the object's resting height ({geom.height * 1000:.0f} mm), clipped to 3-8 cm"}
+        if tilt:
+            comments["max_tilt_deg"] = "from the description" if self.th.max_tilt_deg else "tall upright object: tilting past this fails (paper A.8 uses 35)"
+        program = self._take(name, lift=max(0.08, gain + 0.05), hold_s=hold + 0.5)
+        if isinstance(program[0], sk.RemoveFromSpec):
+            program = [program[0].model_copy(update={"hold_s": hold + 0.5})]
+        self.held_at.pop(name, None)
+        return Stage(step, criterion, program, comments, [name])
+
+    # ------------------------------------------------------------------ place
+    def _place(self, step: PlanStepSpec) -> Stage:
+        item, dest = step.object, step.target
+        assert dest is not None
+        igeom, dgeom = self.geom(item), self.scene.geoms.get(dest) or self.geom(dest)
+        site = receiving_site(dgeom, step.part, self.placed[item].asset)
+        if site is None or "lid_seat" in dgeom.sites and site != "lid_seat":
+            raise PlanError(f"impossible request: the {self.human(dest)} has no surface, slot or opening to put the "
+                            f"{self.human(item)} in or on")
+        take = self._take(item)
+        if site == "slot_grid":
+            stage = self._into_rack(step, igeom, dgeom)
+        elif site in SLOTS:
+            stage = self._onto(step, igeom, dgeom, site, insert=True)
+        elif site == "opening" or (float(dgeom.high[2]) - float(dgeom.sites[site][2]) >= DEEP
+                                   and site in ("center", "inside_bottom")):
+            stage = self._drop_in(step, igeom, dgeom, site)
+        else:
+            stage = self._onto(step, igeom, dgeom, site, insert=False)
+        stage.program = take + stage.program
+        self.held_at[item] = (dest, site)
+        return stage
+
+    def _fit_radius(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str) -> float:
+        """Radius of the disc the item's origin must end in on ``site``; refuses what does not fit."""
+        sem = dgeom.semantics
+        size_key = SURFACE_SIZE.get(site) if site != "center" or "inner_size" in sem else None
+        size = sem.get(size_key) if size_key else None
+        if site == "inside_bottom":
+            size = [sem.get("outer_diameter", 0.05) - 0.004] * 2
+        if size is None:
+            hx, hy = dgeom.half_xy
+            size = [2 * hx, 2 * hy]
+        half = 0.5 * min(float(size[0]), float(size[1]))
+        extent = sorted(float(v) for v in (igeom.high[:2] - igeom.low[:2]))
+        room_axes = sorted(float(v) for v in size[:2])
+        if site == "opening":
+            room = half - 0.5 * extent[1]
+        elif site in RECEPTACLES:
+            room = min(0.5 * (a - e) for a, e in zip(room_axes, extent, strict=True)) + 0.0015  # a slot holds it with play
+        else:
+            room = min(0.5 * (a - e) for a, e in zip(room_axes, extent, strict=True))
+        if room < 0.0:
+            raise PlanError(f"impossible request: the {self.human(step.object)} ({extent[1] * 1000:.0f} x {extent[0] * 1000:.0f} mm) "
+                            f"does not fit the {self.human(step.target)}'s {site.replace('_', ' ')} "
+                            f"({room_axes[1] * 1000:.0f} x {room_axes[0] * 1000:.0f} mm); choose a smaller object or a larger one to put it on")
+        capacity = sem.get("capacity_kg")
+        mass = float(igeom.semantics.get("mass", 0.0))
+        if capacity is not None and mass > float(capacity):
+            raise PlanError(f"impossible request: the {self.human(step.object)} weighs {mass:.2f} kg, over the "
+                            f"{capacity} kg capacity of the {self.human(step.target)}")
+        low = 0.01 if site in RECEPTACLES else 0.005
+        return r(max(low, min(0.5 * half, room)), 4)
+
+    def _onto(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str, insert: bool) -> Stage:
+        item, dest = step.object, step.target
+        radius = self.th.xy_tolerance_m or self._fit_radius(step, igeom, dgeom, site)
+        surface = float(dgeom.sites[site][2]) + self.placed[dest].pos[2] if not dgeom.free else \
+            self.placed[dest].pos[2] + float(dgeom.sites[site][2])
+        ref, lift = _reference(item, igeom)
+        upright = bool(igeom.semantics.get("upright", True))
+        tilt = self.th.max_tilt_deg or (15.0 if upright else None)
+        criterion = ev.RegionHoldSpec(object=ref, within=ev.CircleSpec(center=f"{dest}/{site}", radius=radius),
+                                      z=BoundSpec(min=r(surface - 0.01), max=r(surface + lift + 0.03)),
+                                      max_tilt_deg=tilt, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
+        comments = {"within": "from the description" if self.th.xy_tolerance_m else
+                    f"VERIFY: at most half of the {site.replace('_', ' ')}'s half-width, and the object's footprint stays on it",
+                    "z": f"VERIFY: resting on the surface at z = {surface:.3f} m (bench {self.bench:.2f})"}
+        if ref != item:
+            comments["object"] = "a lying object's middle (its grasp site), not its end"
+        if tilt:
+            comments["max_tilt_deg"] = "from the description" if self.th.max_tilt_deg else "an upright object must arrive upright"
+        skill: sk.StepSpec = sk.InsertIntoSpec(object=item, target=f"{dest}/{site}") if insert else \
+            sk.PlaceOnSpec(object=item, target=f"{dest}/{site}")
+        return Stage(step, criterion, [skill], comments, [item, dest])
+
+    def _into_rack(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry) -> Stage:
+        item, dest = step.object, step.target
+        self._check_holes(step)
+        slots = np.array([v for k, v in dgeom.sites.items() if k.startswith("slot_")])
+        pitch = float(dgeom.semantics.get("pitch", 0.02))
+        lo, hi = slots.min(axis=0), slots.max(axis=0)
+        px, py, pz = self.placed[dest].pos
+        slot_z = float(slots[:, 2].mean())
+        height = float(dgeom.high[2])
+        slot = self.scene.pick_slot(dest, dgeom)
+        comments = {"x": f"VERIFY: the slot grid of {dest} plus half a {pitch * 1000:.0f} mm pitch"}
+        if slot_z > 0.05:  # hanging holders (pipette stands): the item is off the bench
+            x = BoundSpec(min=r(px + dgeom.low[0] - 0.03), max=r(px + dgeom.high[0] + 0.03))
+            y = BoundSpec(min=r(py + dgeom.low[1] - 0.03), max=r(py + dgeom.high[1] + 0.03))
+            z = BoundSpec(min=r(pz + igeom.origin_height + 0.025))
+            comments["z"] = "VERIFY: hung, its origin is 25 mm above where it lies on the bench"
+        else:
+            x = BoundSpec(min=r(px + lo[0] - pitch / 2), max=r(px + hi[0] + pitch / 2))
+            y = BoundSpec(min=r(py + lo[1] - pitch / 2), max=r(py + hi[1] + pitch / 2))
+            z = BoundSpec(min=r(pz + slot_z - 0.01), max=r(pz + slot_z + 0.4 * height + 0.01))
+            comments["z"] = (f"VERIFY: standing in a slot (floor {slot_z * 1000:.0f} mm), below 40 % of the "
+                             f"{height * 1000:.0f} mm holder, so lying on top does not count")
+        criterion = ev.RegionHoldSpec(object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
+        return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{slot}")], comments, [item, dest])
+
+    def _check_holes(self, step: PlanStepSpec) -> None:
+        from pipette_cli.authoring.resolve import diameter, fits, holders_that_fit
+
+        vocab_item, vocab_dest = self.placed[step.object].asset, self.placed[step.target].asset  # type: ignore[index]
+        from pipette_cli.authoring.vocabulary import load_vocabulary
+
+        vocab = load_vocabulary()
+        if fits(vocab, vocab_item, vocab_dest) is False:
+            holders = holders_that_fit(vocab, vocab_item)
+            hint = f"; holders that fit: {', '.join(holders)}" if holders else ""
+            d, h = diameter(vocab, vocab_item), vocab.assets[vocab_dest].semantics["hole"]
+            raise PlanError(f"impossible request: the {self.human(step.object)} is {float(d) * 1000:.1f} mm wide, the holes "
+                            f"of the {self.human(step.target)} are {float(h) * 1000:.1f} mm{hint}")  # type: ignore[arg-type]
+
+    def _drop_in(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str) -> Stage:
+        item, dest = step.object, step.target
+        rim = self.placed[dest].pos[2] + float(dgeom.high[2])
+        radius = self._fit_radius(step, igeom, dgeom, site if site != "opening" else "opening")
+        criterion = ev.RegionHoldSpec(object=item, within=ev.CircleSpec(center=f"{dest}/{site}", radius=max(radius, 0.01)),
+                                      z=BoundSpec(max=r(rim)), hold_s=self.hold(0.5), timeout_s=self.timeout(15))
+        comments = {"z": f"inside: below its rim at z = {rim:.3f} m", "within": "VERIFY: over the middle of its opening"}
+        over = max(0.03, float(igeom.height)) + 0.03
+        program: list[sk.StepSpec] = [
+            sk.MoveSpec(object=item, to=sk.TargetSpec(at=f"{dest}/{site}", offset=(0.0, 0.0, r(rim - self.placed[dest].pos[2]
+                                                                                                 - float(dgeom.sites[site][2]) + over)))),
+            sk.RetreatSpec(distance=0.08)]
+        return Stage(step, criterion, program, comments, [item, dest])
+
+    # ------------------------------------------------------------------ remove
+    def _remove(self, step: PlanStepSpec) -> Stage:
+        item = step.object
+        source = step.source or (self.held_at.get(item) or (None, None))[0]
+        if source is None:
+            raise PlanError(f"say where the {self.human(item)} is taken from")
+        igeom, sgeom = self.geom(item), self.geom(source)
+        start = np.asarray(self.placed[item].pos)
+        spos = self.placed[source].pos
+        hx, hy = sgeom.half_xy
+        d = r(max(hx, hy) + max(igeom.half_xy) + 0.03)
+        spot = self.scene.layout.place(
+            _footprint(igeom, (self.ws.center_x - 0.1, float(start[1]))), self.bench, away=((spos[0], spos[1]), d))
+        if spot is None:
+            raise PlanError(f"impossible layout: no free spot on the bench within reach to set the {self.human(item)} down "
+                            f"away from the {self.human(source)}")
+        offset = (r(spot[0] - start[0]), r(spot[1] - start[1]), 0.0)
+        axis = int(np.argmax(np.abs(offset[:2])))
+        moved = 0.6 * offset[axis]
+        delta: dict[str, BoundSpec] = {"xy"[axis]: BoundSpec(max=r(moved)) if moved < 0 else BoundSpec(min=r(moved))}
+        rise = float(start[2]) - (self.bench + igeom.origin_height)
+        comments = {"delta": f"VERIFY: set down on the bench {abs(offset[axis]) * 1000:.0f} mm away along {'xy'[axis]}"
+                             " (a free spot the layout keeps clear)"}
+        if rise >= 0.03:
+            delta["z"] = BoundSpec(max=r(-(rise - 0.01)))
+            comments["delta"] += f", and down from {rise * 1000:.0f} mm above the bench"
+        upright = bool(igeom.semantics.get("upright", True))
+        criterion = ev.DisplacementSpec(object=item, delta=ev.AxisDeltaSpec(**delta), hold_s=self.hold(0.5),
+                                        max_tilt_deg=(self.th.max_tilt_deg or 30.0) if upright else None,
+                                        timeout_s=self.timeout(15))
+        target = sk.TargetSpec(point=(spot[0], spot[1], r(self.bench + 0.02)))
+        program: list[sk.StepSpec] = [sk.RemoveFromSpec(object=item, source=source, to=target, hold_s=0.2)]
+        self.held_at.pop(item, None)
+        return Stage(step, criterion, program, comments, [item, source])
+
+    # ------------------------------------------------------------------ open / close
+    def _open(self, step: PlanStepSpec) -> Stage:
+        return self._hatch(step, opening=True)
+
+    def _close(self, step: PlanStepSpec) -> Stage:
+        return self._hatch(step, opening=False)
+
+    def _hatch(self, step: PlanStepSpec, opening: bool) -> Stage:
+        name = step.object
+        geom = measure_asset(self.placed[name].asset)
+        if not geom.joints and separate_lid(geom):
+            return self._lift_off_lid(step, geom, opening)
+        joint = hatch_joint(geom, step.part, self.human(name))
+        limit = joint.open_limit
+        sign = 1.0 if limit > 0 else -1.0
+        ref = f"{name}/{joint.name}"
+        hold = self.hold(0.5)
+        if opening:
+            goal = r(0.75 * limit)
+            bound = BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)
+            note = f"VERIFY: open past 75 % of the {limit:g} {joint.unit} limit"
+        else:
+            tol = 5.0 if joint.kind == "hinge" else 0.01
+            bound = BoundSpec(max=tol) if sign > 0 else BoundSpec(min=-tol)
+            note = f"VERIFY: within {tol:g} {joint.unit} of shut (0)"
+        criterion = ev.JointThresholdSpec(joint=ref, bound=bound, unit="m" if joint.kind == "slide" else "deg",
+                                          hold_s=hold, timeout_s=self.timeout(10))
+        handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
+        if joint.kind == "slide":
+            skill: sk.StepSpec = sk.SlideSpec(joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3)
+        elif opening:
+            skill = sk.OpenHingeSpec(joint=ref, to_deg=r(0.75 * limit + 3.0 * sign, 1), handle=handle, hold_s=hold + 0.3)
+        else:
+            skill = sk.CloseHingeSpec(joint=ref, hold_s=hold + 0.3)
+        return Stage(step, criterion, [skill], {"bound": note}, [name])
+
+    def _lift_off_lid(self, step: PlanStepSpec, geom: AssetGeometry, opening: bool) -> Stage:
+        name = step.object
+        lid = self.scene.out.lids.get(name)
+        if lid is None:
+            raise PlanError(f"the {self.human(name)}'s lid must be opened or closed once per task")
+        lid_geom = self.geom(lid)
+        handle = f"{lid}/lid_handle" if "lid_handle" in lid_geom.sites else None
+        seat = geom.sites["lid_seat"]
+        if opening:
+            depth = r(2 * lid_geom.half_xy[0], 2)
+            criterion: ev.EvaluatorSpec = ev.DisplacementSpec(
+                object=lid, delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),
+                hold_s=self.hold(0.3), timeout_s=self.timeout(15))
+            comments = {"delta": f"lifted 10 cm (paper A.8) and drawn toward the robot by its own depth ({depth * 1000:.0f} mm)"}
+            program: list[sk.StepSpec] = [sk.PickSpec(object=lid, at=handle, lift=0.14),
+                                          sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0)]
+        else:
+            z = self.placed[name].pos[2] + seat[2]
+            criterion = ev.RegionHoldSpec(object=lid, within=ev.CircleSpec(center=f"{name}/lid_seat", radius=0.015),
+                                          z=BoundSpec(min=r(z - 0.015), max=r(z + 0.015)), max_tilt_deg=5.0,
+                                          hold_s=self.hold(0.5), timeout_s=self.timeout(20))
+            comments = {"z": "VERIFY: seated on the rim (lid_seat site height)"}
+            program = [sk.PickSpec(object=lid, at=handle), sk.PlaceOnSpec(object=lid, target=f"{name}/lid_seat")]
+        return Stage(step, criterion, program, comments, [lid, name])
+
+    # ------------------------------------------------------------------ press
+    def _press(self, step: PlanStepSpec) -> Stage:
+        name = step.object
+        geom = measure_asset(self.placed[name].asset)
+        joint = hatch_joint(geom, "lid", self.human(name))
+        target = float(geom.semantics.get("lid_open_angle_deg", 0.4 * joint.open_limit))
+        mechanism = ButtonReleaseSpec(name=f"{name}_release", button=f"{name}/button", joint=f"{name}/{joint.name}",
+                                      trigger_radius=float(geom.semantics.get("button_trigger_radius", 0.02)),
+                                      target_deg=target)
+        bound = BoundSpec(max=r(target + 1.0)) if target < 0 else BoundSpec(min=r(target - 1.0))
+        criterion = ev.MechanismTriggeredSpec(mechanism=mechanism.name, target=bound, timeout_s=self.timeout(10))
+        comments = {"target": "fired and the lid target within 1 deg of its open angle (paper A.6: -39 for -40)"}
+        program: list[sk.StepSpec] = [sk.PressSpec(button=f"{name}/button"), sk.WaitSpec(seconds=3.0)]
+        return Stage(step, criterion, program, comments, [name], [mechanism])
+
+    # ------------------------------------------------------------------ position
+    def _position(self, step: PlanStepSpec) -> Stage:
+        item, target = step.object, step.target
+        assert target is not None
+        igeom, tgeom = self.geom(item), self.geom(target)
+        site = next((s for s in ("center", "plate_center", "pan_center", "platform_center", "inside_bottom", "well_a1",
+                                 "neck", "cap_top", "cup_center") if s in tgeom.sites), None)
+        point = f"{item}/tip" if "tip" in igeom.sites else item
+        tip_z = self.placed[item].pos[2] + (igeom.sites["tip"][2] if "tip" in igeom.sites else 0.0)
+        hx, hy = tgeom.half_xy
+        radius = self.th.xy_tolerance_m or r(max(0.02, min(hx, hy)))
+        top = self.placed[target].pos[2] + float(tgeom.high[2])
+        min_z = r(max(top + 0.03, tip_z + 0.03))
+        hold = self.hold(0.5)
+        where = f"{target}/{site}" if site else target
+        criterion = ev.NearTargetSpec(object=point, target=where, max_xy_distance=radius, min_z=min_z, hold_s=hold,
+                                      timeout_s=self.timeout(12))
+        comments = {"max_xy_distance": "from the description" if self.th.xy_tolerance_m else
+                    f"VERIFY: within the target's half-width ({min(hx, hy) * 1000:.0f} mm)",
+                    "min_z": f"VERIFY: 3 cm above the target's top ({top:.3f} m) and above where the "
+                             f"{'tip' if 'tip' in igeom.sites else 'object'} starts"}
+        height = r(max(0.05, min_z - (self.placed[target].pos[2] + float(tgeom.sites[site][2]) if site else top) + 0.04))
+        program = [*self._take(item), sk.PositionOverSpec(object=item, point=point if "/" in point else None, target=where,
+                                                          height=height, hold_s=hold + 0.5)]
+        self.held_at.pop(item, None)
+        return Stage(step, criterion, program, comments, [item, target])
+
+
+def _footprint(geom: AssetGeometry, preferred: tuple[float, float]) -> Any:
+    from pipette_cli.authoring.layout import Footprint
+
+    return Footprint(geom.boxes, [(0.0, 0.0)], preferred, margin=0.02)
+
+
+__all__ = ["Stage", "StageBuilder", "open_value"]

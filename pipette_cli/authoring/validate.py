@@ -1,0 +1,195 @@
+"""One validator for every backend's plan: assets exist, each step can be done with those objects
+by this robot, and the roles agree with the steps.
+
+A plan from an LLM may name an asset by its words ("15 mL falcon tube"); they are resolved through
+the same vocabulary as the offline parser's. Every problem is one sentence saying what to change,
+so an LLM backend can send it back for a corrected answer. What no plan can fix (a plate wider
+than the gripper opens) is said the same way.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from pipette_cli.authoring.clause import ClauseReader
+from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
+from pipette_cli.authoring.resolve import Wanted, candidates
+from pipette_cli.authoring.text import normalise, tokenise
+from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
+from pipette_cli.specs.robot import RobotSpec, robot_spec
+
+DEFAULT_ROBOT = "franka_panda"
+HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
+
+
+@dataclass(frozen=True)
+class CheckedObject:
+    spec: PlanObjectSpec
+    asset: str
+    info: AssetInfo
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+
+@dataclass(frozen=True)
+class CheckedPlan:
+    """A plan whose assets are library ids and whose steps can be done."""
+
+    plan: TaskPlanSpec
+    objects: dict[str, CheckedObject]
+    robot: RobotSpec
+
+    @property
+    def steps(self) -> list[PlanStepSpec]:
+        return list(self.plan.steps)
+
+    def asset(self, name: str) -> str:
+        return self.objects[name].asset
+
+
+def resolve_asset(words: str, vocab: Vocabulary) -> str:
+    """An asset id for ``words``: the id itself, or the asset its words name ("the 15 mL falcon tube").
+
+    Raises:
+        PlanError: nothing in the library is called that ("unknown object 'X'; nearest: ...").
+    """
+    if words in vocab.assets:
+        return words
+    text = normalise(words.replace("_", " "), vocab.words)
+    clause = ClauseReader(vocab).read(tokenise(text, vocab))
+    found = [m for m in clause.mentions if not m.is_bench and not m.is_pronoun]
+    if found:
+        m = found[-1]
+        return candidates(vocab, Wanted(m.kind, tuple(m.sizes), tuple(m.modifiers)))[0]
+    nearest = vocab.nearest(words.replace("_", " "))
+    hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
+    raise PlanError(f"unknown object '{words}'; nearest: {hint}")
+
+
+def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
+    """Metres across the object where the skills' grasp (:mod:`pipette_cli.skills.grasp`) would take
+    it, from its resting collision boxes; None for a flat object, which is pinched at the rim."""
+    from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, PALM_MARGIN
+
+    boxes = geom.boxes
+    low, high = geom.low, geom.high
+    if float(high[2] - low[2]) < FLAT:
+        return None
+    if geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2]):
+        return float(min(high[:2] - low[:2]))  # lying: across its long axis
+    top = float(high[2])
+    z = geom.origin_height + float(geom.sites["grasp"][2]) if "grasp" in geom.sites else float(low[2]) + 0.6 * (top - float(low[2]))
+    z = min(max(z, top - (robot.gripper.finger_depth - PALM_MARGIN), float(low[2]) + FINGERTIP_LIFT), top - 0.004)
+    slab = boxes[(boxes[:, 2] <= z + 0.008) & (boxes[:, 5] >= z - 0.008)]
+    if not len(slab):
+        slab = boxes
+    return float(min(slab[:, 3:5].max(axis=0) - slab[:, 0:2].min(axis=0)))
+
+
+def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None:
+    """Why ``robot``'s gripper cannot hold the object, or None."""
+    from pipette_cli.skills.grasp import GRIP_MARGIN
+
+    width = grip_width(geom, robot)
+    opening = robot.gripper.max_opening
+    if width is None or width <= opening - GRIP_MARGIN:
+        return None
+    return (f"impossible request: the {name} is {width * 1000:.0f} mm across where it would be held; the "
+            f"{robot.name}'s gripper opens {opening * 1000:.0f} mm, so it cannot hold it")
+
+
+def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], robot: RobotSpec) -> list[str]:
+    where = f"steps.{i} ({step.action} {step.object})"
+    obj = objects[step.object]
+    info = obj.info
+    human = info.human_name()
+    problems: list[str] = []
+    if step.action in ("pick", "place", "remove", "position"):
+        if not info.graspable:
+            problems.append(f"{where}: impossible request: the {human} is fixed to the bench ({info.category}); the robot "
+                            f"cannot move it")
+            return problems
+        grip = grip_problem(measure_asset(obj.asset), robot, human)
+        if grip:
+            problems.append(f"{where}: {grip}")
+        mass = float(info.semantics.get("mass", 0.0))
+        if mass > robot.payload_kg:
+            problems.append(f"{where}: the {human} weighs {mass:.1f} kg, over the {robot.name}'s {robot.payload_kg} kg payload")
+    if step.action in ("place", "position") and step.target is None:
+        problems.append(f"{where}: say where it goes (target)")
+    if step.action == "remove" and step.source is None and step.target is None:
+        problems.append(f"{where}: say where it is taken from (source)")
+    if step.target is not None and step.target == step.object:
+        problems.append(f"{where}: contradictory request: the {human} cannot go into or onto itself")
+    if step.action in ("open", "close"):
+        if info.graspable and not info.static:
+            problems.append(f"{where}: impossible request: the {human} is a loose object with nothing to {step.action}")
+        elif not _openable(obj.asset, step.part):
+            part = step.part or "lid, door or drawer"
+            problems.append(f"{where}: impossible request: the {human} has no {part} to {step.action}")
+    if step.action == "press" and "button" not in info.semantics.get("sites", []):
+        problems.append(f"{where}: impossible request: the {human} has no button to press")
+    return problems
+
+
+def _openable(asset: str, part: str | None) -> bool:
+    geom = measure_asset(asset)
+    joints = set(geom.joints)
+    if part in HINGED_PARTS:
+        return bool(joints & set(HINGED_PARTS[part])) or (part == "lid" and separate_lid(geom) is not None)
+    movable = [j for j in joints if not j.endswith("knob_joint")]
+    return bool(movable) or separate_lid(geom) is not None
+
+
+def separate_lid(geom: AssetGeometry) -> str | None:
+    """The asset id of a lift-off lid the asset's description names ("separate asset water_bath_lid")."""
+    import re
+
+    m = re.search(r"separate asset (\w+)", str(geom.semantics.get("description", "")))
+    return m.group(1) if m else None
+
+
+def _roles(plan: TaskPlanSpec) -> dict[str, str]:
+    roles: dict[str, str] = {}
+    for s in plan.steps:
+        if s.action in ("open", "close", "press"):
+            roles.setdefault(s.object, "instrument")
+            continue
+        roles.setdefault(s.object, "item")
+        if s.target:
+            roles.setdefault(s.target, "target" if s.action == "position" else "destination")
+        if s.source:
+            roles.setdefault(s.source, "source")
+    return roles
+
+
+def validate_plan(plan: TaskPlanSpec, vocab: Vocabulary) -> CheckedPlan:
+    """Check ``plan`` against the asset library and the robot.
+
+    Raises:
+        PlanError: every problem found, each saying what to change.
+    """
+    robot = robot_spec(plan.robot or DEFAULT_ROBOT)
+    problems: list[str] = []
+    objects: dict[str, CheckedObject] = {}
+    roles = _roles(plan)
+    fixed: list[PlanObjectSpec] = []
+    for i, obj in enumerate(plan.objects):
+        try:
+            asset = resolve_asset(obj.asset, vocab)
+        except PlanError as exc:
+            problems.append(f"objects.{i}.asset: {exc}")
+            continue
+        spec = obj.model_copy(update={"asset": asset, "role": roles.get(obj.name, "distractor")})
+        fixed.append(spec)
+        objects[obj.name] = CheckedObject(spec, asset, vocab.assets[asset])
+    if problems:
+        raise PlanError(problems)
+    for i, step in enumerate(plan.steps):
+        problems += _check_step(i, step, objects, robot)
+    if problems:
+        raise PlanError(problems)
+    return CheckedPlan(plan.model_copy(update={"objects": fixed}), objects, robot)
