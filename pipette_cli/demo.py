@@ -85,7 +85,8 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
     from pipette_cli.demos.collect import collect
     from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
-    from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate
+    from pipette_cli.lerobot.evaluate import DecodeConfig
+    from pipette_cli.lerobot.runner import PolicySource, evaluate_task
     from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 
     if out.exists() and any(out.iterdir()):
@@ -120,10 +121,9 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     timings["train"] = time.perf_counter() - t
     say(f"train: tiny ACT, {size.train_steps} steps -> {checkpoint}")
     t = time.perf_counter()
-    summary = evaluate(task, InProcessSource(checkpoint, device="cpu"), DecodeConfig.for_policy("act"),
-                       episodes=size.eval_episodes, seed=1000, out=out / "eval", image_size=size.image_size)
-    summary["dataset_version"] = "augmented"  # what `pipette eval report` groups by
-    (out / "eval" / "summary.json").write_text(json.dumps(summary, indent=2))
+    summary = evaluate_task(task, PolicySource(checkpoint=checkpoint, device="cpu"), DecodeConfig.for_policy("act"),
+                            episodes=size.eval_episodes, seed=1000, out=out / "eval", image_size=size.image_size,
+                            dataset_version="augmented")  # the label `pipette eval report` groups by
     timings["eval"] = time.perf_counter() - t
     contact_sheet(aug, out / "augmented_sheet.png", out / "augmented.gif")
     report = {

@@ -30,6 +30,8 @@ log = logging.getLogger(__name__)
 REGISTRY_PATH_ENV = "PIPETTE_REGISTRY_PATH"
 ENTRY_POINT_GROUP = "pipette.tasks"
 YAML_SUFFIXES = (".yaml", ".yml")
+SUITES_FOLDER = "suites"
+"""The subfolder of a registry folder that holds evaluation suites instead of tasks."""
 
 
 @dataclass(frozen=True)
@@ -87,13 +89,15 @@ def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:
 
 
 def task_files(dirs: Iterable[Path]) -> list[Path]:
-    """All YAML files under ``dirs`` (recursively), de-duplicated, in a stable order."""
+    """All YAML files under ``dirs`` (recursively, except each folder's ``suites/``: evaluation
+    suites, see :mod:`pipette_cli.suites`), de-duplicated, in a stable order."""
     files: list[Path] = []
     seen: set[Path] = set()
     for folder in dirs:
         if not folder.is_dir():
             raise SpecError(f"{folder}: registry folder does not exist")
-        for path in sorted(p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file()):
+        found = (p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file())
+        for path in sorted(p for p in found if p.relative_to(folder).parts[0] != SUITES_FOLDER):
             resolved = path.resolve()
             if resolved not in seen:
                 seen.add(resolved)
@@ -124,23 +128,33 @@ class Registry:
         return self.entry(task_id).spec
 
     def entry(self, task_id: str) -> RegisteredTask:
-        if task_id in self.tasks:
-            return self.tasks[task_id]
-        candidates = [tid for tid in self.tasks if tid.split("/", 1)[1] == task_id]
-        if not candidates and not re.search(r"-v\d+$", task_id):
-            base = task_id  # "Name" or "namespace/Name": the latest version in each namespace
-            same = [tid for tid in self.tasks if re.sub(r"-v\d+$", "", tid) == base
-                    or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == base]
-            latest: dict[str, str] = {}
-            for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
-                latest[tid.split("/", 1)[0]] = tid
-            candidates = list(latest.values())
-        if len(candidates) == 1:
-            return self.tasks[candidates[0]]
-        if len(candidates) > 1:
-            raise TaskNotFound(f"task {task_id!r} is ambiguous: {', '.join(sorted(candidates))}")
-        names = list(self.tasks) + [tid.split("/", 1)[1] for tid in self.tasks]
-        raise TaskNotFound(f"unknown task {task_id!r}; {suggest(task_id, names)}")
+        return self.tasks[resolve_versioned(task_id, self.tasks, "task", TaskNotFound)]
+
+
+def resolve_versioned(name: str, ids: Iterable[str], what: str, error: type[PipetteError]) -> str:
+    """The registered id that ``name`` means: itself, ``Name-vN`` without its namespace, or
+    ``Name`` / ``namespace/Name`` without a version (the latest version in each namespace).
+
+    Raises:
+        error: no such id (with the closest ids), or ``name`` is ambiguous.
+    """
+    ids = list(ids)
+    if name in ids:
+        return name
+    candidates = [tid for tid in ids if tid.split("/", 1)[1] == name]
+    if not candidates and not re.search(r"-v\d+$", name):
+        same = [tid for tid in ids if re.sub(r"-v\d+$", "", tid) == name
+                or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == name]
+        latest: dict[str, str] = {}
+        for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
+            latest[tid.split("/", 1)[0]] = tid
+        candidates = list(latest.values())
+    if len(candidates) == 1:
+        return candidates[0]
+    if len(candidates) > 1:
+        raise error(f"{what} {name!r} is ambiguous: {', '.join(sorted(candidates))}")
+    names = ids + [tid.split("/", 1)[1] for tid in ids]
+    raise error(f"unknown {what} {name!r}; {suggest(name, names)}")
 
 
 def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None = None) -> Registry:

@@ -56,6 +56,9 @@ class AgentError(PipetteError):
 ONE_OF: dict[str, tuple[str, ...]] = {"eval": ("endpoint", "policy")}
 """Options of which a command needs exactly one. The command checks this when it runs, so its
 signature cannot show it; a plan lacking all of them misses ``"endpoint|policy"``."""
+STANDS_IN: dict[str, dict[str, str]] = {"eval": {"task_id": "suite"}}
+"""A parameter another one can replace (``pipette eval --suite ID`` needs no task): the agent
+treats it as required unless the other is given."""
 
 
 def say_missing(missing: list[str]) -> str:
@@ -79,7 +82,9 @@ class CommandCatalog:
     def missing(self, name: str, params: dict[str, Any]) -> list[str]:
         """Required parameters of ``name`` that ``params`` lacks; a missing choice of
         :data:`ONE_OF` is one entry, its names joined by ``|``."""
-        missing = [p for p in self.get(name).required() if params.get(p) in (None, "", [])]
+        stand_ins = STANDS_IN.get(name, {})
+        missing = [p for p in self.get(name).required()
+                   if params.get(p) in (None, "", []) and params.get(stand_ins.get(p, "")) in (None, "", [])]
         choice = ONE_OF.get(name, ())
         if choice and all(params.get(p) in (None, "", []) for p in choice):
             missing.append("|".join(choice))
@@ -152,7 +157,7 @@ def load_catalog() -> CommandCatalog:
             params[p.name] = ParamInfo(
                 name=p.name,
                 flag=(long_flags[0] if long_flags else p.opts[0]) if option else None,
-                required=bool(p.required),
+                required=bool(p.required) or p.name in STANDS_IN.get(" ".join(path), {}),
                 is_flag=is_flag,
                 multiple=bool(getattr(p, "multiple", False) or (not option and getattr(p, "nargs", 1) == -1)),
                 default=p.default,

@@ -89,13 +89,17 @@ def validate_tasks(
     """Check task files; every problem is printed as file:line: field: message.
 
     Exits 1 if any file is invalid. Without PATHs, validates the whole registry, including
-    duplicate ids across files.
+    duplicate ids across files and the evaluation suites in each folder's suites/.
 
     Example: pipette tasks validate registry/pick_up_test_tube.yaml
     """
     if not paths:
+        from pipette_cli.suites import load_suites
+
         registry = _registry()
-        err_console.print(f"{len(registry.tasks)} tasks valid in {len(registry_dirs(STATE.registry_dirs))} folder(s)")
+        suites = load_suites(registry, STATE.registry_dirs)
+        err_console.print(f"{len(registry.tasks)} tasks and {len(suites.suites)} evaluation suites valid in "
+                          f"{len(registry_dirs(STATE.registry_dirs))} folder(s)")
         return
     registry_dirs(STATE.registry_dirs)  # imports the task packs, which may register evaluator types
     files: list[Path] = []
