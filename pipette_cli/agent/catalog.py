@@ -56,7 +56,7 @@ class AgentError(PipetteError):
 ONE_OF: dict[str, tuple[str, ...]] = {"eval": ("endpoint", "policy")}
 """Options of which a command needs exactly one. The command checks this when it runs, so its
 signature cannot show it; a plan lacking all of them misses ``"endpoint|policy"``."""
-STANDS_IN: dict[str, dict[str, str]] = {"eval": {"task_id": "suite"}}
+STANDS_IN: dict[str, dict[str, str]] = {"eval": {"task_id": "suite_id"}}
 """A parameter another one can replace (``pipette eval --suite ID`` needs no task): the agent
 treats it as required unless the other is given."""
 

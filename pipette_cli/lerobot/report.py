@@ -38,10 +38,8 @@ class RunRecord:
 
 
 def _run_folders(root: Path) -> list[Path]:
-    found = {p.parent for p in root.rglob("episode_*.json")} | {p.parent for p in root.rglob(SUMMARY_FILE)}
-    if root.is_dir() and (any(root.glob("episode_*.json")) or (root / SUMMARY_FILE).is_file()):
-        found.add(root)
-    return sorted(found)
+    """Folders under ``root`` (itself included) holding episode logs or a summary."""
+    return sorted({p.parent for p in root.rglob("episode_*.json")} | {p.parent for p in root.rglob(SUMMARY_FILE)})
 
 
 def load_runs(dirs: list[Path]) -> list[RunRecord]:
@@ -191,7 +189,7 @@ def bar_chart(report: Report, path: Path) -> None:
     rows = report.rows()
     bar, gap, height, left, top = 30, 52, 220, 40, 22
     width = left + len(rows) * (len(VERSIONS) * bar + gap) + 20
-    image = Image.new("RGB", (max(width, 260), height + top + 80), "white")
+    image = Image.new("RGB", (max(width, 280), height + top + 96), "white")
     draw = ImageDraw.Draw(image)
     colors = {"raw": (120, 144, 180), "augmented": (230, 140, 60)}
 
@@ -223,7 +221,7 @@ def bar_chart(report: Report, path: Path) -> None:
     for j, version in enumerate(VERSIONS):
         draw.rectangle([left + 8 + 90 * j, top + height + 46, left + 20 + 90 * j, top + height + 58], fill=colors[version])
         draw.text((left + 24 + 90 * j, top + height + 46), version, fill="black")
-    draw.text((left + 200, top + height + 46), "whiskers: 95 % CI; *: significant", fill="black")
+    draw.text((left + 8, top + height + 66), "whiskers: 95 % CI; *: significant (Holm)", fill="black")
     path.parent.mkdir(parents=True, exist_ok=True)
     image.save(path)
 

@@ -239,6 +239,9 @@ def test_all_tasks_for_a_command_that_runs_one_is_refused() -> None:
 def test_catalog_refuses_eval_without_endpoint_or_policy() -> None:
     with pytest.raises(AgentError, match="'pipette eval' needs endpoint or policy"):
         load_catalog().argv("eval", {"task_id": "pipette/PickUpTestTube-v1", "episodes": 10})
+    # a suite stands in for the task: `pipette eval --suite ID` needs no task
+    assert load_catalog().missing("eval", {"suite_id": "pipette/PaperBenchmark-v1", "policy": "ckpt"}) == []
+    assert load_catalog().missing("eval", {"policy": "ckpt"}) == ["task_id"]
 
 
 def test_a_path_that_fits_no_option_is_refused_not_dropped() -> None:
