@@ -73,26 +73,26 @@ def test_a_killed_evaluation_resumes_without_losing_or_repeating_an_episode(tmp_
     out = tmp_path / "run"
     runner = FixedRunner(HOLD, image_size=24)
     with serving_in_thread(PolicyServer(runner, "tcp://127.0.0.1:0")) as server:
-        command = _eval_command(server.endpoint, out, 40)
+        command = _eval_command(server.endpoint, out, 24)
         proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True)
         deadline = time.monotonic() + 120
-        while len(list(out.glob("episode_*.json"))) < 5 and time.monotonic() < deadline and proc.poll() is None:
+        while len(list(out.glob("episode_*.json"))) < 4 and time.monotonic() < deadline and proc.poll() is None:
             time.sleep(0.05)
         os.killpg(proc.pid, signal.SIGKILL)  # mid-episode: no chance to clean up
         proc.wait()
         before = {p.name: p.stat().st_mtime_ns for p in out.glob("episode_*.json")}
-        assert 5 <= len(before) < 40
+        assert 4 <= len(before) < 24
         calls_before = runner.calls
         rerun = subprocess.run(command, capture_output=True, text=True, timeout=240)
     assert rerun.returncode == 0, rerun.stderr
-    assert f"{len(before)} episodes already logged; {40 - len(before)} to go" in " ".join(rerun.stderr.split())
+    assert f"{len(before)} episodes already logged; {24 - len(before)} to go" in " ".join(rerun.stderr.split())
     final = logs(out)
-    assert [x["episode"] for x in final] == list(range(40)) and [x["seed"] for x in final] == list(range(40))
+    assert [x["episode"] for x in final] == list(range(24)) and [x["seed"] for x in final] == list(range(24))
     assert {p.name: p.stat().st_mtime_ns for p in out.glob("episode_*.json") if p.name in before} == before  # none rewritten
     assert runner.calls - calls_before == sum(x["policy_queries"] for x in final[len(before):])  # none played twice
     assert not list(out.glob("*.tmp"))
     summary = json.loads(rerun.stdout)
-    assert summary["episodes"] == summary["planned"] == 40 and summary["complete"]
+    assert summary["episodes"] == summary["planned"] == 24 and summary["complete"]
 
 
 def _serve_in_process(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, str]:
