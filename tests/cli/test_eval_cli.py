@@ -112,3 +112,12 @@ def test_eval_gives_up_on_a_server_that_never_answers(run_cli, tmp_path: Path) -
                      "--out", tmp_path / "run")
     assert result.exit_code == 1
     assert f"no policy server answers at tcp://127.0.0.1:{port} (waited 0.5 s); start `pipette serve` first" in result.stderr
+
+
+def test_tasks_suites_lists_the_frozen_suites(run_cli) -> None:
+    result = run_cli("tasks", "suites", "--json")
+    assert result.exit_code == 0, result.stderr
+    suites = {s["id"]: s for s in json.loads(result.stdout)}
+    cpu = suites["pipette/CpuReproduction-v1"]
+    assert (cpu["episodes"], cpu["image_size"], len(cpu["tasks"])) == (200, 64, 4) and len(cpu["sha256"]) == 64
+    assert suites["pipette/PaperBenchmark-v1"]["episodes"] == 12 * 75
