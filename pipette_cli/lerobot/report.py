@@ -70,6 +70,8 @@ def _load_run(folder: Path) -> RunRecord:
         summary = summarize(folder)
         if previous.get("episodes") == summary["episodes"]:
             summary["stopped"] = previous.get("stopped")
+        if not (folder / MANIFEST_FILE).is_file():  # written before run.json existed: its label is in the summary
+            summary["dataset_version"] = previous.get("dataset_version", "raw")
         outcomes = {(int(log["seed"]), str(log.get("instruction", ""))): bool(log["success"]) for log in read_logs(folder)}
         return RunRecord(folder, summary, outcomes)
     data = _json(folder / SUMMARY_FILE)

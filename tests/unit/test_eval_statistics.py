@@ -135,3 +135,12 @@ def test_an_incomplete_run_is_marked_in_the_report(tmp_path) -> None:
     text = markdown(build_report(load_runs([folder])))
     assert "| 1/2 (50 %, 9-91)* |" in text and "* incomplete run" in text
     assert asdict(episode(0, 1, True))["progress"] is None
+
+
+def test_logs_written_before_run_json_keep_their_summary_label(tmp_path) -> None:
+    folder = run_folder(tmp_path / "old", [True, True, False])
+    (folder / "run.json").unlink()
+    (folder / "summary.json").write_text(json.dumps({"task": TASK.id, "policy_type": "act", "dataset_version": "augmented",
+                                                     "episodes": 3, "success_rate": 2 / 3}))
+    [run] = load_runs([tmp_path])
+    assert run.key == (TASK.id, "act", "augmented") and run.summary["successes"] == 2 and run.outcomes is not None
