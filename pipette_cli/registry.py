@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import logging
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from pydantic import ValidationError
 
@@ -157,27 +157,52 @@ def resolve_versioned(name: str, ids: Iterable[str], what: str, error: type[Pipe
     raise error(f"unknown {what} {name!r}; {suggest(name, names)}")
 
 
+class Identified(Protocol):
+    """A validated spec with a registry id (tasks, suites)."""
+
+    @property
+    def id(self) -> str: ...
+
+
+def load_documents[SpecT: Identified](
+    paths: Iterable[Path], validate: Callable[[Any, str], SpecT], what: str
+) -> dict[str, tuple[SpecT, Path]]:
+    """Read and validate YAML files into specs by id, with the file each came from; all or nothing.
+
+    Args:
+        paths: The YAML files.
+        validate: ``validate(document, source)``, raising :class:`SpecError`.
+        what: The kind of spec, for messages (``"task"``).
+
+    Raises:
+        SpecError: every problem in every file, and every duplicate id.
+    """
+    problems: list[str] = []
+    found: dict[str, tuple[SpecT, Path]] = {}
+    for path in paths:
+        try:
+            doc = read_yaml(path)
+            spec = validate(doc, str(path))
+        except SpecError as exc:
+            problems.extend(exc.problems)
+            continue
+        if spec.id in found:
+            problems.append(format_problem(str(path), doc, ("id",), f"duplicate {what} id {spec.id!r}, already defined in {found[spec.id][1]}"))
+            continue
+        found[spec.id] = (spec, path)
+    if problems:
+        raise SpecError(problems)
+    log.debug("loaded %d %ss", len(found), what)
+    return found
+
+
 def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None = None) -> Registry:
     """Load and validate every task; all or nothing.
 
     Raises:
         SpecError: every problem in every file, and every duplicate id.
     """
-    problems: list[str] = []
-    tasks: dict[str, RegisteredTask] = {}
     library = assets if assets is not None else load_asset_library()
-    for path in task_files(registry_dirs(extra_dirs)):
-        try:
-            doc = read_yaml(path)
-            spec = validate_task_document(doc, str(path), library)
-        except SpecError as exc:
-            problems.extend(exc.problems)
-            continue
-        if spec.id in tasks:
-            problems.append(format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already defined in {tasks[spec.id].path}"))
-            continue
-        tasks[spec.id] = RegisteredTask(spec, path)
-    if problems:
-        raise SpecError(problems)
-    log.debug("loaded %d tasks", len(tasks))
-    return Registry(tasks)
+    found = load_documents(task_files(registry_dirs(extra_dirs)),
+                           lambda doc, source: validate_task_document(doc, source, library), "task")
+    return Registry({task_id: RegisteredTask(spec, path) for task_id, (spec, path) in found.items()})

@@ -23,7 +23,14 @@ from typing import Any
 from pydantic import ValidationError
 
 from pipette_cli.errors import SpecError, SuiteNotFound, suggest
-from pipette_cli.registry import SUITES_FOLDER, YAML_SUFFIXES, Registry, registry_dirs, resolve_versioned
+from pipette_cli.registry import (
+    SUITES_FOLDER,
+    YAML_SUFFIXES,
+    Registry,
+    load_documents,
+    registry_dirs,
+    resolve_versioned,
+)
 from pipette_cli.specs.suite import SuiteSpec
 from pipette_cli.specs.task import TaskSpec
 from pipette_cli.specs.yaml_io import format_problem, read_yaml, to_plain, validation_problems
@@ -128,23 +135,9 @@ def load_suites(registry: Registry, extra_dirs: Iterable[Path] = ()) -> Suites:
     Raises:
         SpecError: every problem in every file, and every duplicate id.
     """
-    problems: list[str] = []
-    suites: dict[str, RegisteredSuite] = {}
-    for path in suite_files(registry_dirs(extra_dirs)):
-        try:
-            doc = read_yaml(path)
-            spec = validate_suite_document(doc, str(path), registry)
-        except SpecError as exc:
-            problems.extend(exc.problems)
-            continue
-        if spec.id in suites:
-            problems.append(format_problem(str(path), doc, ("id",), f"duplicate suite id {spec.id!r}, already defined in {suites[spec.id].path}"))
-            continue
-        suites[spec.id] = RegisteredSuite(spec, path)
-    if problems:
-        raise SpecError(problems)
-    log.debug("loaded %d suites", len(suites))
-    return Suites(suites)
+    found = load_documents(suite_files(registry_dirs(extra_dirs)),
+                           lambda doc, source: validate_suite_document(doc, source, registry), "suite")
+    return Suites({suite_id: RegisteredSuite(spec, path) for suite_id, (spec, path) in found.items()})
 
 
 def episode_plan(suite: SuiteSpec, tasks: Iterable[str] | None = None) -> dict[str, list[EpisodePlan]]:
