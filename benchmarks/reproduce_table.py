@@ -161,8 +161,12 @@ def verdict(comparison: Comparison | None, holm_p: float | None) -> str:
     return f"{direction}, significant" if holm_p is not None and holm_p < ALPHA else f"{direction}, not significant"
 
 
-def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command: str, docs: Path) -> str:
-    """``table.md``, ``results.json`` and ``success.png`` in ``docs``; returns the markdown table."""
+def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command: str, docs: Path,
+               pending: list[str]) -> str:
+    """``table.md``, ``results.json`` and ``success.png`` in ``docs``; returns the markdown table.
+
+    ``pending`` are the suite's tasks without results yet: the table says that it leaves them out.
+    """
     docs.mkdir(parents=True, exist_ok=True)
     table_report = report.build_report(report.load_runs([Path(v["eval"]) for r in results for v in r["versions"].values()]))
     report.bar_chart(table_report, docs / "success.png")
@@ -196,15 +200,19 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
     lines += [
         "",
         f"Mean success: raw {100 * mean['raw']:.1f} %, augmented {100 * mean['augmented']:.1f} %.",
-        "; ".join(f"{change}: {', '.join(names)}" for change, names in sorted(tally.items())) + ".",
+        "; ".join(f"{change.capitalize()}: {', '.join(names)}" for change, names in sorted(tally.items())) + ".",
         "Cells: successes/episodes (rate, 95 % Wilson interval). Raw and augmented policies ran the same "
         f"episodes (suite {settings['suite']['id']}), so each difference is tested on the paired outcomes "
         "(McNemar's exact test: episodes one policy solved and the other did not); p-values in brackets are "
         f"Holm-adjusted over the {len(results)} tasks; significant means adjusted p < {ALPHA}.",
     ]
+    if pending:
+        lines.append(f"Not in this table: {', '.join(pending)} (of suite {settings['suite']['id']}); "
+                     "rerunning the command continues with them.")
     table = "\n".join(lines) + "\n"
     (docs / "table.md").write_text(table)
-    (docs / "results.json").write_text(json.dumps({"settings": settings, "command": command, "results": results}, indent=2) + "\n")
+    data = {"settings": settings, "command": command, "results": results, "pending": pending}
+    (docs / "results.json").write_text(json.dumps(data, indent=2) + "\n")
     return table
 
 
@@ -246,7 +254,8 @@ def main() -> None:
                     "workers": args.workers, "git_commit": commit, "git_dirty": dirty, "cpus": os.cpu_count(),
                     "wall_minutes_this_run": round((time.perf_counter() - started) / 60, 1),
                     "stage_minutes": round(sum(sum(r["seconds"].values()) for r in results) / 60, 1)}
-        table = write_docs(results, settings, command, args.docs)  # after every task: a partial run still reports
+        pending = [entry.task for entry in suite.spec.tasks if entry.task not in {r["task"] for r in results}]
+        table = write_docs(results, settings, command, args.docs, pending)  # after every task: a partial run still reports
     print(table)
     print(f"wrote {args.docs}/table.md, results.json and success.png")
 

@@ -58,7 +58,7 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     work, docs = tmp_path / "work", tmp_path / "docs"
     args = ("--suite", "testlab/ReproSmoke-v1", "--registry-dir", str(ROOT / "tests" / "fixtures" / "reproduce"),
             "--demos", "2", "--steps", "2", "--batch-size", "2", "--variants", "original,light", "--workers", "1",
-            "--work", str(work), "--docs", str(docs))
+            "--tasks", "pipette/PickUpTestTube-v1", "--work", str(work), "--docs", str(docs))
     bench("reproduce_table.py", *args)
     data = read(docs / "results.json")
     [row] = data["results"]
@@ -71,6 +71,8 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     table = (docs / "table.md").read_text()
     assert "pipette/PickUpTestTube-v1" in table and "100 -> 100" in table  # the paper's ACT numbers beside ours
     assert "0/1 (0 %, 0-79)" in table  # an interval with every cell
+    assert data["pending"] == ["pipette/CloseCentrifugeLid-v1"]  # a partial run says what it leaves out
+    assert "Not in this table: pipette/CloseCentrifugeLid-v1 (of suite testlab/ReproSmoke-v1)" in table
     assert (docs / "success.png").stat().st_size > 0
     checkpoints = sorted(work.rglob("checkpoints/last/pretrained_model/config.json"))
     assert len(checkpoints) == 2
