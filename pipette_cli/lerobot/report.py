@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -149,9 +150,9 @@ def markdown(report: Report) -> str:
         c = report.comparisons.get((task, policy))
         extra = comparison_text(c, report.holm_p[task, policy]) if c is not None else ("-", "-", "-")
         lines.append(f"| {task} | {policy} | {texts[0]} | {texts[1]} | {' | '.join(extra)} |")
-    notes = [f"Cells: successes/episodes (rate, 95 % Wilson interval); staged tasks add the mean share of stages "
+    notes = [(f"Cells: successes/episodes (rate, 95 % Wilson interval); staged tasks add the mean share of stages "
              f"completed. Significant: two-sided exact test at {ALPHA}, Holm-adjusted over the {len(report.comparisons)} "
-             "comparison(s); McNemar pairs the same episodes (seed and instruction), Fisher compares independent samples."]
+             "comparison(s); McNemar pairs the same episodes (seed and instruction), Fisher compares independent samples.")]
     others = sorted({v for _, _, v in report.cells} - set(VERSIONS))
     if others:
         notes.append(f"Not tabulated (only raw and augmented are): dataset versions {', '.join(others)}.")
@@ -191,7 +192,7 @@ def bar_chart(report: Report, path: Path) -> None:
     rows = report.rows()
     bar, gap, height, left, top = 30, 52, 220, 40, 22
     width = left + len(rows) * (len(VERSIONS) * bar + gap) + 20
-    image = Image.new("RGB", (max(width, 280), height + top + 96), "white")
+    image = Image.new("RGB", (max(width, 280), height + top + 124), "white")
     draw = ImageDraw.Draw(image)
     colors = {"raw": (120, 144, 180), "augmented": (230, 140, 60)}
 
@@ -218,14 +219,25 @@ def bar_chart(report: Report, path: Path) -> None:
             draw.text((x0 + 2, max(y(high) - 12, 0)), f"{100 * s['success_rate']:.0f}", fill="black")
         if report.holm_p.get((task, policy), 1.0) < ALPHA:
             draw.text((x + bar - 4, 2), "*", fill="black")
-        draw.text((x, top + height + 6), task.split("/")[-1].rsplit("-v", 1)[0][:14], fill="black")
-        draw.text((x, top + height + 20), policy, fill="black")
+        for k, line in enumerate([*_label_lines(task), policy]):
+            draw.text((x, top + height + 6 + 14 * k), line, fill="black")
     for j, version in enumerate(VERSIONS):
-        draw.rectangle([left + 8 + 90 * j, top + height + 46, left + 20 + 90 * j, top + height + 58], fill=colors[version])
-        draw.text((left + 24 + 90 * j, top + height + 46), version, fill="black")
-    draw.text((left + 8, top + height + 66), "whiskers: 95 % CI; *: significant (Holm)", fill="black")
+        draw.rectangle([left + 8 + 90 * j, top + height + 74, left + 20 + 90 * j, top + height + 86], fill=colors[version])
+        draw.text((left + 24 + 90 * j, top + height + 74), version, fill="black")
+    draw.text((left + 8, top + height + 94), "whiskers: 95 % CI; *: significant (Holm)", fill="black")
     path.parent.mkdir(parents=True, exist_ok=True)
     image.save(path)
+
+
+def _label_lines(task: str, width: int = 18) -> list[str]:
+    """A task's name without namespace and version, cut between its words into at most 3 lines."""
+    lines: list[str] = []
+    for word in re.findall(r"[A-Z0-9][a-z0-9]*|[a-z0-9]+", task.split("/")[-1].rsplit("-v", 1)[0]):
+        if lines and len(lines[-1]) + len(word) <= width:
+            lines[-1] += word
+        else:
+            lines.append(word)
+    return lines[:3]
 
 
 def write_report(report: Report, stem: Path) -> list[Path]:

@@ -11,7 +11,7 @@ import pytest
 
 from pipette_cli.errors import DatasetError
 from pipette_cli.lerobot.evaluate import DecodeConfig, EpisodeLog, stage_progress
-from pipette_cli.lerobot.report import build_report, load_runs, markdown, to_json
+from pipette_cli.lerobot.report import _label_lines, bar_chart, build_report, load_runs, markdown, to_json
 from pipette_cli.lerobot.results import make_manifest, prepare_folder, summarize, write_episode, write_summary
 from pipette_cli.lerobot.significance import compare, fisher_exact, holm, mcnemar_exact, wilson_interval
 from pipette_cli.registry import load_registry
@@ -125,6 +125,14 @@ def test_report_pairs_runs_on_the_same_seeds_and_reads_logs_without_summaries(tm
     assert comparison["p_value"] == pytest.approx(2 / 64) and comparison["significant_holm"]
     text = markdown(report)
     assert "| 3/10 (30 %, 11-60) | 9/10 (90 %, 60-98) | +60 pt | McNemar p = 0.0312 (Holm 0.0312), 0 vs 6 discordant | yes |" in text
+    bar_chart(report, tmp_path / "chart.png")
+    assert (tmp_path / "chart.png").stat().st_size > 0
+
+
+def test_chart_labels_keep_whole_task_names_cut_between_words() -> None:
+    assert _label_lines("pipette/CloseSpectrophotometerLid-v1") == ["Close", "Spectrophotometer", "Lid"]
+    assert _label_lines("pipette/RemovePetriDishFromIncubator-v1") == ["RemovePetriDish", "FromIncubator"]
+    assert _label_lines("testlab/HoldTube-v2") == ["HoldTube"]
 
 
 def test_an_incomplete_run_is_marked_in_the_report(tmp_path) -> None:
