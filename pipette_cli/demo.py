@@ -189,7 +189,8 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
     from pipette_cli.demos.collect import collect
     from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
-    from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate
+    from pipette_cli.lerobot.evaluate import DecodeConfig
+    from pipette_cli.lerobot.runner import PolicySource, evaluate_task
     from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 
     if out.exists() and any(out.iterdir()):
@@ -227,13 +228,17 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     timings["train"] = time.perf_counter() - t
     say(f"train: ACT, {size.train_steps} steps of batch {size.batch_size} -> {checkpoint}")
     t = time.perf_counter()
-    source = RecordingSource(InProcessSource(checkpoint, device="cpu"))
-    summary = evaluate(task, source, DecodeConfig.for_policy("act"), episodes=size.eval_episodes, seed=1000,
-                       out=out / "eval", image_size=size.image_size)
-    summary["dataset_version"] = "augmented"  # what `pipette eval report` groups by
-    (out / "eval" / "summary.json").write_text(json.dumps(summary, indent=2))
+    policy, recorded = PolicySource(checkpoint=checkpoint, device="cpu"), []
+
+    def recording(worker: int, config: DecodeConfig) -> RecordingSource:
+        recorded.append(RecordingSource(policy(worker, config)))
+        return recorded[-1]
+
+    summary = evaluate_task(task, recording, DecodeConfig.for_policy("act"), episodes=size.eval_episodes, seed=1000,
+                            out=out / "eval", image_size=size.image_size,
+                            dataset_version="augmented")  # the label `pipette eval report` groups by
     timings["eval"] = time.perf_counter() - t
-    videos = source.write_gifs(out / "eval")
+    videos = [path for source in recorded for path in source.write_gifs(out / "eval")]
     contact_sheet(aug, out / "augmented_sheet.png", out / "augmented.gif")
     episodes = [json.loads(p.read_text()) for p in sorted((out / "eval").glob("episode_*.json"))]
     log_file = next(iter(sorted((out / "train").glob("*/*.log"))), out / "train" / "missing.log")

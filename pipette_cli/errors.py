@@ -32,6 +32,10 @@ class TaskNotFound(PipetteError):
     """A task id is not in the registry."""
 
 
+class SuiteNotFound(PipetteError):
+    """An evaluation suite id is not registered, or a task is not part of the suite."""
+
+
 class AssetError(PipetteError):
     """An asset is missing, broken, or fails validation."""
 

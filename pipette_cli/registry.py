@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import logging
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from importlib.metadata import entry_points
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from pydantic import ValidationError
 
@@ -31,8 +31,10 @@ log = logging.getLogger(__name__)
 REGISTRY_PATH_ENV = "PIPETTE_REGISTRY_PATH"
 ENTRY_POINT_GROUP = "pipette.tasks"
 YAML_SUFFIXES = (".yaml", ".yml")
-RESERVED_FOLDERS = (ROBOTS_FOLDER,)
-"""Registry sub-folders that hold other data than tasks."""
+SUITES_FOLDER = "suites"
+"""The subfolder of a registry folder that holds evaluation suites instead of tasks."""
+RESERVED_FOLDERS = (ROBOTS_FOLDER, SUITES_FOLDER)
+"""Registry sub-folders that hold other data than tasks (robot facts, evaluation suites)."""
 
 
 @dataclass(frozen=True)
@@ -114,7 +116,8 @@ def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:
 
 
 def task_files(dirs: Iterable[Path]) -> list[Path]:
-    """All YAML files under ``dirs`` (recursively), de-duplicated, in a stable order."""
+    """All YAML files under ``dirs`` (recursively, except each folder's ``suites/``: evaluation
+    suites, see :mod:`pipette_cli.suites`), de-duplicated, in a stable order."""
     files: list[Path] = []
     seen: set[Path] = set()
     for folder in dirs:
@@ -152,23 +155,72 @@ class Registry:
         return self.entry(task_id).spec
 
     def entry(self, task_id: str) -> RegisteredTask:
-        if task_id in self.tasks:
-            return self.tasks[task_id]
-        candidates = [tid for tid in self.tasks if tid.split("/", 1)[1] == task_id]
-        if not candidates and not re.search(r"-v\d+$", task_id):
-            base = task_id  # "Name" or "namespace/Name": the latest version in each namespace
-            same = [tid for tid in self.tasks if re.sub(r"-v\d+$", "", tid) == base
-                    or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == base]
-            latest: dict[str, str] = {}
-            for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
-                latest[tid.split("/", 1)[0]] = tid
-            candidates = list(latest.values())
-        if len(candidates) == 1:
-            return self.tasks[candidates[0]]
-        if len(candidates) > 1:
-            raise TaskNotFound(f"task {task_id!r} is ambiguous: {', '.join(sorted(candidates))}")
-        names = list(self.tasks) + [tid.split("/", 1)[1] for tid in self.tasks]
-        raise TaskNotFound(f"unknown task {task_id!r}; {suggest(task_id, names)}")
+        return self.tasks[resolve_versioned(task_id, self.tasks, "task", TaskNotFound)]
+
+
+def resolve_versioned(name: str, ids: Iterable[str], what: str, error: type[PipetteError]) -> str:
+    """The registered id that ``name`` means: itself, ``Name-vN`` without its namespace, or
+    ``Name`` / ``namespace/Name`` without a version (the latest version in each namespace).
+
+    Raises:
+        error: no such id (with the closest ids), or ``name`` is ambiguous.
+    """
+    ids = list(ids)
+    if name in ids:
+        return name
+    candidates = [tid for tid in ids if tid.split("/", 1)[1] == name]
+    if not candidates and not re.search(r"-v\d+$", name):
+        same = [tid for tid in ids if re.sub(r"-v\d+$", "", tid) == name
+                or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == name]
+        latest: dict[str, str] = {}
+        for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
+            latest[tid.split("/", 1)[0]] = tid
+        candidates = list(latest.values())
+    if len(candidates) == 1:
+        return candidates[0]
+    if len(candidates) > 1:
+        raise error(f"{what} {name!r} is ambiguous: {', '.join(sorted(candidates))}")
+    names = ids + [tid.split("/", 1)[1] for tid in ids]
+    raise error(f"unknown {what} {name!r}; {suggest(name, names)}")
+
+
+class Identified(Protocol):
+    """A validated spec with a registry id (tasks, suites)."""
+
+    @property
+    def id(self) -> str: ...
+
+
+def load_documents[SpecT: Identified](
+    paths: Iterable[Path], validate: Callable[[Any, str], SpecT], what: str
+) -> dict[str, tuple[SpecT, Path]]:
+    """Read and validate YAML files into specs by id, with the file each came from; all or nothing.
+
+    Args:
+        paths: The YAML files.
+        validate: ``validate(document, source)``, raising :class:`SpecError`.
+        what: The kind of spec, for messages (``"task"``).
+
+    Raises:
+        SpecError: every problem in every file, and every duplicate id.
+    """
+    problems: list[str] = []
+    found: dict[str, tuple[SpecT, Path]] = {}
+    for path in paths:
+        try:
+            doc = read_yaml(path)
+            spec = validate(doc, str(path))
+        except SpecError as exc:
+            problems.extend(exc.problems)
+            continue
+        if spec.id in found:
+            problems.append(format_problem(str(path), doc, ("id",), f"duplicate {what} id {spec.id!r}, already defined in {found[spec.id][1]}"))
+            continue
+        found[spec.id] = (spec, path)
+    if problems:
+        raise SpecError(problems)
+    log.debug("loaded %d %ss", len(found), what)
+    return found
 
 
 def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None = None) -> Registry:
@@ -177,21 +229,7 @@ def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None =
     Raises:
         SpecError: every problem in every file, and every duplicate id.
     """
-    problems: list[str] = []
-    tasks: dict[str, RegisteredTask] = {}
     library = assets if assets is not None else load_asset_library()
-    for path in task_files(registry_dirs(extra_dirs)):
-        try:
-            doc = read_yaml(path)
-            spec = validate_task_document(doc, str(path), library)
-        except SpecError as exc:
-            problems.extend(exc.problems)
-            continue
-        if spec.id in tasks:
-            problems.append(format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already defined in {tasks[spec.id].path}"))
-            continue
-        tasks[spec.id] = RegisteredTask(spec, path)
-    if problems:
-        raise SpecError(problems)
-    log.debug("loaded %d tasks", len(tasks))
-    return Registry(tasks)
+    found = load_documents(task_files(registry_dirs(extra_dirs)),
+                           lambda doc, source: validate_task_document(doc, source, library), "task")
+    return Registry({task_id: RegisteredTask(spec, path) for task_id, (spec, path) in found.items()})

@@ -16,7 +16,7 @@ import re
 import types
 import typing
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -128,6 +128,9 @@ class CommandCatalog:
     one_of: dict[str, tuple[str, ...]]
     """Options of which a command needs exactly one (it checks this when it runs, so its
     signature cannot show it); a step lacking all of them misses ``"endpoint|policy"``."""
+    stands_in: dict[str, dict[str, str]] = field(default_factory=dict)
+    """Per command, a required parameter another one can replace (``pipette eval --suite ID``
+    needs no task): the parameter counts as given when its stand-in is."""
 
     def get(self, name: str) -> CommandInfo:
         try:
@@ -141,7 +144,10 @@ class CommandCatalog:
     def missing(self, name: str, args: dict[str, Any]) -> list[str]:
         """Required parameters of ``name`` that ``args`` lacks; a missing choice of
         :attr:`one_of` is one entry, its names joined by ``|``."""
-        missing = [p for p in self.get(name).required() if is_empty(args.get(p))]
+        stand_ins = self.stands_in.get(name, {})
+        required = set(self.get(name).required()) | set(stand_ins)
+        missing = [p for p in self.get(name).params if p in required and is_empty(args.get(p))
+                   and is_empty(args.get(stand_ins.get(p, "")))]
         choice = self.one_of.get(name, ())
         if choice and all(is_empty(args.get(p)) for p in choice):
             missing.append("|".join(choice))
@@ -315,8 +321,10 @@ def read_catalog(*apps: tuple[typer.Typer | Any, tuple[str, ...]]) -> CommandCat
             if path[0] != "agent":  # the agent does not call itself
                 info = _command(path, command)
                 commands[info.name] = info
-    one_of = {k: tuple(v) for k, v in load_vocabulary().one_of.items() if k in commands}
-    return CommandCatalog(commands, one_of)
+    vocabulary = load_vocabulary()
+    one_of = {k: tuple(v) for k, v in vocabulary.one_of.items() if k in commands}
+    stands_in = {k: dict(v) for k, v in vocabulary.stands_in.items() if k in commands}
+    return CommandCatalog(commands, one_of, stands_in)
 
 
 def cli_catalog(cli: typer.Typer | Any) -> CommandCatalog:

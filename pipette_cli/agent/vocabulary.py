@@ -81,6 +81,7 @@ class VocabularySpec(Spec):
     background: dict[str, str]
     products: dict[str, ProductSpec]
     consumes: dict[str, str]
+    stands_in: dict[str, dict[str, str]] = {}
 
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""

@@ -13,7 +13,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,7 +26,7 @@ from pipette_cli.augment.pipeline import DemoJob, DemoResult
 from pipette_cli.augment.report import yield_report
 from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.provenance import provenance
-from pipette_cli.demos.recorder import DatasetInfo, commit_tmp, fsync_dir
+from pipette_cli.demos.recorder import DatasetInfo, commit_tmp, fsync_dir, write_json_atomic
 from pipette_cli.demos.store import clean, pack, part_path, parts_dir, scan
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.specs.task import TaskSpec
@@ -50,15 +49,6 @@ class AugmentResult:
     interrupted: bool = False
     seconds: float = 0.0
     timings: dict[str, float] = field(default_factory=lambda: {"physics": 0.0, "render": 0.0, "write": 0.0})
-
-
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=1, sort_keys=True)
-        f.flush()
-        os.fsync(f.fileno())
-    commit_tmp(tmp, path)
 
 
 def _load_ledger(out: Path, task: TaskSpec, spec: AugmentSpec, source: Path) -> dict[str, Any]:
@@ -181,7 +171,7 @@ def augment(
                         "position": outcome.position, "seed": outcome.seed, "status": outcome.status,
                         "detail": outcome.detail, "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],
                     }
-                    _write_json(ledger_path(out), ledger)
+                    write_json_atomic(ledger_path(out), ledger)
                     for key, value in outcome.seconds.items():
                         result.timings[key] += value
                     result.new_demos += 1

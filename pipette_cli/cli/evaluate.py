@@ -1,12 +1,14 @@
-"""``pipette eval TASK``: closed-loop evaluation of a policy; ``pipette eval report DIR...``."""
+"""``pipette eval [TASK] [--suite ID]``: closed-loop evaluation of a policy; ``pipette eval report DIR...``."""
 
 from __future__ import annotations
 
+import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
 import click
 import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from typer.core import TyperCommand
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
@@ -36,74 +38,144 @@ def _report_click() -> click.Command:
 
 
 def eval_command(
-    task_id: Annotated[str, typer.Argument(help="Task id (or `report`: see `pipette eval report --help`).")],
-    endpoint: Annotated[str | None, typer.Option("--endpoint", help="Policy server (pipette serve), e.g. tcp://127.0.0.1:5555.")] = None,
+    task_id: Annotated[str | None, typer.Argument(
+        help="Task id; with --suite, one task of the suite (default: all of them). `report`: see `pipette eval report --help`.")] = None,
+    suite_id: Annotated[str | None, typer.Option(
+        "--suite", help="A frozen evaluation suite (registry/suites/): its seeds, instructions, image size and render profile.")] = None,
+    endpoint: Annotated[list[str] | None, typer.Option(
+        "--endpoint", help="Policy server (pipette serve), e.g. tcp://127.0.0.1:5555; repeat for several (worker i uses the i-th).")] = None,
     policy: Annotated[Path | None, typer.Option("--policy", help="Or: a policy folder evaluated in this process (no server).")] = None,
     policy_type: Annotated[str | None, typer.Option(
         "--policy-type", help="act, smolvla or pi0: decoding, timeouts, gripper thresholds "
                               "(default: the `type` in --policy's config.json, else act).")] = None,
-    episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="Episodes (seeds seed..seed+n-1).")] = 100,
-    seed: Annotated[int, typer.Option("--seed", help="First episode seed.")] = 0,
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Folder for episode_XXXX.json and summary.json.")] = None,
+    episodes: Annotated[int | None, typer.Option("--episodes", "-n", min=1, help="Episodes without a suite (seeds seed..seed+n-1; default 100).")] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="First episode seed without a suite (default 0).")] = None,
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Results folder; rerunning the command resumes it (suites: one subfolder per task).")] = None,
     dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented: the label `eval report` groups by.")] = "raw",
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Camera image side (must match the policy's).")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    image_size: Annotated[int | None, typer.Option("--image-size", help="Camera image side without a suite (must match the policy's).")] = None,
+    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes playing episodes (each loads the policy or connects to a server).")] = 1,
+    device: Annotated[str, typer.Option("--device", help="Torch device for --policy: cpu, cuda, auto.")] = "auto",
+    dead_after: Annotated[float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")] = 5.0,
+    connect_timeout: Annotated[float, typer.Option("--connect-timeout", min=0.1, help="Seconds to wait for the server at the start.")] = 30.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the summaries as JSON.")] = False,
 ) -> None:
-    """Evaluate a policy on a task (30 Hz control, 10 Hz queries; paper A.4/A.6).
+    """Evaluate a policy on a task or a suite (30 Hz control, 10 Hz queries; paper A.4/A.6).
 
-    The decoding follows --policy-type, or the `type` LeRobot wrote into --policy's config.json.
-    `pipette eval report DIR...` tabulates results (see `pipette eval report --help`).
+    Episode logs are written as they finish; rerunning the same command resumes after the last
+    finished episode. A dead or unreachable server stops the run within seconds (safe hold, partial
+    summary). `pipette eval report DIR...` tabulates results (see `pipette eval report --help`).
 
-    Example: pipette eval PickUpTestTube --endpoint tcp://127.0.0.1:5555 --episodes 100 --out evals/act_raw
+    Example: pipette eval --suite pipette/PaperBenchmark-v1 --endpoint tcp://127.0.0.1:5555 --out evals/act_raw
     """
-    if (endpoint is None) == (policy is None):
-        raise PipetteError("give exactly one of --endpoint (a running `pipette serve`) and --policy (in-process)")
     if dataset_version not in ("raw", "augmented"):
         raise PipetteError(f"--dataset-version must be raw or augmented, not {dataset_version!r}")
-    import json
-
-    from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate, resolve_policy_type
+    from pipette_cli.lerobot.evaluate import DecodeConfig, resolve_policy_type
+    from pipette_cli.lerobot.runner import PolicySource, check_servers
     from pipette_cli.registry import load_registry
 
-    task = load_registry(STATE.registry_dirs).get(task_id)
+    source = PolicySource(checkpoint=policy, endpoints=tuple(endpoint or ()), device=device, dead_after_s=dead_after)
+    registry = load_registry(STATE.registry_dirs)
     config = DecodeConfig.for_policy(resolve_policy_type(policy_type, policy))
-    if endpoint is not None:
-        from pipette_cli.lerobot.client import PolicyClient
-
-        source = PolicyClient(endpoint, timeout_ms=config.timeout_ms)
-    else:
-        source = InProcessSource(policy)  # type: ignore[arg-type]
-
-    def progress(log) -> None:  # noqa: ANN001
-        err_console.print(f"episode {log.episode}: {'success' if log.success else log.failure_reason} "
-                          f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)")
-
-    summary = evaluate(task, source, config, episodes=episodes, seed=seed, out=out, image_size=image_size, on_episode=progress)
-    summary["dataset_version"] = dataset_version
-    if out is not None:
-        (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    temporary = tempfile.TemporaryDirectory(prefix="pipette-eval-") if out is None else None
+    folder = out if out is not None else Path(temporary.name)  # type: ignore[union-attr]
+    try:
+        runs, settings = _plan(registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version)
+        if source.endpoints:
+            cameras = runs[0].task.cameras
+            size = settings.image_size
+            check_servers(source.endpoints, (size, size) if size else (cameras.height, cameras.width), connect_timeout)
+        summaries = _run(runs, source, settings, workers)
+    finally:
+        if temporary is not None:
+            temporary.cleanup()
     if as_json:
-        print_json(summary)
-    else:
-        out_console.print(f"{task.id}: SR = {summary['successes']}/{summary['episodes']} = {100 * summary['success_rate']:.1f} %")
+        print_json(summaries[0] if suite_id is None else {"suite": settings.suite, "summaries": summaries})
+        return
+    for s in summaries:
+        low, high = s["success_ci95"]
+        staged = f", stage progress {s['mean_progress']:.2f}" if s.get("mean_progress") is not None else ""
+        out_console.print(f"{s['task']}: SR = {s['successes']}/{s['episodes']} = {100 * s['success_rate']:.1f} % "
+                          f"(95 % CI {100 * low:.1f}-{100 * high:.1f}){staged}")
+
+
+def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: int | None, seed: int | None,
+          image_size: int | None, out: Path, config: Any, dataset_version: str) -> tuple[list[Any], Any]:
+    """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself)."""
+    from pipette_cli.lerobot.runner import EvalSettings, TaskRun
+    from pipette_cli.suites import adhoc_plan, episode_plan, load_suites
+
+    if suite_id is None:
+        if task_id is None:
+            raise PipetteError("name a task or a suite: pipette eval TASK ... or pipette eval --suite ID ...")
+        task = registry.get(task_id)
+        plan = adhoc_plan(task, episodes or 100, seed or 0)
+        return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, "fast", dataset_version)
+    fixed = [flag for flag, value in (("--episodes", episodes), ("--seed", seed), ("--image-size", image_size)) if value is not None]
+    if fixed:
+        raise PipetteError(f"{', '.join(fixed)}: the suite fixes seeds and image size; drop them or evaluate without --suite")
+    suite = load_suites(registry, STATE.registry_dirs).get(suite_id)
+    tasks = None if task_id is None else [registry.get(task_id).id]
+    plan = episode_plan(suite.spec, tasks)
+    runs = [TaskRun(registry.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in plan.items()]
+    settings = EvalSettings(config, suite.spec.image_size, suite.spec.render_profile, dataset_version, suite.record())
+    return runs, settings
+
+
+def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict[str, Any]]:
+    """Play the runs with a progress bar; the summaries, in run order."""
+    from pipette_cli.demos.collect import deferred_sigint
+    from pipette_cli.lerobot.runner import evaluate_runs
+
+    ok = failed = 0
+    progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                        TimeRemainingColumn(), console=err_console, disable=STATE.verbosity < 0)
+    bar = progress.add_task("eval", total=None)
+
+    def started(done: int, todo: int) -> None:
+        if done:
+            err_console.print(f"{done} episodes already logged; {todo} to go", soft_wrap=True)
+        if todo:
+            progress.update(bar, total=todo)
+            progress.start()
+
+    def finished(log: Any) -> None:
+        nonlocal ok, failed
+        ok, failed = ok + log.success, failed + (not log.success)
+        if STATE.verbosity > 0:
+            progress.console.print(f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
+                                   f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)")
+        progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
+
+    try:
+        with deferred_sigint() as interrupted:
+            result = evaluate_runs(runs, source, settings, workers=workers, on_start=started, on_episode=finished,
+                                   stop=interrupted)
+    finally:
+        progress.stop()
+    summaries = [result.summaries[run.task.id] for run in runs if run.task.id in result.summaries]
+    if result.interrupted:
+        err_console.print(f"interrupted after {result.new_episodes} new episodes; summaries written; "
+                          "run the same command again to resume", soft_wrap=True)
+        raise typer.Exit(130)
+    return summaries
 
 
 def report_command(
-    folders: Annotated[list[Path], typer.Argument(help="Folders holding summary.json files (searched recursively).")],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Also write OUT.md, OUT.csv and a bar chart OUT.png.")] = None,
+    folders: Annotated[list[Path], typer.Argument(help="Folders holding evaluation results (searched recursively).")],
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Also write OUT.md, OUT.json, OUT.csv and a bar chart OUT.png.")] = None,
 ) -> None:
-    """Tabulate evaluation results: one row per (task, policy), one column per dataset version.
+    """Tabulate evaluation results: one row per (task, policy), raw and augmented side by side,
+    with 95 % Wilson intervals, stage progress and an exact test of each difference.
+
+    Reads episode logs (so a run without summary.json, or one cut short, still counts), else
+    summary.json. Same episodes on both sides are compared pairwise (McNemar), others with Fisher.
 
     Example: pipette eval report evals/ --out docs/results
     """
-    from pipette_cli.lerobot.report import bar_chart, csv_text, load_summaries, markdown
+    from pipette_cli.lerobot.report import build_report, load_runs, markdown, write_report
 
-    rows = load_summaries(folders)
-    text = markdown(rows)
-    out_console.print(text, markup=False, highlight=False, end="")
+    report = build_report(load_runs(folders))
+    out_console.print(markdown(report), markup=False, highlight=False, end="")
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        out.with_suffix(".md").write_text(text)
-        out.with_suffix(".csv").write_text(csv_text(rows))
-        bar_chart(rows, out.with_suffix(".png"))
-        err_console.print(f"wrote {out.with_suffix('.md')}, .csv and .png")
+        paths = write_report(report, out)
+        err_console.print(f"wrote {', '.join(str(p) for p in paths)}", soft_wrap=True)

@@ -65,6 +65,35 @@ def list_tasks(
     out_console.print(table)
 
 
+@app.command("suites")
+def list_suites(
+    as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+) -> None:
+    """List the frozen evaluation suites (registry/suites/) that `pipette eval --suite` runs.
+
+    Example: pipette tasks suites
+    """
+    from pipette_cli.suites import load_suites
+
+    suites = load_suites(_registry(), STATE.registry_dirs)
+    rows = []
+    for suite_id in suites.ids():
+        entry = suites.get(suite_id)
+        spec = entry.spec
+        rows.append({"id": spec.id, "name": spec.name, "tasks": [t.task for t in spec.tasks],
+                     "episodes": sum(len(spec.task_seeds(t)) for t in spec.tasks), "image_size": spec.image_size,
+                     "render_profile": spec.render_profile, "sha256": entry.sha256, "path": str(entry.path)})
+    if as_json:
+        print_json(rows)
+        return
+    table = Table(title=f"{len(rows)} evaluation suites", show_lines=False)
+    for column in ("id", "tasks", "episodes", "image", "name"):
+        table.add_column(column, no_wrap=column != "name", overflow="fold")
+    for r in rows:
+        table.add_row(r["id"], str(len(r["tasks"])), str(r["episodes"]), f"{r['image_size'] or 'task'} px", r["name"])
+    out_console.print(table)
+
+
 @app.command("show")
 def show_task(
     task_id: Annotated[str, typer.Argument(help="Task id, e.g. pipette/PickUpTestTube-v1 or PickUpTestTube.")],
@@ -107,13 +136,17 @@ def validate_tasks(
     """Check task files; every problem is printed as file:line: field: message.
 
     Exits 1 if any file is invalid. Without PATHs, validates the whole registry, including
-    duplicate ids across files.
+    duplicate ids across files and the evaluation suites in each folder's suites/.
 
     Example: pipette tasks validate registry/pick_up_test_tube.yaml
     """
     if not paths:
+        from pipette_cli.suites import load_suites
+
         registry = _registry()
-        err_console.print(f"{len(registry.tasks)} tasks valid in {len(registry_dirs(STATE.registry_dirs))} folder(s)")
+        suites = load_suites(registry, STATE.registry_dirs)
+        err_console.print(f"{len(registry.tasks)} tasks and {len(suites.suites)} evaluation suites valid in "
+                          f"{len(registry_dirs(STATE.registry_dirs))} folder(s)")
         return
     registry_dirs(STATE.registry_dirs)  # imports the task packs, which may register evaluator types
     files: list[Path] = []

@@ -335,6 +335,18 @@ def commit_tmp(tmp: Path, path: Path) -> None:
     fsync_dir(path.parent)
 
 
+def write_json_atomic(path: Path, data: Any, *, indent: int = 1, sort_keys: bool = True) -> None:
+    """Write ``data`` as JSON to ``path`` so that a crash leaves the old file or the new one,
+    never a torn one: ``path.tmp``, fsync, rename (:func:`commit_tmp`)."""
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=indent, sort_keys=sort_keys)
+        f.write("\n")
+        f.flush()
+        os.fsync(f.fileno())
+    commit_tmp(tmp, path)
+
+
 def read_summary(group: h5py.Group) -> EpisodeSummary:
     """The summary stored in an episode group's attributes."""
     a = group.attrs

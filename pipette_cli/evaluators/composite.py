@@ -26,8 +26,9 @@ only implements the :class:`~pipette_cli.evaluators.base.Evaluator` protocol is 
 through ``update``, so its success is latched and counts as satisfied from then on.
 
 Metrics: every child's metrics prefixed with its index (``"0.height_gain"``), plus
-``satisfied`` (children satisfied on this step) for ``all``/``any`` and ``stage`` (index of the
-stage being checked; the number of stages once done) for ``sequence``.
+``satisfied`` (children satisfied on this step) for ``all``/``any``, and for ``sequence`` ``stage``
+(index of the stage being checked; the number of stages once done) and ``stages`` (how many
+there are): ``stage / stages`` is the episode's progress through a staged task.
 """
 
 from __future__ import annotations
@@ -125,11 +126,14 @@ class Sequence(Composite):
         verdict = advance_child(child, state)
         self._last[self._stage] = verdict
         if verdict.failed:
-            return Check(False, {**self._metrics(), "stage": float(self._stage)}, fail=verdict.reason or TIMEOUT)
+            return Check(False, self._staged(self._stage), fail=verdict.reason or TIMEOUT)
         if not verdict.success:
-            return Check(False, {**self._metrics(), "stage": float(self._stage)}, unmet=child_unmet(child))
+            return Check(False, self._staged(self._stage), unmet=child_unmet(child))
         if self._stage == len(self.children) - 1:
-            return Check(True, {**self._metrics(), "stage": float(len(self.children))})
+            return Check(True, self._staged(len(self.children)))
         self._stage += 1
         self.children[self._stage].reset(state)
-        return Check(False, {**self._metrics(), "stage": float(self._stage)}, unmet=TIMEOUT)
+        return Check(False, self._staged(self._stage), unmet=TIMEOUT)
+
+    def _staged(self, stage: int) -> dict[str, float]:
+        return {**self._metrics(), "stage": float(stage), "stages": float(len(self.children))}

@@ -5,22 +5,28 @@ ACT: joint targets are interpolated linearly between two queries,
 action chunk is executed step by step until the next query replaces it. The gripper is open when
 ``u >= 0.5`` (pi0: hysteresis, open at ``u >= 0.55`` from closed, stays open while ``u > 0.45``).
 After 6 (pi0: 20) consecutive failed queries the robot holds ``[q_now, open]`` for the rest of
-the episode. Each episode is logged as JSON; the success rate is ``N_success / N_episodes``.
+the episode. A server that is down (:class:`~pipette_cli.lerobot.client.PolicyUnreachable`) is
+not a transient failure: the robot takes the same safe hold at once and :class:`ServerLost`
+stops the run (the episode is not counted; a resumed run plays it again).
+
+This module runs one episode; :mod:`pipette_cli.lerobot.runner` runs many (suites, resume,
+workers) and :mod:`pipette_cli.lerobot.results` writes and summarises their logs.
 """
 
 from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
 
 from pipette_cli.errors import PipetteError
+from pipette_cli.lerobot.client import PolicyUnreachable
 from pipette_cli.sim.env import Observation, PipetteEnv
-from pipette_cli.specs.task import TaskSpec
 
 POLICY_TYPES = ("act", "smolvla", "pi0")
 
@@ -121,11 +127,13 @@ def policy_observation(obs: Observation, float_images: bool) -> dict[str, np.nda
 
 @dataclass
 class EpisodeLog:
-    """What paper A.4 asks to be written per episode."""
+    """What paper A.4 asks to be written per episode, with the instruction given and, for
+    staged tasks (a ``sequence`` criterion), the share of stages completed."""
 
     task: str
     episode: int
     seed: int
+    instruction: str
     success: bool
     failure_reason: str | None
     runtime_s: float
@@ -139,6 +147,34 @@ class EpisodeLog:
     policy_type: str
     gripper_thresholds: dict[str, float]
     metrics: dict[str, float] = field(default_factory=dict)
+    progress: float | None = None
+    """``stage / stages`` of a staged task at the episode's end (1.0 on success); None otherwise."""
+    environment: dict[str, Any] = field(default_factory=dict)
+    """Where it ran: MuJoCo, renderer, GL backend, git commit (:func:`~pipette_cli.lerobot.results.environment_record`)."""
+
+
+class ServerLost(PipetteError):
+    """The policy server became unreachable during an episode; the safe hold was applied.
+
+    Attributes:
+        record: task, episode, seed, control step, the hold action and the time it was applied.
+    """
+
+    def __init__(self, message: str, record: dict[str, Any]) -> None:
+        self.record = record
+        super().__init__(message)
+
+
+class EpisodeInterrupted(Exception):
+    """Ctrl-C during an episode: it is dropped, and a resumed run plays it again."""
+
+
+def stage_progress(metrics: dict[str, float]) -> float | None:
+    """``stage / stages`` from a top-level ``sequence`` criterion's metrics; None for other tasks."""
+    stage, stages = metrics.get("stage"), metrics.get("stages")
+    if stage is None or not stages:
+        return None
+    return float(stage) / float(stages)
 
 
 class Gripper:
@@ -159,9 +195,27 @@ class Gripper:
         return 1.0 if self.open else 0.0
 
 
-def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, episode: int, seed: int) -> EpisodeLog:
-    """One closed-loop episode; ends when the task's evaluator decides."""
+def run_episode(
+    env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, episode: int, seed: int, instruction: str | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> EpisodeLog:
+    """One closed-loop episode; ends when the task's evaluator decides.
+
+    Args:
+        env: The task's environment (reset here with ``seed``).
+        source: The policy.
+        config: How its answers are decoded.
+        episode: The episode's index (for the log).
+        seed: The episode's seed.
+        instruction: What the policy is told (default: the task's instruction).
+        stop: Polled every control step; when true the episode is abandoned.
+
+    Raises:
+        ServerLost: the policy server became unreachable; the safe hold was applied first.
+        EpisodeInterrupted: ``stop`` turned true.
+    """
     task = env.task
+    instruction = instruction or task.instruction
     obs = env.reset(seed)
     world = env.world
     d_pi = max(1, round(task.timing.control_hz / task.timing.vision_hz))
@@ -175,10 +229,12 @@ def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, 
     verdict = world.verdict
     wall0 = time.perf_counter()
     while not verdict.done:
+        if stop is not None and stop():
+            raise EpisodeInterrupted(f"{task.id} episode {episode} interrupted")
         k = world.step_count
         if hold is None and k % d_pi == 0:
             try:
-                answer = source.act(policy_observation(obs, config.float_images), task=task.instruction,
+                answer = source.act(policy_observation(obs, config.float_images), task=instruction,
                                     reset=(k == 0), chunk=config.chunked)
                 queries += 1
                 consecutive = 0
@@ -186,6 +242,12 @@ def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, 
                     chunk, chunk_i = np.atleast_2d(answer), 0
                 else:
                     q_prev, q_curr, raw_gripper, steps_since = _commanded(q_prev, q_curr, steps_since, d_pi), answer[:-1], float(answer[-1]), 0
+            except PolicyUnreachable as exc:
+                hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open], then stop the run
+                env.step(hold)
+                raise ServerLost(str(exc), {
+                    "task": task.id, "episode": episode, "seed": seed, "step": k, "hold": hold.round(6).tolist(),
+                    "held_at": time.time(), "message": str(exc)}) from None
             except PipetteError:
                 failures += 1
                 consecutive += 1
@@ -204,15 +266,16 @@ def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, 
         obs, verdict = env.step(action)
     sim_time = world.time
     steps = world.step_count
+    metrics = {k: float(v) for k, v in verdict.metrics.items()}
     return EpisodeLog(
-        task=task.id, episode=episode, seed=seed, success=verdict.success,
+        task=task.id, episode=episode, seed=seed, instruction=instruction, success=verdict.success,
         failure_reason=None if verdict.success else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
         runtime_s=time.perf_counter() - wall0, sim_time_s=sim_time, control_steps=steps,
         control_hz=steps / sim_time if sim_time else 0.0, policy_queries=queries,
         policy_hz=queries / sim_time if sim_time else 0.0, failed_queries=failures, safe_hold=hold is not None,
         policy_type=config.policy_type,
         gripper_thresholds={"open": config.open_threshold, "stay_open": config.stay_open_threshold},
-        metrics={k: float(v) for k, v in verdict.metrics.items()},
+        metrics=metrics, progress=stage_progress(metrics),
     )
 
 
@@ -221,38 +284,3 @@ def _commanded(q_prev: np.ndarray, q_curr: np.ndarray, m: int, d_pi: int) -> np.
     control steps under the current goal including this one, so the goal is reached by the next query."""
     alpha = min(m / d_pi, 1.0)
     return (1.0 - alpha) * np.asarray(q_prev) + alpha * np.asarray(q_curr)
-
-
-def evaluate(
-    task: TaskSpec, source: ActionSource, config: DecodeConfig, *, episodes: int, seed: int = 0, out: Path | None = None,
-    image_size: int | None = None, on_episode: Any = None,
-) -> dict[str, Any]:
-    """Run ``episodes`` episodes (seeds ``seed + i``); write ``episode_XXXX.json`` and
-    ``summary.json`` to ``out``. Returns the summary."""
-    env = PipetteEnv(task, image_size=image_size)
-    logs: list[EpisodeLog] = []
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-    try:
-        for i in range(episodes):
-            log = run_episode(env, source, config, episode=i, seed=seed + i)
-            logs.append(log)
-            if out is not None:
-                (out / f"episode_{i:04d}.json").write_text(json.dumps(asdict(log), indent=2))
-            if on_episode is not None:
-                on_episode(log)
-    finally:
-        env.close()
-    n_success = sum(log.success for log in logs)
-    failures: dict[str, int] = {}
-    for log in logs:
-        if not log.success:
-            failures[log.failure_reason or "unknown"] = failures.get(log.failure_reason or "unknown", 0) + 1
-    summary = {
-        "task": task.id, "policy_type": config.policy_type, "episodes": len(logs), "successes": n_success,
-        "success_rate": n_success / len(logs) if logs else 0.0, "failures": failures,
-        "mean_runtime_s": float(np.mean([log.runtime_s for log in logs])) if logs else 0.0,
-    }
-    if out is not None:
-        (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    return summary

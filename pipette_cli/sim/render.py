@@ -92,3 +92,20 @@ class CameraRig:
 
     def close(self) -> None:
         self.renderer.close()
+
+
+def gl_info() -> dict[str, str]:
+    """The OpenGL backend (``MUJOCO_GL``) and the vendor, renderer and version strings of the
+    context current in this thread (after a render); ``unknown`` where there is none."""
+    import os
+
+    info = {"gl_backend": os.environ.get("MUJOCO_GL", "default")}
+    try:
+        from OpenGL import GL
+
+        for key, name in (("gl_vendor", GL.GL_VENDOR), ("gl_renderer", GL.GL_RENDERER), ("gl_version", GL.GL_VERSION)):
+            value = GL.glGetString(name)
+            info[key] = value.decode(errors="replace") if value else "unknown"
+    except Exception:  # no PyOpenGL, or no current context: the backend alone is still worth keeping
+        info.update({k: "unknown" for k in ("gl_vendor", "gl_renderer", "gl_version") if k not in info})
+    return info

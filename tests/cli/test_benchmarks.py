@@ -82,8 +82,9 @@ def test_bench_augment_compares_pipelines_floor_and_workers(tmp_path) -> None:
 @pytest.mark.render
 def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     work, docs = tmp_path / "work", tmp_path / "docs"
-    args = ("--tasks", "PickUpTestTube", "--demos", "2", "--steps", "2", "--batch-size", "2", "--eval-episodes", "1",
-            "--image-size", "32", "--variants", "original,light", "--work", str(work), "--docs", str(docs))
+    args = ("--suite", "testlab/ReproSmoke-v1", "--registry-dir", str(ROOT / "tests" / "fixtures" / "reproduce"),
+            "--demos", "2", "--steps", "2", "--batch-size", "2", "--variants", "original,light", "--workers", "1",
+            "--tasks", "pipette/PickUpTestTube-v1", "--work", str(work), "--docs", str(docs))
     bench("reproduce_table.py", *args)
     data = read(docs / "results.json")
     [row] = data["results"]
@@ -91,8 +92,13 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     assert row["versions"]["raw"]["episodes"] == 2
     assert row["versions"]["augmented"]["episodes"] == row["augment_kept"]  # originals re-rendered + light
     assert {v["eval_episodes"] for v in row["versions"].values()} == {1}
+    assert {v["suite"]["id"] for v in row["versions"].values()} == {"testlab/ReproSmoke-v1"}
+    assert row["comparison"]["test"] == "mcnemar_exact"  # the same suite episodes on both sides: paired
     table = (docs / "table.md").read_text()
     assert "pipette/PickUpTestTube-v1" in table and "100 -> 100" in table  # the paper's ACT numbers beside ours
+    assert "0/1 (0 %, 0-79)" in table  # an interval with every cell
+    assert data["pending"] == ["pipette/CloseCentrifugeLid-v1"]  # a partial run says what it leaves out
+    assert "Not in this table: pipette/CloseCentrifugeLid-v1 (of suite testlab/ReproSmoke-v1)" in table
     assert (docs / "success.png").stat().st_size > 0
     checkpoints = sorted(work.rglob("checkpoints/last/pretrained_model/config.json"))
     assert len(checkpoints) == 2
@@ -101,3 +107,18 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     assert [p.stat().st_mtime for p in checkpoints] == stamp
     assert "training ACT" not in rerun.stdout
     assert json.loads((docs / "results.json").read_text())["results"][0]["versions"] == row["versions"]
+
+
+@pytest.mark.render
+def test_bench_eval_measures_episodes_per_hour_and_dead_server_detection(tmp_path) -> None:
+    out = tmp_path / "eval.json"
+    result = bench("bench_eval.py", "--task", "PickUpTestTube", "--image-size", "24", "--episodes", "1", "--workers", "1",
+                   "--strike-after", "1", "--out", str(out))  # worker counts > 1: tests/sim/test_eval_runs.py
+    data = read(out)
+    assert [r["workers"] for r in data["results"]] == [1]
+    for r in data["results"]:
+        assert r["episodes"] == 1 and r["episodes_per_hour"] == pytest.approx(3600 / r["wall_s"], rel=0.01)
+    dead = {d["server"]: d for d in data["dead_server"]}
+    assert set(dead) == {"killed", "stopped"}
+    assert 4 <= dead["killed"]["to_safe_hold_s"] < 10 and dead["stopped"]["to_safe_hold_s"] < 15  # 5 s default (+3 s heartbeats)
+    assert "episodes/h" in result.stdout

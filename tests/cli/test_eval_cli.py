@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.lerobot import evaluate as lerobot_evaluate
+from pipette_cli.lerobot import runner as lerobot_runner
 from pipette_cli.lerobot.evaluate import resolve_policy_type
 
 
@@ -34,12 +34,12 @@ def test_eval_report_tabulates_and_needs_a_folder(run_cli, tmp_path: Path) -> No
         {"task": "pipette/PickUpTestTube-v1", "policy_type": "act", "dataset_version": "raw", "episodes": 4, "success_rate": 0.5}))
     result = run_cli("eval", "report", tmp_path / "runs")
     assert result.exit_code == 0, result.stderr
-    assert "| pipette/PickUpTestTube-v1 | act | 50 |" in result.stdout
+    assert "| pipette/PickUpTestTube-v1 | act | 2/4 (50 %, 15-85) | - |" in result.stdout  # from the summary alone
     assert run_cli("eval", "report").exit_code == 2  # a usage error: no folder
     odd = tmp_path / "runs[" / "old]"  # brackets in an error message are printed, not read as rich markup
     odd.mkdir(parents=True)
     missing = run_cli("eval", "report", odd)
-    assert missing.exit_code == 1 and f"error: {odd}: no summary.json" in " ".join(missing.stderr.split())
+    assert missing.exit_code == 1 and f"error: {odd}: no evaluation results" in " ".join(missing.stderr.split())
     extra = run_cli("eval", "PickUpTestTube", "leftover", "--endpoint", "tcp://127.0.0.1:1")
     assert extra.exit_code == 2 and "leftover" in extra.stderr
 
@@ -49,12 +49,13 @@ def captured(monkeypatch: pytest.MonkeyPatch) -> dict:
     """Replace loading and running the policy: record the decoding config eval chose."""
     seen: dict = {}
 
-    def fake_evaluate(task, source, config, **kwargs):  # noqa: ANN001, ANN003, ANN202
-        seen["policy_type"] = config.policy_type
-        return {"task": task.id, "policy_type": config.policy_type, "episodes": 1, "successes": 0, "success_rate": 0.0}
+    def fake_evaluate_runs(runs, source, settings, **kwargs):  # noqa: ANN001, ANN003, ANN202
+        seen["policy_type"] = settings.config.policy_type
+        task = runs[0].task.id
+        return lerobot_runner.EvalResult({task: {"task": task, "policy_type": settings.config.policy_type, "episodes": 1,
+                                                 "successes": 0, "success_rate": 0.0, "success_ci95": [0.0, 0.79]}})
 
-    monkeypatch.setattr(lerobot_evaluate, "InProcessSource", lambda path: path)
-    monkeypatch.setattr(lerobot_evaluate, "evaluate", fake_evaluate)
+    monkeypatch.setattr(lerobot_runner, "evaluate_runs", fake_evaluate_runs)
     return seen
 
 
@@ -86,3 +87,37 @@ def test_resolve_policy_type(tmp_path: Path) -> None:
     (tmp_path / "broken" / "config.json").write_text("{}")
     with pytest.raises(PipetteError, match="no policy 'type' field"):
         resolve_policy_type(None, tmp_path / "broken")
+
+
+def test_eval_names_what_is_wrong_with_a_suite_request(run_cli, tmp_path: Path) -> None:
+    unknown = run_cli("eval", "--suite", "PaperBenchmrk", "--endpoint", "tcp://127.0.0.1:1")
+    assert unknown.exit_code == 1 and "unknown suite 'PaperBenchmrk'; did you mean 'PaperBenchmark" in unknown.stderr
+    fixed = run_cli("eval", "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1", "--episodes", "5", "--seed", "3")
+    assert fixed.exit_code == 1 and "--episodes, --seed: the suite fixes seeds and image size" in fixed.stderr
+    outside = run_cli("--registry-dir", Path(__file__).parents[1] / "fixtures" / "demos" / "registry", "eval", "HoldTube",
+                      "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1")
+    assert outside.exit_code == 1 and "task testlab/HoldTube-v1 is not in suite pipette/PaperBenchmark-v1" in outside.stderr
+    nothing = run_cli("eval", "--endpoint", "tcp://127.0.0.1:1")
+    assert nothing.exit_code == 1 and "name a task or a suite" in nothing.stderr
+
+
+def test_eval_gives_up_on_a_server_that_never_answers(run_cli, tmp_path: Path) -> None:
+    import socket
+
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    result = run_cli("eval", "PickUpTestTube", "--endpoint", f"tcp://127.0.0.1:{port}", "--connect-timeout", "0.5",
+                     "--out", tmp_path / "run")
+    assert result.exit_code == 1
+    assert f"no policy server answers at tcp://127.0.0.1:{port} (waited 0.5 s); start `pipette serve` first" in result.stderr
+
+
+def test_tasks_suites_lists_the_frozen_suites(run_cli) -> None:
+    result = run_cli("tasks", "suites", "--json")
+    assert result.exit_code == 0, result.stderr
+    suites = {s["id"]: s for s in json.loads(result.stdout)}
+    cpu = suites["pipette/CpuReproduction-v1"]
+    assert (cpu["episodes"], cpu["image_size"], len(cpu["tasks"])) == (200, 64, 4) and len(cpu["sha256"]) == 64
+    assert suites["pipette/PaperBenchmark-v1"]["episodes"] == 12 * 75

@@ -384,3 +384,9 @@ def test_interactive_session_asks_for_missing_values_and_keeps_context(tmp_path)
     out = " ".join(result.stdout.split())
     assert "pipette eval pipette/PickUpTestTube-v1 --policy ckpt/act --episodes 10" in out
     assert "pipette sim render pipette/OpenWaterBathLid-v1 --seed 3" in out
+
+
+def test_a_suite_stands_in_for_the_task_of_eval() -> None:
+    catalog = load_catalog()
+    assert catalog.missing("eval", {"suite_id": "pipette/PaperBenchmark-v1", "policy": "ckpt"}) == []
+    assert catalog.missing("eval", {"policy": "ckpt"}) == ["task_id"]

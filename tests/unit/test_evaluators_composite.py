@@ -147,6 +147,7 @@ def test_sequence_checks_a_stage_only_after_the_previous_one() -> None:
     assert verdicts[4].metrics["stage"] == 1.0 and not verdicts[4].done
     assert first_done(verdicts) == 6 and verdicts[5].success
     assert verdicts[5].metrics["stage"] == 2.0
+    assert {v.metrics["stages"] for v in verdicts[:6]} == {2.0}  # progress = stage / stages
 
 
 def test_sequence_stage_references_start_with_the_stage() -> None:
