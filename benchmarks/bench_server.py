@@ -27,9 +27,9 @@ sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "policy"))
 
 import numpy as np  # noqa: E402
 
-from pipette_cli.lerobot.client import PolicyClient  # noqa: E402
-from pipette_cli.lerobot.protocol import check_observation, pack, parse_request, unpack  # noqa: E402
-from pipette_cli.lerobot.server import PolicyServer, serving_in_thread  # noqa: E402
+from pipette_cli.serving.client import PolicyClient  # noqa: E402
+from pipette_cli.serving.protocol import check_observation, pack, parse_request, unpack  # noqa: E402
+from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
@@ -89,7 +89,7 @@ def main() -> None:
         codecs[dtype] = codec(obs)
         rows.append(measure("trivial", ConstantRunner(image_size=args.size), obs, args.steps, warmup=10))
     if not args.no_act:
-        from pipette_cli.lerobot.server import LeRobotRunner
+        from pipette_cli.serving.server import LeRobotRunner
 
         with tempfile.TemporaryDirectory() as tmp:
             runner = LeRobotRunner(make_tiny_act(Path(tmp) / "act", image_size=args.size, chunk_size=1), device="auto")

@@ -47,15 +47,15 @@ from pipette_cli.demo import SMALL_ACT  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
-from pipette_cli.lerobot import report  # noqa: E402
+from pipette_cli.evaluation import report  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
-from pipette_cli.lerobot.evaluate import DecodeConfig  # noqa: E402
-from pipette_cli.lerobot.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
-from pipette_cli.lerobot.significance import ALPHA, Comparison  # noqa: E402
+from pipette_cli.evaluation.evaluate import DecodeConfig  # noqa: E402
+from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.significance import ALPHA, Comparison  # noqa: E402
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.specs.task import TaskSpec  # noqa: E402
-from pipette_cli.suites import RegisteredSuite, episode_plan, load_suites  # noqa: E402
+from pipette_cli.evaluation.suites import RegisteredSuite, episode_plan, load_suites  # noqa: E402
 
 
 @dataclass(frozen=True)

@@ -117,7 +117,7 @@ def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:
 
 def task_files(dirs: Iterable[Path]) -> list[Path]:
     """All YAML files under ``dirs`` (recursively, except each folder's ``suites/``: evaluation
-    suites, see :mod:`pipette_cli.suites`), de-duplicated, in a stable order."""
+    suites, see :mod:`pipette_cli.evaluation.suites`), de-duplicated, in a stable order."""
     files: list[Path] = []
     seen: set[Path] = set()
     for folder in dirs:

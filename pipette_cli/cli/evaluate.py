@@ -69,8 +69,8 @@ def eval_command(
     """
     if dataset_version not in ("raw", "augmented"):
         raise PipetteError(f"--dataset-version must be raw or augmented, not {dataset_version!r}")
-    from pipette_cli.lerobot.evaluate import DecodeConfig, resolve_policy_type
-    from pipette_cli.lerobot.runner import PolicySource, check_servers
+    from pipette_cli.evaluation.evaluate import DecodeConfig, resolve_policy_type
+    from pipette_cli.evaluation.runner import PolicySource, check_servers
     from pipette_cli.registry import load_registry
 
     source = PolicySource(checkpoint=policy, endpoints=tuple(endpoint or ()), device=device, dead_after_s=dead_after)
@@ -101,8 +101,8 @@ def eval_command(
 def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: int | None, seed: int | None,
           image_size: int | None, out: Path, config: Any, dataset_version: str) -> tuple[list[Any], Any]:
     """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself)."""
-    from pipette_cli.lerobot.runner import EvalSettings, TaskRun
-    from pipette_cli.suites import adhoc_plan, episode_plan, load_suites
+    from pipette_cli.evaluation.runner import EvalSettings, TaskRun
+    from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
 
     if suite_id is None:
         if task_id is None:
@@ -124,7 +124,7 @@ def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: in
 def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict[str, Any]]:
     """Play the runs with a progress bar; the summaries, in run order."""
     from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.lerobot.runner import evaluate_runs
+    from pipette_cli.evaluation.runner import evaluate_runs
 
     ok = failed = 0
     progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
@@ -172,7 +172,7 @@ def report_command(
 
     Example: pipette eval report evals/ --out docs/results
     """
-    from pipette_cli.lerobot.report import build_report, load_runs, markdown, write_report
+    from pipette_cli.evaluation.report import build_report, load_runs, markdown, write_report
 
     report = build_report(load_runs(folders))
     out_console.print(markdown(report), markup=False, highlight=False, end="")

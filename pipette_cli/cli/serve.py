@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.lerobot.protocol import DEFAULT_MAX_REQUEST_BYTES
+from pipette_cli.serving.protocol import DEFAULT_MAX_REQUEST_BYTES
 
 
 def serve(
@@ -30,7 +30,7 @@ def serve(
 
     Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model
     """
-    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, check_endpoint
+    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint
 
     check_endpoint(bind, allow_remote=allow_remote)  # before the slow policy load
     runner = LeRobotRunner(policy, device=device)

@@ -73,7 +73,7 @@ def list_suites(
 
     Example: pipette tasks suites
     """
-    from pipette_cli.suites import load_suites
+    from pipette_cli.evaluation.suites import load_suites
 
     suites = load_suites(_registry(), STATE.registry_dirs)
     rows = []
@@ -141,7 +141,7 @@ def validate_tasks(
     Example: pipette tasks validate registry/pick_up_test_tube.yaml
     """
     if not paths:
-        from pipette_cli.suites import load_suites
+        from pipette_cli.evaluation.suites import load_suites
 
         registry = _registry()
         suites = load_suites(registry, STATE.registry_dirs)

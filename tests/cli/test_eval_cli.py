@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.lerobot import runner as lerobot_runner
-from pipette_cli.lerobot.evaluate import resolve_policy_type
+from pipette_cli.evaluation import runner as lerobot_runner
+from pipette_cli.evaluation.evaluate import resolve_policy_type
 
 
 def checkpoint(folder: Path, policy_type: str) -> Path:

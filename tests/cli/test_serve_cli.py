@@ -25,7 +25,7 @@ def _free_port() -> int:
 
 
 def test_serve_answers_a_client_then_stops_after_max_requests(run_cli, tmp_path) -> None:
-    from pipette_cli.lerobot.client import PolicyClient, PolicyRequestError
+    from pipette_cli.serving.client import PolicyClient, PolicyRequestError
 
     policy = make_tiny_act(tmp_path / "act", image_size=24)
     endpoint = f"tcp://127.0.0.1:{_free_port()}"

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.lerobot.evaluate import DecodeConfig, Gripper, _commanded, run_episode
+from pipette_cli.evaluation.evaluate import DecodeConfig, Gripper, _commanded, run_episode
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import PipetteEnv
 
@@ -81,7 +81,7 @@ def tiny_act(tmp_path_factory) -> Path:
 
 
 def test_served_policy_two_episodes_with_json_logs(run_cli, tiny_act, tmp_path) -> None:
-    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread
+    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread
 
     with serving_in_thread(PolicyServer(LeRobotRunner(tiny_act, device="cpu"), "tcp://127.0.0.1:0")) as server:
         result = run_cli("eval", "PickUpTestTube", "--endpoint", server.endpoint, "--episodes", "2", "--image-size", "32",

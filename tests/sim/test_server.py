@@ -19,9 +19,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "polic
 
 from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
-from pipette_cli.lerobot.client import PolicyClient, PolicyRequestError, PolicyTimeout  # noqa: E402
-from pipette_cli.lerobot.protocol import ErrorType, pack, unpack  # noqa: E402
-from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread  # noqa: E402
+from pipette_cli.serving.client import PolicyClient, PolicyRequestError, PolicyTimeout  # noqa: E402
+from pipette_cli.serving.protocol import ErrorType, pack, unpack  # noqa: E402
+from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread  # noqa: E402
 
 pytestmark = pytest.mark.timeout(60)
 

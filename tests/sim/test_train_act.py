@@ -62,7 +62,7 @@ def test_tiny_act_trains_offline_and_writes_a_checkpoint(tmp_path: Path, run_cli
 
     # issue 8's chain: the trained checkpoint is served and evaluated for 2 episodes over ZeroMQ
 
-    from pipette_cli.lerobot.server import LeRobotRunner, PolicyServer, serving_in_thread
+    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread
 
     with serving_in_thread(PolicyServer(LeRobotRunner(checkpoint, device="cpu"), "tcp://127.0.0.1:0")) as server:
         evaluation = run_cli("--registry-dir", str(FIXTURES / "registry"), "eval", "HoldTube", "--endpoint", server.endpoint,

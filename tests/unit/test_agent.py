@@ -283,7 +283,7 @@ def test_answers_count_demos_in_hdf5_files(tmp_path, monkeypatch) -> None:
 def test_answers_read_the_last_evaluation(tmp_path, monkeypatch) -> None:
     from dataclasses import asdict
 
-    from pipette_cli.lerobot.evaluate import EpisodeLog
+    from pipette_cli.evaluation.evaluate import EpisodeLog
 
     monkeypatch.chdir(tmp_path)
     old, new = Path("evals/old"), Path("evals/PickUpTestTube")

@@ -8,7 +8,7 @@ import msgpack
 import numpy as np
 import pytest
 
-from pipette_cli.lerobot.protocol import (
+from pipette_cli.serving.protocol import (
     ActRequest,
     ErrorType,
     InfoRequest,

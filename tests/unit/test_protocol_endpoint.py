@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from pipette_cli.lerobot.protocol import ServingError
-from pipette_cli.lerobot.server import check_endpoint
+from pipette_cli.serving.protocol import ServingError
+from pipette_cli.serving.server import check_endpoint
 
 
 @pytest.mark.parametrize("endpoint", ["tcp://127.0.0.1:5555", "tcp://127.3.2.1:0", "tcp://localhost:5555",

@@ -1,6 +1,6 @@
 """The policy server behind ``pipette serve`` (paper A.4): a LeRobot policy answering over ZeroMQ.
 
-Clients use REQ sockets (:class:`~pipette_cli.lerobot.client.PolicyClient`); the server uses a
+Clients use REQ sockets (:class:`~pipette_cli.serving.client.PolicyClient`); the server uses a
 ROUTER socket, so it is never wedged: each request is answered from its own envelope, a reply to
 a client that has gone away is dropped by ZeroMQ, and a malformed, oversized or unanswerable
 request gets a typed error reply (``docs/serving.md``) while the server goes on serving.
@@ -23,7 +23,7 @@ from typing import Any, Protocol
 import numpy as np
 import zmq
 
-from pipette_cli.lerobot.protocol import (
+from pipette_cli.serving.protocol import (
     DEFAULT_MAX_REQUEST_BYTES,
     STATE_KEY,
     ErrorType,

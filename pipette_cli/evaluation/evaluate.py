@@ -5,12 +5,12 @@ ACT: joint targets are interpolated linearly between two queries,
 action chunk is executed step by step until the next query replaces it. The gripper is open when
 ``u >= 0.5`` (pi0: hysteresis, open at ``u >= 0.55`` from closed, stays open while ``u > 0.45``).
 After 6 (pi0: 20) consecutive failed queries the robot holds ``[q_now, open]`` for the rest of
-the episode. A server that is down (:class:`~pipette_cli.lerobot.client.PolicyUnreachable`) is
+the episode. A server that is down (:class:`~pipette_cli.serving.client.PolicyUnreachable`) is
 not a transient failure: the robot takes the same safe hold at once and :class:`ServerLost`
 stops the run (the episode is not counted; a resumed run plays it again).
 
-This module runs one episode; :mod:`pipette_cli.lerobot.runner` runs many (suites, resume,
-workers) and :mod:`pipette_cli.lerobot.results` writes and summarises their logs.
+This module runs one episode; :mod:`pipette_cli.evaluation.runner` runs many (suites, resume,
+workers) and :mod:`pipette_cli.evaluation.results` writes and summarises their logs.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.lerobot.client import PolicyUnreachable
+from pipette_cli.serving.client import PolicyUnreachable
 from pipette_cli.sim.env import Observation, PipetteEnv
 
 POLICY_TYPES = ("act", "smolvla", "pi0")
@@ -96,7 +96,7 @@ def resolve_policy_type(given: str | None, checkpoint: Path | None) -> str:
 
 
 class ActionSource(Protocol):
-    """A policy: an in-process runner or a :class:`~pipette_cli.lerobot.client.PolicyClient`."""
+    """A policy: an in-process runner or a :class:`~pipette_cli.serving.client.PolicyClient`."""
 
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray: ...
 
@@ -105,7 +105,7 @@ class InProcessSource:
     """A LeRobot policy loaded in this process (no server)."""
 
     def __init__(self, path: Path, device: str = "auto") -> None:
-        from pipette_cli.lerobot.server import LeRobotRunner
+        from pipette_cli.serving.server import LeRobotRunner
 
         self.runner = LeRobotRunner(Path(path), device=device)
 
@@ -150,7 +150,7 @@ class EpisodeLog:
     progress: float | None = None
     """``stage / stages`` of a staged task at the episode's end (1.0 on success); None otherwise."""
     environment: dict[str, Any] = field(default_factory=dict)
-    """Where it ran: MuJoCo, renderer, GL backend, git commit (:func:`~pipette_cli.lerobot.results.environment_record`)."""
+    """Where it ran: MuJoCo, renderer, GL backend, git commit (:func:`~pipette_cli.evaluation.results.environment_record`)."""
 
 
 class ServerLost(PipetteError):

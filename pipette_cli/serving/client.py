@@ -29,7 +29,7 @@ import numpy as np
 import zmq
 from zmq.utils.monitor import recv_monitor_message
 
-from pipette_cli.lerobot.protocol import ServingError, pack, unpack
+from pipette_cli.serving.protocol import ServingError, pack, unpack
 
 log = logging.getLogger(__name__)
 

@@ -7,7 +7,7 @@ A run folder holds
   version). A rerun into the same folder must plan the same run, except that one plan may
   extend the other (``--episodes 100`` after ``--episodes 50`` plays 50 more); the manifest
   keeps the longer plan.
-* ``episode_XXXX.json``: one per finished episode (:class:`~pipette_cli.lerobot.evaluate.EpisodeLog`),
+* ``episode_XXXX.json``: one per finished episode (:class:`~pipette_cli.evaluation.evaluate.EpisodeLog`),
   written atomically (temporary file, fsync, rename), so a killed run leaves whole logs only.
 * ``summary.json``: derived from the logs (success with its Wilson interval, failures by reason,
   stage progress, environments) and rewritten after every run, partial ones included. Anything
@@ -31,10 +31,10 @@ import pipette_cli
 from pipette_cli.demos.provenance import git_state, sha256_file, task_spec_sha256
 from pipette_cli.demos.recorder import write_json_atomic
 from pipette_cli.errors import DatasetError
-from pipette_cli.lerobot.evaluate import DecodeConfig, EpisodeLog
-from pipette_cli.lerobot.significance import wilson_interval
+from pipette_cli.evaluation.evaluate import DecodeConfig, EpisodeLog
+from pipette_cli.evaluation.significance import wilson_interval
 from pipette_cli.specs.task import TaskSpec
-from pipette_cli.suites import EpisodePlan
+from pipette_cli.evaluation.suites import EpisodePlan
 
 RUN_FORMAT = "pipette.eval/1"
 MANIFEST_FILE = "run.json"

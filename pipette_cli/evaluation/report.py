@@ -1,7 +1,7 @@
 """``pipette eval report``: the paper's kind of table (task x policy x raw/augmented) with the
 statistics to read it by: Wilson 95 % intervals, stage progress, and raw-versus-augmented tests.
 
-Results are read from run folders (:mod:`~pipette_cli.lerobot.results`): from the episode logs
+Results are read from run folders (:mod:`~pipette_cli.evaluation.results`): from the episode logs
 when there are any (a missing or stale ``summary.json`` does not matter, and the episodes give
 the paired comparison), else from ``summary.json`` alone. A report is written as markdown, JSON,
 CSV and a bar chart with interval whiskers, all from the same numbers.
@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from pipette_cli.errors import DatasetError
-from pipette_cli.lerobot.results import MANIFEST_FILE, SUMMARY_FILE, read_logs, summarize
-from pipette_cli.lerobot.significance import ALPHA, Comparison, compare, holm, wilson_interval
+from pipette_cli.evaluation.results import MANIFEST_FILE, SUMMARY_FILE, read_logs, summarize
+from pipette_cli.evaluation.significance import ALPHA, Comparison, compare, holm, wilson_interval
 
 VERSIONS = ("raw", "augmented")
 

@@ -1,10 +1,10 @@
 """Many evaluation episodes: suites, resume after a crash, parallel workers, a dead server.
 
 :func:`evaluate_runs` plays the planned episodes of one or more task runs
-(:class:`TaskRun`: a task, its folder, its :class:`~pipette_cli.suites.EpisodePlan` list):
+(:class:`TaskRun`: a task, its folder, its :class:`~pipette_cli.evaluation.suites.EpisodePlan` list):
 
 * **Resume.** Each folder's ``run.json`` pins the plan; episodes whose log is already there are
-  skipped, the others run (see :mod:`~pipette_cli.lerobot.results`). Killing the run at any
+  skipped, the others run (see :mod:`~pipette_cli.evaluation.results`). Killing the run at any
   moment loses at most the episodes in flight, and none is run twice.
 * **Workers.** With ``workers > 1`` episodes are shared among that many processes, each with
   its own environment and its own policy (a :class:`PolicySource` builds it: a checkpoint
@@ -12,7 +12,7 @@
   ``i mod n``). An episode depends only on its seed and instruction, never on the worker that
   ran it or the episodes before it, so any worker count gives the same logs.
 * **Dead server.** A worker whose server is unreachable applies the safe hold and reports
-  :class:`~pipette_cli.lerobot.evaluate.ServerLost`; the run stops at once (other workers are
+  :class:`~pipette_cli.evaluation.evaluate.ServerLost`; the run stops at once (other workers are
   ended, their episodes in flight dropped), partial summaries are written, and ``ServerLost``
   is raised with one line that says what happened and how to resume.
 
@@ -35,8 +35,8 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.lerobot.client import DEFAULT_DEAD_AFTER_S, PolicyClient
-from pipette_cli.lerobot.evaluate import (
+from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
+from pipette_cli.evaluation.evaluate import (
     ActionSource,
     DecodeConfig,
     EpisodeInterrupted,
@@ -45,7 +45,7 @@ from pipette_cli.lerobot.evaluate import (
     ServerLost,
     run_episode,
 )
-from pipette_cli.lerobot.results import (
+from pipette_cli.evaluation.results import (
     checkpoint_record,
     environment_record,
     make_manifest,
@@ -56,7 +56,7 @@ from pipette_cli.lerobot.results import (
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import gl_info
 from pipette_cli.specs.task import TaskSpec
-from pipette_cli.suites import EpisodePlan
+from pipette_cli.evaluation.suites import EpisodePlan
 
 log = logging.getLogger(__name__)
 
@@ -263,7 +263,7 @@ def evaluate_task(
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
     resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
-    from pipette_cli.suites import adhoc_plan
+    from pipette_cli.evaluation.suites import adhoc_plan
 
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
     settings = EvalSettings(config, image_size, "fast", dataset_version)
