@@ -324,6 +324,10 @@ def read_catalog(*apps: tuple[typer.Typer | Any, tuple[str, ...]]) -> CommandCat
     vocabulary = load_vocabulary()
     one_of = {k: tuple(v) for k, v in vocabulary.one_of.items() if k in commands}
     stands_in = {k: dict(v) for k, v in vocabulary.stands_in.items() if k in commands}
+    for name, replaced in stands_in.items():  # required for planning, unless the stand-in is given
+        info = commands[name]
+        params = {k: replace(p, required=True) if k in replaced else p for k, p in info.params.items()}
+        commands[name] = replace(info, params=params)
     return CommandCatalog(commands, one_of, stands_in)
 
 

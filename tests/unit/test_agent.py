@@ -294,7 +294,7 @@ def test_answers_read_the_last_evaluation(tmp_path, monkeypatch) -> None:
     os.utime(old / "summary.json", (1, 1))
     new.mkdir(parents=True)
     for i, ok in enumerate([True, False, True]):  # an interrupted run: episode files, no summary yet
-        log = EpisodeLog(task="pipette/PickUpTestTube-v1", episode=i, seed=i, success=ok, failure_reason=None,
+        log = EpisodeLog(task="pipette/PickUpTestTube-v1", episode=i, seed=i, instruction="Pick up the test tube.", success=ok, failure_reason=None,
                          runtime_s=1.0, sim_time_s=1.0, control_steps=30, control_hz=30.0, policy_queries=10,
                          policy_hz=10.0, failed_queries=0, safe_hold=False, policy_type="smolvla",
                          gripper_thresholds={})
