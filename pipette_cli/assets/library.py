@@ -52,9 +52,6 @@ class AssetLibrary:
         except KeyError:
             raise AssetError(f"unknown asset {asset_id!r}; {suggest(asset_id, self.entries)}") from None
 
-    def by_category(self, category: str) -> list[AssetEntry]:
-        return [e for e in self.entries.values() if e.category == category]
-
 
 def asset_roots(extra: tuple[Path, ...] = ()) -> list[Path]:
     """Built-in asset root, then ``PIPETTE_ASSET_PATH`` entries, then ``extra``."""

@@ -17,19 +17,6 @@ WARP_MIN, WARP_MAX = 0.2, 3.0
 """Bounds of the local speed multiplier ``m_i`` (paper A.7)."""
 
 
-def scale_intensity(intensity: np.ndarray, s_i: float) -> np.ndarray:
-    """Lighting: ``I' = s_I I`` (colour channels of every light)."""
-    return np.asarray(intensity, dtype=float) * s_i
-
-
-def scale_timestamps(t: np.ndarray, s_v: float) -> np.ndarray:
-    """Time scaling without resampling: ``t'_i = t_0 + (t_i - t_0) / s_v``."""
-    t = np.asarray(t, dtype=float)
-    if s_v <= 0:
-        raise ValueError("the speed factor s_v must be > 0")
-    return t[0] + (t - t[0]) / s_v if t.size else t
-
-
 def smoothed_noise(rng: np.random.Generator, n: int, window: int = 11) -> np.ndarray:
     """Gaussian noise smoothed by a moving average of length ``window``, normalised to zero mean, unit std."""
     if n <= 0:

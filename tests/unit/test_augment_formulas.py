@@ -25,13 +25,6 @@ def test_catmull_rom_matches_the_paper_polynomial_between_knots() -> None:
     assert f.linear(p, np.array([1.25]))[0, 0] == pytest.approx(1.75)
 
 
-def test_time_scaling() -> None:
-    t = np.array([2.0, 2.5, 4.0])
-    np.testing.assert_allclose(f.scale_timestamps(t, 2.0), [2.0, 2.25, 3.0])
-    with pytest.raises(ValueError):
-        f.scale_timestamps(t, 0.0)
-
-
 def test_smoothed_noise_is_normalised() -> None:
     eps = f.smoothed_noise(np.random.default_rng(1), 500, 11)
     assert eps.shape == (500,)
