@@ -17,7 +17,7 @@ import tempfile
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field, model_validator
 
@@ -27,6 +27,11 @@ from pipette_cli.errors import AssetError, PipetteError
 from pipette_cli.resources import env_paths
 from pipette_cli.specs.base import Spec
 
+if TYPE_CHECKING:
+    from pipette_cli.assets.model import AssetDef
+    from pipette_cli.authoring.backends.base import AuthoringBackend
+
+SizeField = Literal["volume_ml", "diameter_mm", "length_mm"]
 Generator = Literal["beaker", "erlenmeyer_flask", "volumetric_flask", "media_bottle", "graduated_cylinder",
                     "petri_dish", "test_tube"]
 # generator -> (generator function name, id prefix, size kind, (min, max), alias phrases)
@@ -66,6 +71,13 @@ class AssetDraftSpec(Spec):
                                               or self.length_mm < 3 * (self.diameter_mm or 0)):
             raise ValueError("test_tube needs length_mm between 50 and 250 and at least 3 diameters")
         return self
+
+    def size(self, field: SizeField) -> float:
+        """A size the generator needs (the validator has checked it is set)."""
+        value = getattr(self, field)
+        if value is None:
+            raise DraftError(f"{self.generator} needs {field}")
+        return float(value)
 
     def describe(self) -> str:
         if self.generator == "test_tube":
@@ -107,12 +119,12 @@ def parse_asset(description: str) -> AssetDraftSpec:
     elif m := re.search(r"(\d+(?:\.\d+)?)\s*cm\b", text):
         values = {"diameter_mm": float(m[1]) * 10}
     try:
-        return AssetDraftSpec(generator=found, **values)  # type: ignore[arg-type]
+        return AssetDraftSpec(generator=found, **values)
     except ValueError as exc:
         raise DraftError(f"cannot make {description!r}: {exc.errors()[0]['msg'].removeprefix('Value error, ') if hasattr(exc, 'errors') else exc}") from None
 
 
-def _references(function_name: str) -> list[tuple[str, partial]]:
+def _references(function_name: str) -> list[tuple[str, partial[AssetDef]]]:
     from pipette_cli.assets.generators import all_generators
 
     out = []
@@ -127,20 +139,22 @@ def _references(function_name: str) -> list[tuple[str, partial]]:
     return out
 
 
-def build_asset(spec: AssetDraftSpec, asset_id: str):
-    """The :class:`~pipette_cli.assets.model.AssetDef` of ``spec``, scaled from the nearest reference."""
+def build_asset(spec: AssetDraftSpec, asset_id: str) -> tuple[AssetDef, str]:
+    """The :class:`~pipette_cli.assets.model.AssetDef` of ``spec``, scaled from the nearest reference,
+    and the reference's id."""
     function_name = FAMILIES[spec.generator][0]
     refs = _references(function_name)
     func = refs[0][1].func
     if spec.generator == "petri_dish":
-        ref_id, ref = min(refs, key=lambda r: abs(math.log(spec.diameter_mm / 1000 / r[1].args[1])))
+        dish = spec.size("diameter_mm") / 1000
+        ref_id, ref = min(refs, key=lambda r: abs(math.log(dish / r[1].args[1])))
         _, diameter, height, mass = ref.args
-        s = spec.diameter_mm / 1000 / diameter
-        return func(asset_id, spec.diameter_mm / 1000, height, mass * s * s), ref_id
+        s = dish / diameter
+        return func(asset_id, dish, height, mass * s * s), ref_id
     if spec.generator == "test_tube":
-        ref_id, ref = min(refs, key=lambda r: abs(math.log(spec.diameter_mm / 2000 / r[1].keywords["radius"])))
+        radius, length = spec.size("diameter_mm") / 2000, spec.size("length_mm") / 1000
+        ref_id, ref = min(refs, key=lambda r: abs(math.log(radius / r[1].keywords["radius"])))
         kw = dict(ref.keywords)
-        radius, length = spec.diameter_mm / 2000, spec.length_mm / 1000
         kw["mass"] = kw["mass"] * (radius * length) / (ref.keywords["radius"] * ref.keywords["length"])
         inner = radius - kw.get("wall", 0.0008)
         kw["volume_ml"] = round(math.pi * inner * inner * length * 0.9e6, 1)
@@ -148,14 +162,15 @@ def build_asset(spec: AssetDraftSpec, asset_id: str):
         kw.pop("description", None)
         description = f"Borosilicate glass test tube, {spec.diameter_mm:g} mm x {spec.length_mm:g} mm."
         return func(asset_id, description, **kw), ref_id
-    ref_id, ref = min(refs, key=lambda r: abs(math.log(spec.volume_ml / r[1].args[1])))
+    volume = spec.size("volume_ml")
+    ref_id, ref = min(refs, key=lambda r: abs(math.log(volume / r[1].args[1])))
     args = list(ref.args)
-    s = (spec.volume_ml / args[1]) ** (1 / 3)
+    s = (volume / args[1]) ** (1 / 3)
     mass_index = {"beaker": 4, "erlenmeyer": 6, "volumetric_flask": 5, "media_bottle": 6, "graduated_cylinder": 5}[function_name]
     for i in range(2, mass_index):
         args[i] = args[i] * s
     args[mass_index] = args[mass_index] * s * s
-    args[0], args[1] = asset_id, float(spec.volume_ml)
+    args[0], args[1] = asset_id, volume
     return func(*args), ref_id
 
 
@@ -200,14 +215,14 @@ def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsse
         write_usda(asset, path)
         report = validate_asset(path, asset.category)
         if not report.ok:
-            raise AssetError([f"generated asset {name} fails validation: {p}" for p in report.problems])  # type: ignore[arg-type]
+            raise AssetError([f"generated asset {name} fails validation: {p}" for p in report.problems])
         text = path.read_text(encoding="utf-8")
     lo, hi = asset.bounds()
     return DraftedAsset(spec, name, asset.category, text, reference, existing,
                         [round(float(v), 4) for v in (hi - lo)], asset.total_mass())
 
 
-def draft_asset(description: str, backend, *, asset_id: str | None = None) -> DraftedAsset:
+def draft_asset(description: str, backend: AuthoringBackend, *, asset_id: str | None = None) -> DraftedAsset:
     """Description -> validated asset, with the offline parser or an LLM backend."""
     if backend.name == "offline":
         return make_asset(parse_asset(description), asset_id)

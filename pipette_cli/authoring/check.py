@@ -15,12 +15,17 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from pipette_cli.demos.experts.base import find_expert
 from pipette_cli.errors import PipetteError
 from pipette_cli.specs.task import TaskSpec
+
+if TYPE_CHECKING:
+    from pipette_cli.evaluators.base import Verdict
+    from pipette_cli.sim.world import World
 
 SOLVE_SHARE = 0.8
 """Share of seeds the expert must solve for ``--check`` to pass (4 of 5)."""
@@ -73,7 +78,7 @@ class CheckReport:
     def ok(self) -> bool:
         return not self.problems
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {"task": self.task_id, "ok": self.ok, "problems": self.problems, "episodes": self.episodes,
                 "idle_steps": self.idle_steps, "max_drift_m": round(self.max_drift_m, 4),
                 "solve": {"status": self.solve.status, "expert": self.solve.expert, "successes": self.solve.successes,
@@ -81,12 +86,12 @@ class CheckReport:
                 "seconds": round(self.seconds, 2)}
 
 
-def _idle_action(world) -> np.ndarray:
+def _idle_action(world: World) -> np.ndarray:
     gripper = 1.0 if world.task.embodiment.gripper == "open" else 0.0
     return np.append(np.asarray(world.task.embodiment.initial_joints, dtype=float), gripper)
 
 
-def _episode_steps(task: TaskSpec, world) -> int:
+def _episode_steps(task: TaskSpec, world: World) -> int:
     timeout = task.success.timeout_s or 10.0
     return int(np.ceil(min(timeout, 30.0) / world.control_dt)) + 1
 
@@ -143,7 +148,7 @@ def check_task(task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool 
     return report
 
 
-def _stage_line(task_spec: TaskSpec, verdict, stage_names: list[str] | None) -> str:
+def _stage_line(task_spec: TaskSpec, verdict: Verdict, stage_names: list[str] | None) -> str:
     """Which stage of the criterion an episode did not get past."""
     stages = len(getattr(task_spec.success, "of", None) or []) if task_spec.success.type == "sequence" else 1
     k = int(verdict.metrics.get("stage", 0)) if stages > 1 else 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -48,7 +49,7 @@ class ComposedTask:
     program: list[StepSpec]
     comments: dict[str, str]
     notes: list[tuple[str, str]]
-    cameras: dict[str, dict]
+    cameras: dict[str, dict[str, Any]]
     checked: CheckedPlan = field(repr=False)
 
     @property
@@ -74,9 +75,9 @@ def step_id(step: PlanStepSpec, checked: CheckedPlan) -> str:
     part = (step.part or "").split("_")[0].capitalize() if step.part in ("lid", "door", "drawer", "sash") else ""
     return {
         "pick": lambda: f"PickUp{obj}" + (f"From{c[step.source]}" if step.source else ""),
-        "place": lambda: f"Place{obj}On{c[step.target]}",  # type: ignore[index]
+        "place": lambda: f"Place{obj}On{c[step.required_target()]}",
         "remove": lambda: f"Remove{obj}From{c[step.source]}" if step.source else f"Remove{obj}",
-        "position": lambda: f"Position{obj}Over{c[step.target]}",  # type: ignore[index]
+        "position": lambda: f"Position{obj}Over{c[step.required_target()]}",
         "open": lambda: f"Open{obj}{part}",
         "close": lambda: f"Close{obj}{part}",
         "press": lambda: f"Press{obj}Button",
@@ -90,9 +91,9 @@ def step_name(step: PlanStepSpec, checked: CheckedPlan) -> str:
     part = step.part if step.part in ("lid", "door", "drawer", "sash") else ""
     return {
         "pick": lambda: f"pick up the {obj}",
-        "place": lambda: f"place the {obj} on the {n[step.target]}",  # type: ignore[index]
+        "place": lambda: f"place the {obj} on the {n[step.required_target()]}",
         "remove": lambda: f"remove the {obj}" + (f" from the {n[step.source]}" if step.source else ""),
-        "position": lambda: f"position the {obj} over the {n[step.target]}",  # type: ignore[index]
+        "position": lambda: f"position the {obj} over the {n[step.required_target()]}",
         "open": lambda: f"open the {obj} {part}".strip(),
         "close": lambda: f"close the {obj} {part}".strip(),
         "press": lambda: f"press the {obj} button",
@@ -126,9 +127,9 @@ def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str 
         success = stages[0].criterion
         comments.update({f"success.{path}": text for path, text in stages[0].comments.items()})
     program = [skill for stage in stages for skill in stage.program]
-    mechanisms = [m for stage in stages for m in stage.mechanisms]
-    if len({m.joint for m in mechanisms}) < len(mechanisms) or any(
-            s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in mechanisms) for s in steps):
+    releases = [m for stage in stages for m in stage.mechanisms]
+    if len({m.joint for m in releases}) < len(releases) or any(
+            s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in releases) for s in steps):
         raise PlanError("a release button holds its lid open once pressed; a task cannot press it and then close "
                         "that lid, or press it twice")
     targets = list(dict.fromkeys(t for stage in stages for t in stage.targets))
@@ -156,11 +157,11 @@ def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str 
     return ComposedTask(
         task_id=tid, name=name[:1].upper() + name[1:], category=category, tags=tags, instruction=plan.instruction,
         robot=robot, initial_joints=[r(v, 4) for v in checked.robot.arm.home], objects=objects,
-        joint_states=layout.joint_states, mechanisms=mechanisms, targets=targets, stages=stages, success=success,
+        joint_states=layout.joint_states, mechanisms=list[MechanismSpec](releases), targets=targets, stages=stages, success=success,
         program=program, comments=comments, notes=notes, cameras=_cameras(objects, robot), checked=checked)
 
 
-def _cameras(objects: list[PlacedObject], robot: str) -> dict[str, dict]:
+def _cameras(objects: list[PlacedObject], robot: str) -> dict[str, dict[str, Any]]:
     cx = r(float(np.mean([o.pos[0] for o in objects])), 2)
     cy = r(float(np.mean([o.pos[1] for o in objects])), 2)
     return {

@@ -7,8 +7,10 @@ process: measuring every asset of the library takes about a second.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cache
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -44,7 +46,7 @@ class AssetGeometry:
     asset_id: str
     category: str
     free: bool
-    semantics: dict
+    semantics: dict[str, Any]
     boxes: np.ndarray  # (n, 6): min xyz, max xyz of every collision geom
     sites: dict[str, tuple[float, float, float]]
     joints: dict[str, JointInfo]
@@ -80,7 +82,7 @@ class AssetGeometry:
         return float(self.high[2] - self.low[2])
 
 
-def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms) -> np.ndarray:
+def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Iterable[int]) -> np.ndarray:
     out = []
     for g in geoms:
         if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
@@ -92,7 +94,12 @@ def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms) -> np.ndarray
     return np.array(out).reshape(-1, 6)
 
 
-def quat_to_euler_deg(quat) -> tuple[float, float, float]:
+def _point(xyz: np.ndarray) -> tuple[float, float, float]:
+    x, y, z = (float(v) for v in xyz)
+    return x, y, z
+
+
+def quat_to_euler_deg(quat: Iterable[float]) -> tuple[float, float, float]:
     """wxyz quaternion -> intrinsic x-y-z Euler angles in degrees (MuJoCo's eulerseq "xyz")."""
     mat = np.zeros(9)
     mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
@@ -100,7 +107,8 @@ def quat_to_euler_deg(quat) -> tuple[float, float, float]:
     b = np.arcsin(np.clip(r[0, 2], -1.0, 1.0))
     a = np.arctan2(-r[1, 2], r[2, 2])
     c = np.arctan2(-r[0, 1], r[0, 0])
-    return tuple(round(float(np.rad2deg(v)), 6) + 0.0 for v in (a, b, c))  # type: ignore[return-value]
+    x, y, z = (round(float(np.rad2deg(v)), 6) + 0.0 for v in (a, b, c))  # + 0.0: no -0.0
+    return x, y, z
 
 
 @cache
@@ -132,7 +140,7 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = np.deg2rad(value) if info.kind == "hinge" else value
     mujoco.mj_forward(model, data)
     boxes = _geom_boxes(model, data, range(model.ngeom))
-    sites = {model.site(i).name: tuple(float(v) for v in data.site_xpos[i]) for i in range(model.nsite)}
+    sites = {model.site(i).name: _point(data.site_xpos[i]) for i in range(model.nsite)}
     return AssetGeometry(asset_id, entry.category, free, semantics, boxes, sites, joints,
                          quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0))
 

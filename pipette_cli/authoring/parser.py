@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from pipette_cli.authoring.clause import Clause, ClauseReader, Mention
+from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
 from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, PlanThresholdsSpec, TaskPlanSpec
 from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
 from pipette_cli.authoring.text import (
@@ -135,7 +135,7 @@ class Builder:
         else:
             self._movement(action, clause, direct)
 
-    def _hatch(self, action: str, clause: Clause, direct: list[Mention], hatch) -> None:
+    def _hatch(self, action: str, clause: Clause, direct: list[Mention], hatch: Part | None) -> None:
         button = next((p for p in clause.parts if p.name == "button"), None)
         part = button if action == "press" else hatch
         owner = part.owner if part is not None and part.owner is not None else None
@@ -221,11 +221,10 @@ class Builder:
         extra = [o for o in self.objects if o not in used]
         self._name(used + extra)
         roles = _roles(steps)
-        objects = [PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra]  # type: ignore[arg-type]
-        plan_steps = [PlanStepSpec(action=s.action, object=s.object.name, target=s.target.name if s.target else None,  # type: ignore[arg-type, union-attr]
-                                   source=s.source.name if s.source else None, part=s.part) for s in steps]  # type: ignore[arg-type]
+        objects = [PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra]
+        plan_steps = [_plan_step(s) for s in steps]
         try:
-            return TaskPlanSpec(objects=objects, steps=plan_steps, robot=robot, instruction=instruction,  # type: ignore[arg-type]
+            return TaskPlanSpec(objects=objects, steps=plan_steps, robot=robot, instruction=instruction,
                                 thresholds=PlanThresholdsSpec(**thresholds))
         except ValueError as exc:
             raise PlanError(f"could not make a plan: {exc}") from None
@@ -290,6 +289,13 @@ class Builder:
                 name, n = f"{base}_{n}", n + 1
             o.name = name
             taken.add(name)
+
+
+def _plan_step(step: RawStep) -> PlanStepSpec:
+    if step.object is None:  # Builder._fill_elided gives every step its object or refuses the description
+        raise PlanError(f"say what to {step.action}")
+    return PlanStepSpec(action=step.action, object=step.object.name, target=step.target.name if step.target else None,
+                        source=step.source.name if step.source else None, part=step.part)
 
 
 def _roles(steps: list[RawStep]) -> dict[int, str]:

@@ -12,7 +12,7 @@ criterion with one stage per step and the concatenated skill program.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
@@ -24,7 +24,10 @@ Action = Literal["pick", "place", "remove", "open", "close", "press", "position"
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
 Part = Literal["lid", "door", "drawer", "sash", "button", "shelf_0", "shelf_1", "shelf", "pan", "platform", "plate",
                "block", "rotor", "slot"]
-Robot = Literal.__getitem__(tuple(robot_names()))  # the robots of registry/robots/, an enum for the LLM schema
+if TYPE_CHECKING:
+    type Robot = str  # the robot names are read from registry/robots/ at import time; a str to the checker
+else:
+    Robot = Literal.__getitem__(tuple(robot_names()))  # the robots of registry/robots/, an enum for the LLM schema
 ObjectName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=32,
                                   description="the object's name in this plan (lower_snake_case)")]
 MAX_STEPS = 5
@@ -60,6 +63,17 @@ class PlanStepSpec(Spec):
     part: Part | None = Field(None, description="the instrument's part (lid, door, drawer, sash, button) or the "
                                                 "target's surface (shelf_0, shelf_1)")
 
+    def required_target(self) -> str:
+        """``target`` of a step that must have one (place, position).
+
+        Raises:
+            PlanError: the step has none (:func:`~pipette_cli.authoring.validate.validate_plan`
+                refuses such plans first, so this is a caller that skipped validation).
+        """
+        if self.target is None:
+            raise PlanError(f"steps: {self.action} {self.object}: say where it goes (target)")
+        return self.target
+
 
 class PlanThresholdsSpec(Spec):
     """Numbers the description states; anything left null is derived from geometry."""
@@ -93,7 +107,7 @@ class TaskPlanSpec(Spec):
 
 def name_problems(plan: TaskPlanSpec) -> list[str]:
     """Object names used twice, and steps naming objects the plan does not have."""
-    problems = []
+    problems: list[str] = []
     names = [o.name for o in plan.objects]
     for name in sorted({n for n in names if names.count(n) > 1}):
         problems.append(f"objects: the name {name!r} is used twice; give each object its own name")

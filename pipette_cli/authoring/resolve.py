@@ -51,7 +51,7 @@ def candidates(vocab: Vocabulary, wanted: Wanted) -> list[str]:
     for a in members:
         info = vocab.assets[a]
         id_words = set(a.split("_"))
-        score = len(wanted_words & (info.words | id_words))
+        score: float = len(wanted_words & (info.words | id_words))
         score -= sum(1 for v in VARIANTS if v in id_words and v not in wanted_words)  # plain variants first
         score += 0.5 if a == kind.default else 0.0
         scored.append((-score, a))

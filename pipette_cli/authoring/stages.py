@@ -19,29 +19,25 @@ saying where every derived number comes from.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from pipette_cli.authoring.layout import PlacedObject
+from pipette_cli.authoring.fit import check_hole_fit, fit_radius
+from pipette_cli.authoring.layout import Footprint, PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
 from pipette_cli.authoring.scene import (
     HANDLES, SceneBuilder, covered, hatch_joint, open_value, r, receiving_site,
 )
 from pipette_cli.authoring.validate import separate_lid
+from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
 from pipette_cli.specs.mechanisms import ButtonReleaseSpec
 
-RECEPTACLES = ("cuvette_slot", "rotor_center", "cup_center", "block_center", "drawer_center")
 SLOTS = ("cuvette_slot",)
 """Receptacles an object goes *into* (``insert_into``); the others are surfaces it is set on."""
-SURFACE_SIZE = {"pan_center": "pan_size", "platform_center": "platform_size", "plate_center": "plate_size",
-                "shelf_0_center": "shelf_size", "shelf_1_center": "shelf_size", "top_center": "top_size",
-                "center": "inner_size", "drawer_center": "plate_pocket", "block_center": "block_size",
-                "cuvette_slot": "cuvette_size"}
 DEEP = 0.05
 """Metres a container's walls rise above its floor site for objects to be dropped in rather than set down."""
 
@@ -94,7 +90,7 @@ class StageBuilder:
         return self.th.timeout_s or default
 
     def build(self, step: PlanStepSpec) -> Stage:
-        stage = getattr(self, f"_{step.action}")(step)
+        stage: Stage = getattr(self, f"_{step.action}")(step)
         return stage
 
     # ------------------------------------------------------------------ taking hold
@@ -130,8 +126,7 @@ class StageBuilder:
 
     # ------------------------------------------------------------------ place
     def _place(self, step: PlanStepSpec) -> Stage:
-        item, dest = step.object, step.target
-        assert dest is not None
+        item, dest = step.object, step.required_target()
         igeom, dgeom = self.geom(item), self.scene.geoms.get(dest) or self.geom(dest)
         site = receiving_site(dgeom, step.part, self.placed[item].asset)
         if site is None or "lid_seat" in dgeom.sites and site != "lid_seat":
@@ -153,37 +148,10 @@ class StageBuilder:
 
     def _fit_radius(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str) -> float:
         """Radius of the disc the item's origin must end in on ``site``; refuses what does not fit."""
-        sem = dgeom.semantics
-        size_key = SURFACE_SIZE.get(site) if site != "center" or "inner_size" in sem else None
-        size = sem.get(size_key) if size_key else None
-        if site == "inside_bottom":
-            size = [sem.get("outer_diameter", 0.05) - 0.004] * 2
-        if size is None:
-            hx, hy = dgeom.half_xy
-            size = [2 * hx, 2 * hy]
-        half = 0.5 * min(float(size[0]), float(size[1]))
-        extent = sorted(float(v) for v in (igeom.high[:2] - igeom.low[:2]))
-        room_axes = sorted(float(v) for v in size[:2])
-        if site == "opening":
-            room = half - 0.5 * extent[1]
-        elif site in RECEPTACLES:
-            room = min(0.5 * (a - e) for a, e in zip(room_axes, extent, strict=True)) + 0.0015  # a slot holds it with play
-        else:
-            room = min(0.5 * (a - e) for a, e in zip(room_axes, extent, strict=True))
-        if room < 0.0:
-            raise PlanError(f"impossible request: the {self.human(step.object)} ({extent[1] * 1000:.0f} x {extent[0] * 1000:.0f} mm) "
-                            f"does not fit the {self.human(step.target)}'s {site.replace('_', ' ')} "
-                            f"({room_axes[1] * 1000:.0f} x {room_axes[0] * 1000:.0f} mm); choose a smaller object or a larger one to put it on")
-        capacity = sem.get("capacity_kg")
-        mass = float(igeom.semantics.get("mass", 0.0))
-        if capacity is not None and mass > float(capacity):
-            raise PlanError(f"impossible request: the {self.human(step.object)} weighs {mass:.2f} kg, over the "
-                            f"{capacity} kg capacity of the {self.human(step.target)}")
-        low = 0.01 if site in RECEPTACLES else 0.005
-        return r(max(low, min(0.5 * half, room)), 4)
+        return fit_radius(igeom, dgeom, site, item=self.human(step.object), dest=self.human(step.required_target()))
 
     def _onto(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str, insert: bool) -> Stage:
-        item, dest = step.object, step.target
+        item, dest = step.object, step.required_target()
         radius = self.th.xy_tolerance_m or self._fit_radius(step, igeom, dgeom, site)
         surface = float(dgeom.sites[site][2]) + self.placed[dest].pos[2] if not dgeom.free else \
             self.placed[dest].pos[2] + float(dgeom.sites[site][2])
@@ -205,8 +173,9 @@ class StageBuilder:
         return Stage(step, criterion, [skill], comments, [item, dest])
 
     def _into_rack(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry) -> Stage:
-        item, dest = step.object, step.target
-        self._check_holes(step)
+        item, dest = step.object, step.required_target()
+        check_hole_fit(load_vocabulary(), self.placed[item].asset, self.placed[dest].asset,
+                       item=self.human(item), dest=self.human(dest))
         slots = np.array([v for k, v in dgeom.sites.items() if k.startswith("slot_")])
         pitch = float(dgeom.semantics.get("pitch", 0.02))
         lo, hi = slots.min(axis=0), slots.max(axis=0)
@@ -229,22 +198,8 @@ class StageBuilder:
         criterion = ev.RegionHoldSpec(object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
         return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{slot}")], comments, [item, dest])
 
-    def _check_holes(self, step: PlanStepSpec) -> None:
-        from pipette_cli.authoring.resolve import diameter, fits, holders_that_fit
-
-        vocab_item, vocab_dest = self.placed[step.object].asset, self.placed[step.target].asset  # type: ignore[index]
-        from pipette_cli.authoring.vocabulary import load_vocabulary
-
-        vocab = load_vocabulary()
-        if fits(vocab, vocab_item, vocab_dest) is False:
-            holders = holders_that_fit(vocab, vocab_item)
-            hint = f"; holders that fit: {', '.join(holders)}" if holders else ""
-            d, h = diameter(vocab, vocab_item), vocab.assets[vocab_dest].semantics["hole"]
-            raise PlanError(f"impossible request: the {self.human(step.object)} is {float(d) * 1000:.1f} mm wide, the holes "
-                            f"of the {self.human(step.target)} are {float(h) * 1000:.1f} mm{hint}")  # type: ignore[arg-type]
-
     def _drop_in(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str) -> Stage:
-        item, dest = step.object, step.target
+        item, dest = step.object, step.required_target()
         rim = self.placed[dest].pos[2] + float(dgeom.high[2])
         radius = self._fit_radius(step, igeom, dgeom, site if site != "opening" else "opening")
         criterion = ev.RegionHoldSpec(object=item, within=ev.CircleSpec(center=f"{dest}/{site}", radius=max(radius, 0.01)),
@@ -370,8 +325,7 @@ class StageBuilder:
 
     # ------------------------------------------------------------------ position
     def _position(self, step: PlanStepSpec) -> Stage:
-        item, target = step.object, step.target
-        assert target is not None
+        item, target = step.object, step.required_target()
         igeom, tgeom = self.geom(item), self.geom(target)
         site = next((s for s in ("center", "plate_center", "pan_center", "platform_center", "inside_bottom", "well_a1",
                                  "neck", "cap_top", "cup_center") if s in tgeom.sites), None)
@@ -396,9 +350,7 @@ class StageBuilder:
         return Stage(step, criterion, program, comments, [item, target])
 
 
-def _footprint(geom: AssetGeometry, preferred: tuple[float, float]) -> Any:
-    from pipette_cli.authoring.layout import Footprint
-
+def _footprint(geom: AssetGeometry, preferred: tuple[float, float]) -> Footprint:
     return Footprint(geom.boxes, [(0.0, 0.0)], preferred, margin=0.02)
 
 

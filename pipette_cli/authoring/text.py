@@ -15,7 +15,7 @@ from functools import cache
 
 from pipette_cli.authoring.vocabulary import Vocabulary, VocabularySpec
 
-SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match], list[str]]], ...] = (
+SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
     (r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+)\s*(?:mm)?\b", lambda m: [f"{m[1]}x{m[2]}", f"{m[1]}mm"]),
     (r"(\d+(?:\.\d+)?)\s*(?:ml|millilit(?:er|re)s?|cc)\b", lambda m: [f"{float(m[1]):g}ml"]),
     (r"(\d+(?:\.\d+)?)\s*(?:l|lit(?:er|re)s?)\b", lambda m: [f"{float(m[1]) * 1000:g}ml"]),
@@ -62,7 +62,7 @@ def _alternation(phrases: list[str]) -> str:
 
 
 @cache
-def _polite_pattern(polite: tuple[str, ...]) -> re.Pattern:
+def _polite_pattern(polite: tuple[str, ...]) -> re.Pattern[str]:
     return re.compile(rf"(?<![\w'])(?:{_alternation(list(polite))})(?![\w'])[,!]?")
 
 

@@ -16,6 +16,7 @@ import re
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
+from typing import Any, TypeVar
 
 from pydantic import Field, ValidationError
 
@@ -24,6 +25,8 @@ from pipette_cli.errors import SpecError
 from pipette_cli.resources import data_dir, env_paths
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
+
+S = TypeVar("S", bound=Spec)
 
 VOCABULARY_FILE = "vocabulary.yaml"
 ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position")
@@ -87,7 +90,7 @@ class ExtraKindsSpec(Spec):
     kinds: dict[str, KindSpec] = {}
 
 
-def _read(path: Path, model: type[Spec]) -> Spec:
+def _read(path: Path, model: type[S]) -> S:
     doc = read_yaml(path)
     raw = to_plain(doc)
     try:
@@ -123,7 +126,7 @@ def _num(text: str) -> str:
     return f"{float(text.replace(',', '.').replace('_', '.')):g}"
 
 
-def asset_size_tags(asset_id: str, semantics: dict) -> frozenset[str]:
+def asset_size_tags(asset_id: str, semantics: dict[str, Any]) -> frozenset[str]:
     """Size tags of an asset from its id and semantics (``15ml``, ``90mm``, ``96well``, ``p200``...)."""
     tags: set[str] = set()
     for number, unit in re.findall(r"(\d+(?:_\d+)?)(ml|ul|mm)(?![a-z])", asset_id):
@@ -161,7 +164,7 @@ class AssetInfo:
 
     asset_id: str
     category: str
-    semantics: dict
+    semantics: dict[str, Any]
     kinds: tuple[str, ...]
     size_tags: frozenset[str]
     words: frozenset[str]
@@ -274,11 +277,11 @@ def load_vocabulary_spec() -> VocabularySpec:
     """
     built_in, *extra = vocabulary_files()
     spec = _read(built_in, VocabularySpec)
-    kinds = dict(spec.kinds)  # type: ignore[attr-defined]
+    kinds = dict(spec.kinds)
     for path in extra:
-        for name, kind in _read(path, ExtraKindsSpec).kinds.items():  # type: ignore[attr-defined]
+        for name, kind in _read(path, ExtraKindsSpec).kinds.items():
             kinds.setdefault(name, kind)
-    return spec.model_copy(update={"kinds": kinds})  # type: ignore[return-value]
+    return spec.model_copy(update={"kinds": kinds})
 
 
 @cache

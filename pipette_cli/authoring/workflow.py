@@ -14,6 +14,7 @@ import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pipette_cli.authoring.backends import AuthoringBackend
 from pipette_cli.authoring.clause import ClauseReader
@@ -29,6 +30,9 @@ from pipette_cli.registry import Registry, validate_task_document
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
+
+if TYPE_CHECKING:
+    from pipette_cli.authoring.check import CheckReport
 
 PROMPT_TEMPLATE = "prompts/task_draft.md.j2"
 Gate = Callable[["DraftedTask"], None]
@@ -46,8 +50,8 @@ class DraftedTask:
     yaml_text: str
     spec: TaskSpec
     remarks: list[str] = field(default_factory=list)
-    report: object | None = None
-    """What the gate found (a :class:`~pipette_cli.authoring.check.CheckReport` with ``--check``)."""
+    report: CheckReport | None = None
+    """What the ``--check`` gate found (None without it)."""
 
     def target_path(self, out: Path | None) -> Path:
         """Where ``--out`` (a file or a folder) puts this task (default: ./<stem>.yaml)."""
@@ -55,6 +59,25 @@ class DraftedTask:
         if target.is_dir() or target.suffix not in (".yaml", ".yml"):
             target = target / f"{self.composed.file_stem}.yaml"
         return target
+
+
+@dataclass(frozen=True)
+class DraftOptions:
+    """How a plan becomes a task, the same for every attempt of one :func:`draft_task`.
+
+    Attributes:
+        namespace: Namespace of the id derived from the plan.
+        task_id: The id to use instead of the derived one.
+        registry: Whose ids are taken (None: no check).
+        build: Build the task's world (compile, layout checks) before accepting it.
+        gate: Called on the built draft; raises :class:`PlanError` to reject it (``--check``).
+    """
+
+    namespace: str = "generated"
+    task_id: str | None = None
+    registry: Registry | None = None
+    build: bool = True
+    gate: Gate | None = None
 
 
 def task_prompt(vocab: Vocabulary) -> str:
@@ -65,17 +88,19 @@ def task_prompt(vocab: Vocabulary) -> str:
         fixed=[a for a in ids if not vocab.assets[a].graspable])
 
 
-def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vocabulary, namespace: str = "generated",
-                task_id: str | None = None, remarks: tuple[str, ...] = (), registry: Registry | None = None,
-                build: bool = True, gate: Gate | None = None) -> DraftedTask:
+def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vocabulary,
+                options: DraftOptions = DraftOptions(), remarks: tuple[str, ...] = ()) -> DraftedTask:
     """Validate, compose, render, check against the registry rules, build and gate one plan.
+
+    ``remarks`` become VERIFY notes (the offline parser's choices among equal assets).
 
     Raises:
         PlanError: the plan is impossible (each problem says what to change), the id is taken, or
             the task fails to build or to pass ``gate``.
     """
     checked = validate_plan(plan, vocab)
-    composed = compose(checked, namespace=namespace, task_id=task_id, remarks=remarks)
+    registry = options.registry
+    composed = compose(checked, namespace=options.namespace, task_id=options.task_id, remarks=remarks)
     if not re.match(TASK_ID_PATTERN, composed.task_id):
         raise PlanError(f"task id {composed.task_id!r} must look like namespace/Name-v1")
     if registry is not None and composed.task_id in registry.tasks:
@@ -90,15 +115,15 @@ def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vo
         raise PlanError(["the drafted YAML does not validate (a bug in the template or composition):", *exc.problems]) from None
     text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
     drafted = DraftedTask(description, backend, checked.plan, composed, text, spec, list(remarks))
-    if build:
+    if options.build:
         from pipette_cli.sim.world import World
 
         try:
             World(spec)
         except SimError as exc:
             raise PlanError(f"impossible layout: the drafted scene does not build: {exc}") from None
-    if gate is not None:
-        gate(drafted)
+    if options.gate is not None:
+        options.gate(drafted)
     return drafted
 
 
@@ -144,10 +169,11 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
     if not description.strip():
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     vocab = load_vocabulary()
-    options = dict(vocab=vocab, namespace=namespace, task_id=task_id, registry=registry, build=build, gate=gate)
+    options = DraftOptions(namespace=namespace, task_id=task_id, registry=registry, build=build, gate=gate)
     parsed = backend.parse_task(description)
     if parsed is not None:
-        return finish_plan(parsed.plan, description, backend.name, remarks=tuple(parsed.remarks), **options)
+        return finish_plan(parsed.plan, description, backend.name, vocab=vocab, options=options,
+                           remarks=tuple(parsed.remarks))
     kinds = screen(description, vocab)
 
     def accept(plan: TaskPlanSpec) -> DraftedTask:
@@ -155,7 +181,7 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
         problems = grounding_problems(checked, kinds, vocab)
         if problems:
             raise PlanError(problems)
-        return finish_plan(plan, description, backend.name, **options)
+        return finish_plan(plan, description, backend.name, vocab=vocab, options=options)
 
     return backend.complete(system=task_prompt(vocab), user=f"Task: {description}", schema=TaskPlanSpec,
                             accept=accept, json_schema=plan_json_schema(list(vocab.assets)))

@@ -11,12 +11,15 @@ only ever parsed as JSON and validated, never executed.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 import httpx
 from pydantic import BaseModel
 
 from pipette_cli.llm import ask_structured, make_client
+
+if TYPE_CHECKING:
+    from pipette_cli.authoring.parser import ParseResult
 
 T = TypeVar("T")
 M = TypeVar("M", bound=BaseModel)
@@ -34,7 +37,7 @@ class AuthoringBackend(Protocol):
         is what the server is sent (default: the schema's own, strict)."""
         ...
 
-    def parse_task(self, description: str) -> Any | None:
+    def parse_task(self, description: str) -> ParseResult | None:
         """A deterministic parse (offline backend) or None (LLM backends use :meth:`complete`)."""
         ...
 
