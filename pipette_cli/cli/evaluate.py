@@ -6,7 +6,6 @@ import tempfile
 from pathlib import Path
 from typing import Annotated, Any
 
-import click
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from typer.core import TyperCommand
@@ -19,19 +18,19 @@ class EvalCommand(TyperCommand):
     """``pipette eval TASK ...``, except that ``pipette eval report ...`` is handed whole to the
     ``report`` command, so that ``pipette eval report --help`` is the report's help."""
 
+    # click types are typer's vendored click here (typer >= 0.29); annotated loosely for that reason
     @property
-    def subcommands(self) -> dict[str, click.Command]:
+    def subcommands(self) -> dict[str, Any]:
         """Commands reached through this one's first argument (the agent's catalog lists them)."""
         return {"report": _report_click()}
 
-    def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
-                     **extra: Any) -> click.Context:
+    def make_context(self, info_name: str | None, args: list[str], parent: Any = None, **extra: Any) -> Any:
         if args[:1] == ["report"]:
             return _report_click().make_context(f"{info_name} report", args[1:], parent=parent, **extra)
         return super().make_context(info_name, args, parent=parent, **extra)
 
 
-def _report_click() -> click.Command:
+def _report_click() -> Any:
     report_app = typer.Typer(add_completion=False)
     report_app.command("report")(report_command)
     return typer.main.get_command(report_app)
@@ -115,8 +114,8 @@ def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: in
         raise PipetteError(f"{', '.join(fixed)}: the suite fixes seeds and image size; drop them or evaluate without --suite")
     suite = load_suites(registry, STATE.registry_dirs).get(suite_id)
     tasks = None if task_id is None else [registry.get(task_id).id]
-    plan = episode_plan(suite.spec, tasks)
-    runs = [TaskRun(registry.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in plan.items()]
+    by_task = episode_plan(suite.spec, tasks)
+    runs = [TaskRun(registry.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()]
     settings = EvalSettings(config, suite.spec.image_size, suite.spec.render_profile, dataset_version, suite.record())
     return runs, settings
 

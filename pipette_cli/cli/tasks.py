@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from rich.table import Table
@@ -76,7 +76,7 @@ def list_suites(
     from pipette_cli.evaluation.suites import load_suites
 
     suites = load_suites(_registry(), STATE.registry_dirs)
-    rows = []
+    rows: list[dict[str, Any]] = []
     for suite_id in suites.ids():
         entry = suites.get(suite_id)
         spec = entry.spec

@@ -29,7 +29,7 @@ import signal
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -271,7 +271,7 @@ def evaluate_task(
 
 
 def _inline(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSettings,
-            todo: list[tuple[int, EpisodePlan]], stop: Callable[[], bool]) -> Iterator[Outcome]:
+            todo: list[tuple[int, EpisodePlan]], stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
     worker = EpisodeWorker(tasks, source, settings, 0)
     try:
         for i, plan in todo:
@@ -291,7 +291,7 @@ def _inline(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSet
 
 
 def _in_workers(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSettings,
-                todo: list[tuple[int, EpisodePlan]], workers: int, stop: Callable[[], bool]) -> Iterator[Outcome]:
+                todo: list[tuple[int, EpisodePlan]], workers: int, stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
     context = multiprocessing.get_context("spawn")
     jobs, results = context.Queue(), context.Queue()
     count = min(workers, len(todo))
