@@ -39,8 +39,10 @@ def _same(a: Any, b: Any) -> bool:
     """The same definition, also when its module was imported a second time."""
     if a is b:
         return True
-    key = lambda x: (getattr(x, "__module__", None), getattr(x, "__qualname__", None))  # noqa: E731
-    return key(a) == key(b) and key(a) != (None, None)
+    qualname_a, qualname_b = getattr(a, "__qualname__", None), getattr(b, "__qualname__", None)
+    if qualname_a is None or qualname_b is None or "<lambda>" in qualname_a or "<locals>" in qualname_a:
+        return False
+    return (getattr(a, "__module__", None), qualname_a) == (getattr(b, "__module__", None), qualname_b)
 
 
 class Plugins(Generic[T]):
@@ -90,6 +92,11 @@ class Plugins(Generic[T]):
             return self._items[name]
         except KeyError:
             raise self.error(f"unknown {self.kind} {name!r}; {suggest(name, self._items)}") from None
+
+    def remove(self, name: str) -> T | None:
+        """Unregister ``name`` (a plugin unloaded, a test cleaning up); returns what was there."""
+        self._where.pop(name, None)
+        return self._items.pop(name, None)
 
     def find(self, name: str) -> T | None:
         """The thing registered as ``name``, or None."""

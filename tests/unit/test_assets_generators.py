@@ -72,7 +72,7 @@ def test_rotated_box_gets_principal_axes() -> None:
 
 def test_duplicate_generator_id_is_rejected() -> None:
     all_generators()
-    with pytest.raises(AssetError, match="registered twice"):
+    with pytest.raises(AssetError, match="defined twice"):
         register("beaker_250ml", "consumables", lambda: None)  # type: ignore[arg-type,return-value]
 
 

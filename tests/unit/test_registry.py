@@ -180,6 +180,6 @@ def test_validating_one_file_knows_the_evaluator_types_of_task_packs(tmp_path: P
         assert result.exit_code == 0, result.stderr
         assert "mylab_touch" in EVALUATORS
     finally:
-        EVALUATORS._types.pop("mylab_touch", None)
+        EVALUATORS._types.remove("mylab_touch")
         sys.modules.pop("mylab_evalpack", None)
     assert run_cli("tasks", "validate", tmp_path / "missing.yaml").exit_code == 1
