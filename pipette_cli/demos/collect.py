@@ -229,7 +229,7 @@ def collect(
         seed: Seed of episode 0; episode ``i`` uses ``seed + i``.
         image_size: Square image side (default: the task's cameras).
         workers: Processes recording episodes in parallel.
-        expert_factory: Builds the expert (default: the task's own or family expert,
+        expert_factory: Builds the expert (default: the task's skill program,
             :func:`~pipette_cli.demos.experts.base.find_expert`); must be
             picklable when ``workers > 1``.
         max_steps: Control-step cap per episode (default: :func:`step_cap`).

@@ -182,6 +182,21 @@ class World:
         size = hi - lo
         return float(size[0]), float(size[1])
 
+    def _nearest_xy(self, name: str, point: np.ndarray) -> float:
+        """Horizontal distance from ``point`` to the nearest part of object ``name``'s collision
+        geometry (an instrument is in reach when its front is, not its centre)."""
+        m, d = self.model, self.data
+        bodies = [b for b in range(m.nbody) if m.body(b).name.split("/", 1)[0] == name]
+        best = np.inf
+        for g in np.flatnonzero(np.isin(m.geom_bodyid, bodies)):
+            if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+                continue
+            center = d.geom_xpos[g] + d.geom_xmat[g].reshape(3, 3) @ m.geom_aabb[g, :3]
+            half = np.abs(d.geom_xmat[g].reshape(3, 3)) @ m.geom_aabb[g, 3:]
+            nearest = np.clip(point, center[:2] - half[:2], center[:2] + half[:2])
+            best = min(best, float(np.linalg.norm(nearest - point)))
+        return best if np.isfinite(best) else float(np.linalg.norm(self.position(name)[:2] - point))
+
     def mechanism(self, name: str) -> MechanismState:
         try:
             return self.mechanisms[name].state()
@@ -329,7 +344,7 @@ class World:
             if obj.name not in self.task.targets:
                 continue
             reach = self.robot.reach
-            distance = float(np.linalg.norm(np.asarray(obj.pose.pos[:2]) - base[:2]))
+            distance = self._nearest_xy(obj.name, base[:2])
             if distance > reach:
                 raise SimError(
                     f"{self.task.id}: scene.objects.{i}.pose: {obj.name!r} is {distance:.2f} m from the "

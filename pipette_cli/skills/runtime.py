@@ -298,7 +298,7 @@ class SkillContext:
         return flipped if rotation_angle(ref, flipped) < rotation_angle(ref, rot) - 1e-6 else rot
 
     def margin(self, poses: list[tuple[np.ndarray, np.ndarray]], touch: set[int] = frozenset(),
-               start: Leg | None = None) -> float | None:
+               start: Leg | None = None, collisions: bool = True) -> float | None:
         """How comfortably the arm reaches every pose in turn (radians to the nearest joint limit,
         the least over the poses), or ``None`` when one is out of reach or the arm would touch
         something on the way other than ``touch`` (and what it holds or may touch anyway). From
@@ -312,7 +312,7 @@ class SkillContext:
             for pos, rot in poses:
                 if leg is None:
                     rot, solution = self.solve_flip(pos, rot, self.q)
-                    if not solution.ok() or self.ik.collisions(solution.qpos, self.allowed | self.held_bodies()):
+                    if not solution.ok() or (collisions and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies())):
                         return None
                     q = solution.qpos
                 else:
@@ -338,7 +338,8 @@ class SkillContext:
         best, best_margin = None, -np.inf
         feasible = 0
         for candidate in candidates:
-            margin = self.margin(poses(candidate), touch)  # cheap first: each pose on its own
+            # cheap first: each pose on its own (reach only, when the path is checked next)
+            margin = self.margin(poses(candidate), touch, collisions=via is None)
             if margin is None:
                 continue
             if via is not None:
@@ -468,9 +469,17 @@ class SkillContext:
 
     def _reach(self, start: Leg, point: np.ndarray, rot: np.ndarray, speed: float, tolerance: float,
                keep: bool = False) -> Leg | None:
-        """The leg from ``start`` to ``point``/``rot`` if the arm reaches it touching nothing."""
+        """The leg from ``start`` to ``point``/``rot`` if the arm reaches it touching nothing: along a
+        straight tool line below transit speed (as it will be executed), through joint space above it."""
         if keep:
-            rot, solution = start.rot, self.solve(point, start.rot, start.q)
+            rot = start.rot
+        if speed < TRANSIT_SPEED:
+            if not keep and self.held is None:
+                rot = self.nearest_flip(rot, start.rot)
+            q = self.straight_line(start, point, rot, tolerance)
+            return None if q is None else Leg(np.asarray(point, float), rot, q, speed)
+        if keep:
+            solution = self.solve(point, rot, start.q)
         else:
             rot, solution = self.solve_flip(point, rot, start.q)
         if solution.ok(tolerance) and self.clear_path(start.q, solution.qpos):

@@ -198,4 +198,6 @@ def robot_spec(name: str) -> RobotSpec:
         if name in spec.aliases:
             return spec
     keys = [*robots, *(a for s in robots.values() for a in s.aliases)]
-    raise SpecError(f"unknown robot {name!r}; {suggest(name, keys)}")
+    hint = suggest(name, keys)
+    known = ", ".join(sorted(robots))
+    raise SpecError(f"unknown robot {name!r}; {hint}" + ("" if hint.startswith("valid names") else f" (robots: {known})"))

@@ -19,7 +19,6 @@ from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_IMAGES, OBS_STATE
 
-ARM_DOF = {"franka_panda": 7, "agilex_piper": 6, "ur5e_robotiq": 6}
 CAMERAS = ("top", "main", "wrist")
 
 
@@ -40,7 +39,9 @@ class PipetteEnvConfig(EnvConfig):
 
         spec = load_registry().get(self.task)
         self.task = spec.id
-        dim = ARM_DOF[spec.embodiment.robot] + 1
+        from pipette_cli.specs.robot import robot_spec
+
+        dim = robot_spec(spec.embodiment.robot).arm_dof + 1  # arm joints + the gripper
         self.features = {ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(dim,))}
         self.features["agent_pos"] = PolicyFeature(type=FeatureType.STATE, shape=(dim,))
         self.features_map = {ACTION: ACTION, "agent_pos": OBS_STATE}
