@@ -118,13 +118,12 @@ class SceneQuery:
         length = float(np.linalg.norm(along))
         u = along / length if length > 1e-9 else np.array([1.0, 0.0])
         n = np.array([-u[1], u[0]])
-        top = 0.0
         count = max(2, int(length / 0.02) + 2)
-        for t in np.linspace(0.0, length, count):
-            for s in (-radius, 0.0, radius):
-                p = a2 + t * u + s * n
-                top = max(top, self.surface_below(p[0], p[1], exclude, from_z=below))
-        return top
+        points = [a2 + t * u + s * n for t in np.linspace(0.0, length, count) for s in (-radius, 0.0, radius)]
+        # the ends are round: a corridor of no length is a disc, not a line across it
+        ring = [radius * np.array([np.cos(k), np.sin(k)]) for k in np.linspace(0.0, 2 * np.pi, 8, endpoint=False)]
+        points += [end + r for end in (a2, b2) for r in ring]
+        return max(0.0, *(self.surface_below(p[0], p[1], exclude, from_z=below) for p in points))
 
     def way_out(self, point: np.ndarray, exclude: set[int] = frozenset(), prefer: np.ndarray | None = None) -> tuple[np.ndarray, float]:
         """The horizontal direction out of an enclosure from ``point`` and the distance to its mouth:

@@ -6,6 +6,7 @@ in the hand, on the surface, in the slot; the lid shut; the drawer out), not on 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +24,9 @@ FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "skills"
 REGISTRY = load_registry([FIXTURES])
 
 
-def run(task_id: str, steps: list[StepSpec] | None = None, seed: int = 0, seconds: float = 25.0) -> tuple[World, ProgramExpert]:
-    """Run a program (the task's own by default) to its end, whatever the evaluator says."""
+def run(task_id: str, steps: list[StepSpec] | None = None, seed: int = 0, seconds: float = 25.0,
+        watch: Callable[[World], None] | None = None) -> tuple[World, ProgramExpert]:
+    """Run a program (the task's own by default) to its end, whatever the evaluator says; `watch` sees every step."""
     task = REGISTRY.get(task_id)
     world = World(task)
     world.reset(seed)
@@ -32,6 +34,8 @@ def run(task_id: str, steps: list[StepSpec] | None = None, seed: int = 0, second
     expert.reset(world, np.random.default_rng(seed))
     for _ in range(int(seconds / world.control_dt)):
         world.step(expert.act(world))
+        if watch is not None:
+            watch(world)
         if expert.failure or expert.done:
             break
     for _ in range(int(0.5 / world.control_dt)):  # let what was set down settle
@@ -124,15 +128,18 @@ def test_position_over_holds_a_tool_tip_over_a_target() -> None:
     assert np.linalg.norm(tip[:2] - dish[:2]) < 0.02 and abs(tip[2] - dish[2] - 0.1) < 0.02
 
 
-def test_tilt_and_move_carry_a_flask_and_tilt_it_back() -> None:
-    world = World(REGISTRY.get("PlaceFlaskOnShaker"))
+def test_tilt_and_move_carry_a_tube_and_tilt_it_back() -> None:
+    world = World(REGISTRY.get("PickUpTestTube"))
     world.reset(0)
-    start = world.position("flask")
-    world, _ = run("PlaceFlaskOnShaker", [PickSpec(object="flask", at="flask/neck", lift=0.06),
-                                           MoveSpec(by=(0.0, 0.05, 0.0)),
-                                           TiltSpec(object="flask", angle_deg=25, hold_s=0.2)])
-    assert world.position("flask")[1] - start[1] > 0.035  # carried sideways
-    assert upright(world, "flask") < 8  # tilted and back
+    start = world.position("tube")
+    leans: list[float] = []
+    world, _ = run("PickUpTestTube", [PickSpec(object="tube", lift=0.08),
+                                      MoveSpec(by=(0.0, 0.05, 0.0)),
+                                      TiltSpec(object="tube", angle_deg=30, hold_s=0.3)],
+                   watch=lambda w: leans.append(upright(w, "tube")))
+    assert world.position("tube")[1] - start[1] > 0.035  # carried sideways
+    assert max(leans) > 20  # tilted on the way
+    assert upright(world, "tube") < 8  # and back upright at the end
 
 
 def test_retreat_lets_go_and_goes_home() -> None:

@@ -95,16 +95,19 @@ register("pipette_stand_carousel", CATEGORY, pipette_stand_carousel)
 
 def tube_rack(asset_id: str, description: str, nx: int, ny: int, pitch: float, hole: float, height: float, mass: float,
               material: Material) -> AssetDef:
-    """A two-tier rack: a floor, a top grid with holes, and end walls. Tubes stand on the floor."""
+    """A two-tier rack: a floor with a low seat grid that keeps each tube's foot in its place, a top
+    grid with holes, and end walls. Tubes stand on the floor."""
     base = Body("base", mass)
     sx, sy, floor, top_t = nx * pitch + 0.01, ny * pitch + 0.01, 0.004, 0.004
+    seat = min(0.008, height / 4)
     p.solid_box(base, "floor", (sx, sy, floor), (0, 0, floor / 2), material)
+    p.grid_bars(base, "seat", nx, ny, (pitch, pitch), (hole, hole), floor, floor + seat)
     for side, x in (("xn", -sx / 2 + 0.003), ("xp", sx / 2 - 0.003)):
         p.solid_box(base, f"end_{side}", (0.006, sy, height - floor), (x, 0, floor + (height - floor) / 2), material)
     bars = []
     p.grid_bars(base, "grid", nx, ny, (pitch, pitch), (hole, hole), height - top_t, height)
     for c in base.colliders:
-        if c.name.startswith("grid_"):
+        if c.name.startswith(("grid_", "seat_")):
             bars.append(g.box(tuple(2 * s for s in c.size), c.pos))
     p.visual(base, "grid", g.merge(bars), material)
     for k, (x, y) in enumerate(p.grid_positions(nx, ny, (pitch, pitch))):

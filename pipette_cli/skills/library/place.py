@@ -15,7 +15,7 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_frame, unit
 from pipette_cli.skills.runtime import (
-    APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillContext, SkillFailure, fmt, skill,
+    APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Held, Move, SkillContext, SkillFailure, fmt, skill,
 )
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
 
@@ -187,7 +187,7 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     rise = max(0.0, rim - site[2]) + below + 0.02
     holder = ctx.scene.bodies(step.target.split("/", 1)[0])
 
-    def final(tool_rot: np.ndarray) -> np.ndarray:
+    def final(tool_rot: np.ndarray, held: Held = held) -> np.ndarray:
         return site + 0.003 * UP - (tool_rot @ held.rot) @ mate - tool_rot @ held.pos
 
     tool_rot = ctx.choose(rotations, lambda r: [(final(r) + rise * UP, r), (final(r), r)], touch=holder,
@@ -195,21 +195,22 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     if tool_rot is None:
         raise SkillFailure(f"no reachable way to hold {step.object!r} upright over {step.target!r} "
                            "without touching anything")
-    tool_final = final(tool_rot)
-    entry = tool_final + rise * UP
-    yield from ctx.transit(entry, tool_rot, what=f"carrying {step.object!r} over {step.target!r}")
+    yield from ctx.transit(final(tool_rot) + rise * UP, tool_rot, what=f"carrying {step.object!r} over {step.target!r}")
     yield ctx.hold(0.3)  # let it stop swinging in the fingers
-    # closed loop: where is the mating point now (the object may have turned in the grasp)? line it up
-    # over the site from where the hand stands, then go down
-    obj_pos, obj_rot = ctx.world.position(step.object), ctx.world.rotation(step.object)
-    mate_now = obj_pos + obj_rot @ mate
-    shift = site + 0.003 * UP - mate_now
-    log.debug("insert %s at t=%.2f: mating point %s, site %s, tilt %.1f deg", step.object, ctx.world.time, fmt(mate_now), fmt(site),
-              float(np.rad2deg(np.arccos(np.clip(obj_rot[2, 2], -1, 1)))))
-    entry_fixed = ctx.pos + np.array([shift[0], shift[1], 0.0])
-    if np.linalg.norm(shift[:2]) > 0.002:
-        yield ctx.move(entry_fixed, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up over {step.target!r}")
-    tool_final = ctx.pos + np.array([0.0, 0.0, shift[2]])
+    # closed loop: the object may have turned or slipped in the grasp. Measure it again, hold it truly
+    # upright (when the axis is auto) with its mating point over the site, and only then go down
+    for _ in range(3):
+        held = ctx.holding(step.object)
+        if step.axis == "auto":
+            tool_rot = upright_tool(ctx, step.object)[0]
+        entry = final(tool_rot, held) + rise * UP
+        if np.linalg.norm(entry - ctx.pos) < 0.0015 and rotation_angle(ctx.rot, tool_rot) < np.deg2rad(0.5):
+            break
+        log.debug("insert %s at t=%.2f: correcting by %s, %.1f deg", step.object, ctx.world.time, fmt(entry - ctx.pos),
+                  float(np.rad2deg(rotation_angle(ctx.rot, tool_rot))))
+        yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up over {step.target!r}")
+        yield ctx.hold(0.2)
+    tool_final = final(tool_rot, held)
     with ctx.touching(holder):
         yield ctx.move(tool_final, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
         if not step.release:
