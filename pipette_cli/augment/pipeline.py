@@ -98,7 +98,8 @@ def write_rollout(
             obs = Observation(
                 images=frames[t] if frames else {}, state=rollout.obs_state[t], fresh=bool(fresh[t]),
                 frame_age=t - last, sim_time=float(rollout.sim_time[t]), wall_time=float(rollout.wall_time[t]),
-                step=t + 1, instruction=info.instruction,
+                step=t + 1, instruction=rollout.instruction[t], stage=int(rollout.stage[t]),
+                instrument=rollout.instrument[t],
             )
             writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t))
         writer.close(rollout.verdict, rollout.final_state, rollout.final_sim_state)
