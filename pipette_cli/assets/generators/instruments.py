@@ -95,8 +95,8 @@ register("centrifuge_benchtop", CATEGORY, partial(
 register("microcentrifuge", CATEGORY, partial(
     centrifuge, "microcentrifuge",
     "Microcentrifuge: hinged lid with servo (lid_hinge, opens negative), rotor with 8 vertical wells for 1.5/2 mL tubes "
-    "(well_0..7, 15 mm deep) whose caps stay under the lid; red lid-release button and green start button on the front.",
-    0.30, 0.25, 0.13, 6.5, 0.35, 0.09, 20.0, 1.0, rotor_h=0.051))
+    "(well_0..7, 25 mm deep) whose caps stay under the lid; red lid-release button and green start button on the front.",
+    0.30, 0.25, 0.13, 6.5, 0.35, 0.09, 20.0, 1.0, rotor_h=0.051, well_depth=0.025))
 
 
 def incubator() -> AssetDef:
