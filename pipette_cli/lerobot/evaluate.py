@@ -178,7 +178,7 @@ def run_episode(env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, 
         k = world.step_count
         if hold is None and k % d_pi == 0:
             try:
-                answer = source.act(policy_observation(obs, config.float_images), task=task.instruction,
+                answer = source.act(policy_observation(obs, config.float_images), task=obs.instruction,
                                     reset=(k == 0), chunk=config.chunked)
                 queries += 1
                 consecutive = 0
