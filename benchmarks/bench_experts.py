@@ -56,7 +56,8 @@ def main() -> None:
         rows.append({
             "task": task_id, "program": [s.describe() for s in steps], "episodes": report.episodes,
             "successes": report.successes, "success_rate": report.success_rate,
-            "failures": dict(report.failures), "failed_steps": dict(failed_at),
+            "failures": dict(report.failures), "failed_steps": dict(failed_at), "failed_seeds": report.failed_seeds,
+            "expert_failures": {str(k): v for k, v in report.expert_failures.items()},
             "median_episode_s": report.median_seconds, "seconds": report.seconds,
             "stage_count": report.stage_count, "stages": report.stages, "mean_progress": report.mean_progress,
         })
