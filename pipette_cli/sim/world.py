@@ -218,7 +218,10 @@ class World:
 
     def instrument_state(self) -> np.ndarray:
         """The values of :attr:`instrument_names` now (float64; 1/0 for flags)."""
-        out = [mech.state().values[key] for mech in self.mechanisms.values() for key in mech.names()]
+        out: list[float] = []
+        for mech in self.mechanisms.values():
+            values = mech.state().values
+            out += [values[key] for key in mech.names()]
         return np.asarray(out, dtype=np.float64)
 
     @property
