@@ -6,7 +6,8 @@ candidates):
 
 * ``axis``: an upright object narrow enough for the gripper (a tube, a flask's neck, a bottle) is
   taken from above around its vertical axis, at its ``grasp`` site (or a named site), low enough
-  that its top stays below the palm.
+  that its top stays below the palm and high enough that the fingertips close above the rack,
+  rotor or holder it stands in (the open fingers would otherwise close on its walls).
 * ``across``: a lying tool (a pipette, a rod) is taken from above across its long axis.
 * ``pinch``: a flat, low object (a petri dish, a plate) is pinched near the rim facing the robot
   with the hand pitched down, across the widest chord the gripper spans; the pitch lets the
