@@ -56,11 +56,14 @@ def main() -> None:
         rows.append({
             "task": task_id, "program": [s.describe() for s in steps], "episodes": report.episodes,
             "successes": report.successes, "success_rate": report.success_rate,
-            "failures": dict(report.failures), "failed_steps": dict(failed_at),
+            "failures": dict(report.failures), "failed_steps": dict(failed_at), "failed_seeds": report.failed_seeds,
+            "expert_failures": {str(k): v for k, v in report.expert_failures.items()},
             "median_episode_s": report.median_seconds, "seconds": report.seconds,
+            "stage_count": report.stage_count, "stages": report.stages, "mean_progress": report.mean_progress,
         })
+        staged = f"  progress {100 * report.mean_progress:3.0f} % of {report.stage_count} stages" if report.stage_count else ""
         print(f"{task_id:60s} {report.successes:3d}/{report.episodes:<3d} {100 * report.success_rate:5.0f} %  "
-              f"median {report.median_seconds:4.1f} s/episode  {dict(report.failures) or ''}", flush=True)
+              f"median {report.median_seconds:4.1f} s/episode{staged}  {dict(report.failures) or ''}", flush=True)
     skills = {k: {"episodes": ran[k], "stopped": stopped[k], "success_rate": 1 - stopped[k] / ran[k]} for k in sorted(ran)}
     print("\nper skill (episodes in which a step of the skill ran; success: the expert got past it)")
     for name, row in skills.items():
@@ -77,10 +80,12 @@ def main() -> None:
     if args.markdown:
         lines = [f"Scripted success of every task's skill program, {args.episodes} seeds from {args.seed} per task "
                  f"(`python benchmarks/bench_experts.py --episodes {args.episodes}`, commit {commit[:10]}{' + local changes' if dirty else ''}).", "",
-                 "| task | program | success | failures (reason: count) | median s/episode |", "| --- | --- | ---: | --- | ---: |"]
+                 "| task | program | success | stages (mean progress) | failures (reason: count) | median s/episode |",
+                 "| --- | --- | ---: | ---: | --- | ---: |"]
         for r in rows:
             failures = ", ".join(f"{k}: {v}" for k, v in r["failures"].items()) or "-"
-            lines.append(f"| {r['task']} | {'; '.join(r['program'])} | {r['successes']}/{r['episodes']} | {failures} | "
+            stages = f"{r['stage_count']} ({100 * r['mean_progress']:.0f} %)" if r["stage_count"] else "-"
+            lines.append(f"| {r['task']} | {'; '.join(r['program'])} | {r['successes']}/{r['episodes']} | {stages} | {failures} | "
                          f"{r['median_episode_s']:.1f} |")
         lines += ["", "| skill | episodes | the expert got past it |", "| --- | ---: | ---: |"]
         lines += [f"| {k} | {v['episodes']} | {100 * v['success_rate']:.1f} % |" for k, v in skills.items()]

@@ -65,6 +65,9 @@ class VariantOutcome:
     steps: int
     simulated: bool
     params: dict[str, Any] = field(default_factory=dict)
+    stage: int | None = None
+    """On a protocol task (a ``sequence`` criterion): the stages the variant completed, so a rejected
+    variant failed at stage ``stage + 1``. None for one-step tasks."""
 
 
 @dataclass
@@ -98,11 +101,18 @@ def write_rollout(
             obs = Observation(
                 images=frames[t] if frames else {}, state=rollout.obs_state[t], fresh=bool(fresh[t]),
                 frame_age=t - last, sim_time=float(rollout.sim_time[t]), wall_time=float(rollout.wall_time[t]),
-                step=t + 1, instruction=info.instruction,
+                step=t + 1, instruction=rollout.instruction[t], stage=int(rollout.stage[t]),
+                instrument=rollout.instrument[t],
             )
             writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t))
         writer.close(rollout.verdict, rollout.final_state, rollout.final_sim_state)
     return writer.tmp
+
+
+def _stage(verdict: Verdict) -> int | None:
+    """Stages completed by the end of an episode of a ``sequence`` criterion (its ``stage`` metric)."""
+    stage = verdict.metrics.get("stage")
+    return None if stage is None else int(stage)
 
 
 def _compress_views(views: dict[str, np.ndarray]) -> dict[str, bytes]:
@@ -168,7 +178,7 @@ class DemoAugmenter:
                 # rejected by the batch rollout and nobody keeps rejects: no step-by-step re-run
                 result.seconds["physics"] += time.perf_counter() - t0
                 result.outcomes.append(VariantOutcome(plan.variant, plan.magnitude, False, early.reason or "undecided",
-                                                      0, True, plan.params))
+                                                      0, True, plan.params, _stage(early)))
                 continue
             if plan.physics:
                 assert plan.actions is not None
@@ -181,7 +191,8 @@ class DemoAugmenter:
             kept = bool(rollout.verdict.success)
             reason = "" if kept else (rollout.verdict.reason or "undecided")
             result.outcomes.append(
-                VariantOutcome(plan.variant, plan.magnitude, kept, reason, rollout.num_steps, plan.physics, plan.params)
+                VariantOutcome(plan.variant, plan.magnitude, kept, reason, rollout.num_steps, plan.physics, plan.params,
+                               _stage(rollout.verdict))
             )
             folder = job.kept_dir if kept else job.rejected_dir
             if folder is None:

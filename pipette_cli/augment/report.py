@@ -1,4 +1,6 @@
-"""The yield report: per variant (and per perturbation axis) attempts, kept and failure reasons."""
+"""The yield report: per variant (and per perturbation axis) attempts, kept and failure reasons, and
+on protocol tasks the stage at which the rejected variants failed (``failed_at_stage``: stage
+number, counting from 1 -> rejected variants)."""
 
 from __future__ import annotations
 
@@ -14,6 +16,7 @@ class YieldRow:
     attempts: int = 0
     kept: int = 0
     reasons: Counter[str] = field(default_factory=Counter)
+    failed_at: Counter[int] = field(default_factory=Counter)
 
     @property
     def yield_(self) -> float:
@@ -23,6 +26,7 @@ class YieldRow:
         return {
             "magnitude": self.magnitude, "attempts": self.attempts, "kept": self.kept,
             "yield": round(self.yield_, 4), "failures": dict(sorted(self.reasons.items())),
+            **({"failed_at_stage": {str(k): v for k, v in sorted(self.failed_at.items())}} if self.failed_at else {}),
         }
 
 
@@ -44,6 +48,8 @@ def yield_report(demos: dict[str, dict[str, Any]]) -> dict[str, Any]:
                 row.kept += bool(out["kept"])
                 if not out["kept"]:
                     row.reasons[out["reason"]] += 1
+                    if out.get("stage") is not None:  # ledgers written before protocols have none
+                        row.failed_at[int(out["stage"]) + 1] += 1
     attempts = sum(r.attempts for r in variants.values())
     kept = sum(r.kept for r in variants.values())
     return {

@@ -47,6 +47,12 @@ class Rollout:
     final_state: np.ndarray
     final_sim_state: np.ndarray
     verdict: Verdict
+    instruction: list[str]
+    """Each step's language instruction (a protocol's stage instruction)."""
+    stage: np.ndarray
+    """Stages completed before each step."""
+    instrument: np.ndarray
+    """Instrument values before each step, ``(T, len(World.instrument_names))``."""
 
     @classmethod
     def from_record(cls, record: EpisodeRecord) -> Rollout:
@@ -54,9 +60,13 @@ class Rollout:
         a = record.arrays
         s = record.summary
         verdict = Verdict(success=s.success, failed=not s.success, reason=s.reason or None, metrics=dict(s.metrics))
+        steps = len(a["action"])
+        instruction = [t.decode() if isinstance(t, bytes) else str(t) for t in a["instruction"]]
         return cls(
             actions=a["action"], states=a["sim_state"], obs_state=a["state"], sim_time=a["sim_time"],
             wall_time=a["wall_time"], final_state=a["final_state"], final_sim_state=a["final_sim_state"], verdict=verdict,
+            instruction=instruction, stage=a.get("stage", np.zeros(steps, dtype=np.int32)),
+            instrument=a.get("instrument_state", np.zeros((steps, 0))),
         )
 
     @property
@@ -125,6 +135,7 @@ def simulate(
     restore(world, seed, start, offset)
     m, d = world.model, world.data
     rows_a, rows_s, rows_q, rows_t, rows_w = [], [], [], [], []
+    rows_text, rows_stage, rows_inst = [], [], []
     verdict = Verdict()
     wall0 = time.perf_counter()
     total = len(actions) + settle_steps
@@ -135,13 +146,17 @@ def simulate(
         rows_q.append(world.state())
         rows_t.append(world.time)
         rows_w.append(time.perf_counter() - wall0)
+        rows_text.append(world.instruction())
+        rows_stage.append(world.stage)
+        rows_inst.append(world.instrument_state())
         verdict = world.step(action)
         if verdict.done:
             break
     return Rollout(
         actions=np.stack(rows_a), states=np.stack(rows_s), obs_state=np.stack(rows_q),
         sim_time=np.asarray(rows_t), wall_time=np.asarray(rows_w), final_state=world.state(),
-        final_sim_state=sim_state(m, d), verdict=verdict,
+        final_sim_state=sim_state(m, d), verdict=verdict, instruction=rows_text,
+        stage=np.asarray(rows_stage, dtype=np.int32), instrument=np.stack(rows_inst),
     )
 
 

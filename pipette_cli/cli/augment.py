@@ -24,6 +24,8 @@ def _table(report: dict) -> Table:
         table.add_column(col, justify="right" if col in ("attempts", "kept", "yield") else "left")
     for row in report["variants"]:
         failures = ", ".join(f"{k} {v}" for k, v in row["failures"].items())
+        if row.get("failed_at_stage"):
+            failures += " (at stage " + ", ".join(f"{k}: {v}" for k, v in row["failed_at_stage"].items()) + ")"
         table.add_row(row["variant"], row["magnitude"], str(row["attempts"]), str(row["kept"]), f"{row['yield']:.0%}", failures)
     return table
 

@@ -52,16 +52,18 @@ def check(
         print_json([
             {"task": r.task_id, "episodes": r.episodes, "successes": r.successes, "success_rate": r.success_rate,
              "failures": dict(r.failures), "failed_seeds": r.failed_seeds, "seconds": r.seconds,
-             "median_episode_s": r.median_seconds,
+             "median_episode_s": r.median_seconds, "stage_count": r.stage_count, "stages": r.stages,
+             "mean_progress": r.mean_progress,
              "expert_failures": {str(k): v for k, v in r.expert_failures.items()},
              "failed_steps": dict(Counter(step_of(v) for v in r.expert_failures.values()))}
             for r in reports
         ])
         return
     table = Table(title=f"scripted experts, {episodes} seeds from {seed}")
-    for column in ("task", "success", "rate", "failures"):
+    for column in ("task", "success", "rate", "stages (progress)", "failures"):
         table.add_column(column)
     for r in reports:
         failures = ", ".join(f"{k}: {v}" for k, v in r.failures.most_common()) or "-"
-        table.add_row(r.task_id, f"{r.successes}/{r.episodes}", f"{100 * r.success_rate:.0f} %", failures)
+        stages = f"{r.stage_count} ({100 * r.mean_progress:.0f} %)" if r.stage_count else "-"
+        table.add_row(r.task_id, f"{r.successes}/{r.episodes}", f"{100 * r.success_rate:.0f} %", stages, failures)
     out_console.print(table)

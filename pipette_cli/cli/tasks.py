@@ -19,7 +19,7 @@ from pipette_cli.registry import (
     task_files,
     validate_task_document,
 )
-from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
+from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec, stage_specs
 from pipette_cli.specs.yaml_io import dump_yaml, format_problem, parse_yaml, read_yaml
 from pipette_cli.templating import render_task_template, task_template_names
 
@@ -39,7 +39,19 @@ def _summary(spec: TaskSpec) -> dict[str, object]:
         "evaluator": spec.success.type,
         "tags": list(spec.tags),
         "instruction": spec.instruction,
+        "stages": _stages(spec),
     }
+
+
+def _stages(spec: TaskSpec) -> list[dict[str, object]]:
+    """A protocol's stages in order: each one's instruction and criterion (``[]`` for one-step tasks)."""
+    return [{"stage": i + 1, "instruction": stage.instruction, "criterion": stage.type}
+            for i, stage in enumerate(stage_specs(spec))]
+
+
+def _evaluator(spec: TaskSpec) -> str:
+    count = len(stage_specs(spec))
+    return f"{spec.success.type} ({count} stages)" if count else spec.success.type
 
 
 @app.command("list")
@@ -61,7 +73,7 @@ def list_tasks(
         table.add_column(column, no_wrap=True)
     table.add_column("instruction", overflow="fold")
     for s in specs:
-        table.add_row(s.id, s.embodiment.robot, s.success.type, s.instruction)
+        table.add_row(s.id, s.embodiment.robot, _evaluator(s), s.instruction)
     out_console.print(table)
 
 
@@ -107,10 +119,16 @@ def show_task(
     program, source = _program(entry.spec)
     if as_json:
         print_json({"path": str(entry.path), **entry.spec.model_dump(mode="json", by_alias=True),
-                    "expert_program": {"source": source, "steps": program}})
+                    "expert_program": {"source": source, "steps": program}, "stages": _stages(entry.spec)})
         return
     out_console.print(f"# {entry.path}", style="dim")
     out_console.print(entry.path.read_text(encoding="utf-8"), markup=False, highlight=False, end="")
+    stages = _stages(entry.spec)
+    if stages:
+        out_console.print(f"# {len(stages)} stages (progress = stages completed / {len(stages)}):", style="dim")
+        for row in stages:
+            out_console.print(f"#   {row['stage']}. {row['instruction'] or '(no instruction)'}  [{row['criterion']}]",
+                              style="dim", markup=False, highlight=False)
     if source != "task":
         out_console.print(f"# expert program in use ({source}):", style="dim")
         out_console.print(dump_yaml({"expert": program}) if program else "# (none)\n", markup=False, highlight=False, end="")

@@ -12,7 +12,7 @@ import numpy as np
 from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.world import World
-from pipette_cli.specs.task import TaskSpec
+from pipette_cli.specs.task import TaskSpec, stage_specs
 
 EXPERT_FAILED = "expert_failed"
 """Failure reason of an episode whose expert gave up (a skill step could not do its job)."""
@@ -32,10 +32,21 @@ class ExpertReport:
     mean_steps: float = 0.0
     seconds: float = 0.0
     episode_seconds: list[float] = field(default_factory=list)
+    stage_count: int = 0
+    """Stages of the task's ``sequence`` criterion (0 for single-stage tasks)."""
+    stages: list[int] = field(default_factory=list)
+    """Stages completed in each episode, in seed order."""
 
     @property
     def success_rate(self) -> float:
         return self.successes / self.episodes if self.episodes else 0.0
+
+    @property
+    def mean_progress(self) -> float:
+        """Mean fraction of the stages completed (success rate for single-stage tasks)."""
+        if not self.stage_count:
+            return self.success_rate
+        return float(np.mean(self.stages)) / self.stage_count if self.stages else 0.0
 
     @property
     def median_seconds(self) -> float:
@@ -68,7 +79,7 @@ def run_expert_episode(world: World, seed: int, max_steps: int | None = None,
 def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
     """Success statistics of the task's expert on seeds ``seed .. seed + episodes - 1``."""
     world = World(task)
-    report = ExpertReport(task.id)
+    report = ExpertReport(task.id, stage_count=len(stage_specs(task)))
     start = time.perf_counter()
     steps = 0
     for k in range(episodes):
@@ -77,6 +88,7 @@ def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
         report.episode_seconds.append(time.perf_counter() - began)
         report.episodes += 1
         steps += world.step_count
+        report.stages.append(world.stage)
         if verdict.success:
             report.successes += 1
         else:

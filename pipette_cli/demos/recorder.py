@@ -4,7 +4,9 @@ An :class:`EpisodeWriter` streams one episode into its own file (``*.tmp`` until
 the three RGB views as uint8 ``(T, H, W, 3)`` datasets (gzip level 4, one chunk per frame),
 the proprioceptive state, the action, the full MuJoCo integration state *before* the action
 (restorable with ``mj_setState``), simulated and wall-clock time, the fresh flag and frame
-age, and the language instruction; then the episode's verdict and provenance as attributes.
+age, the language instruction of each step (a protocol's stage instruction), the stages completed
+and the instruments' values (``instrument_state``, one column per ``World.instrument_names``);
+then the episode's verdict and provenance as attributes.
 The layout is documented in ``docs/data_format.md``; :mod:`.store` packs episode files into
 one dataset file atomically.
 
@@ -79,6 +81,8 @@ class DatasetInfo:
     state_dim: int
     action_dim: int
     sim_state_size: int
+    instrument_names: tuple[str, ...] = ()
+    """Columns of each episode's ``instrument_state`` (``mechanism.value``); none without instruments."""
 
     @classmethod
     def from_env(cls, env: PipetteEnv) -> DatasetInfo:
@@ -98,6 +102,7 @@ class DatasetInfo:
             state_dim=env.world.action_dim,
             action_dim=env.world.action_dim,
             sim_state_size=mujoco.mj_stateSize(env.world.model, SIM_STATE),
+            instrument_names=tuple(env.world.instrument_names),
         )
 
     def write(self, attrs: h5py.AttributeManager) -> None:
@@ -105,7 +110,7 @@ class DatasetInfo:
         attrs["format_version"] = FORMAT_VERSION
         attrs["sim_state_spec"] = SIM_STATE_NAME
         for key, value in asdict(self).items():
-            attrs[key] = list(value) if isinstance(value, tuple) else value
+            attrs[key] = np.array(value, dtype=h5py.string_dtype()) if isinstance(value, tuple) else value
 
     @classmethod
     def read(cls, attrs: h5py.AttributeManager, source: str) -> DatasetInfo:
@@ -118,9 +123,12 @@ class DatasetInfo:
         try:
             values: dict[str, Any] = {}
             for name, kind in cls.__annotations__.items():
+                if name == "instrument_names":  # files written before instruments had state: none
+                    values[name] = tuple(_text(c) for c in attrs.get(name, ()))
+                    continue
                 raw = attrs[name]
                 if name == "cameras":
-                    values[name] = tuple(str(c) for c in raw)
+                    values[name] = tuple(_text(c) for c in raw)
                 elif kind == "int":
                     values[name] = int(raw)
                 else:
@@ -138,10 +146,15 @@ class DatasetInfo:
                 f"its images are {self.image_height}x{self.image_width}, not {other.image_height}x{other.image_width} "
                 f"(pass --image-size {self.image_height})"
             )
-        for name in ("embodiment", "cameras", "state_dim", "action_dim", "sim_state_size", "control_hz", "physics_hz"):
+        for name in ("embodiment", "cameras", "state_dim", "action_dim", "sim_state_size", "control_hz", "physics_hz",
+                     "instrument_names"):
             if getattr(self, name) != getattr(other, name):
                 return f"its {name} is {getattr(self, name)}, not {getattr(other, name)} (the task changed)"
         return None
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)
 
 
 @dataclass(frozen=True)
@@ -201,10 +214,11 @@ class EpisodeWriter:
         info.write(self._file.attrs)
         self.group = self._file.create_group(EPISODES).create_group(episode_name(index))
         self._attrs = dict(attrs or {})
-        self._rows: dict[str, list[Any]] = {k: [] for k in ("state", "action", "sim_state", "sim_time", "wall_time", "step", "fresh", "frame_age")}
+        self._rows: dict[str, list[Any]] = {k: [] for k in (
+            "state", "action", "sim_state", "sim_time", "wall_time", "step", "fresh", "frame_age", "instruction", "stage",
+            "instrument")}
         self._images: dict[str, h5py.Dataset] = {}
         self._last_chunk: dict[str, tuple[np.ndarray, bytes]] = {}
-        self._instruction = info.instruction
         self._started = time.time()
         self.num_steps = 0
         self.closed = False
@@ -253,7 +267,12 @@ class EpisodeWriter:
         rows["step"].append(obs.step)
         rows["fresh"].append(obs.fresh)
         rows["frame_age"].append(obs.frame_age)
-        self._instruction = obs.instruction
+        rows["instruction"].append(obs.instruction)
+        rows["stage"].append(obs.stage)
+        if len(obs.instrument) != len(self.info.instrument_names):
+            raise DatasetError(f"step {obs.step} has {len(obs.instrument)} instrument values; the dataset records "
+                               f"{len(self.info.instrument_names)} ({', '.join(self.info.instrument_names) or 'none'})")
+        rows["instrument"].append(np.asarray(obs.instrument, dtype=np.float64).copy())
         self.num_steps += 1
 
     # ------------------------------------------------------------------- finish
@@ -281,9 +300,12 @@ class EpisodeWriter:
         g.create_dataset("fresh", data=np.asarray(rows["fresh"], dtype=bool))
         g.create_dataset("frame_age", data=np.asarray(rows["frame_age"], dtype=np.int32))
         g.create_dataset(
-            "instruction", data=[self._instruction] * self.num_steps, dtype=h5py.string_dtype(),
-            compression="gzip", compression_opts=GZIP_LEVEL,
+            "instruction", data=rows["instruction"], dtype=h5py.string_dtype(), compression="gzip", compression_opts=GZIP_LEVEL,
         )
+        g.create_dataset("stage", data=np.asarray(rows["stage"], dtype=np.int32))
+        if self.info.instrument_names:
+            g.create_dataset("instrument_state", data=np.stack(rows["instrument"]))
+            g["instrument_state"].attrs["names"] = np.array(self.info.instrument_names, dtype=h5py.string_dtype())
         g.create_dataset("final_state", data=np.asarray(final_state, dtype=np.float32))
         g.create_dataset("final_sim_state", data=np.asarray(final_sim_state, dtype=np.float64))
         truncated = not verdict.done
@@ -297,7 +319,7 @@ class EpisodeWriter:
         attrs.update(
             {
                 "index": self.index, "seed": self.seed, "source": self.source, "uid": self.uid,
-                "task_id": self.info.task_id, "embodiment": self.info.embodiment, "instruction": self._instruction,
+                "task_id": self.info.task_id, "embodiment": self.info.embodiment, "instruction": self.info.instruction,
                 "num_steps": self.num_steps, "success": summary.success, "failed": bool(verdict.failed),
                 "truncated": truncated, "reason": reason, "metrics": json.dumps(summary.metrics, sort_keys=True),
                 "recorded_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(self._started)),

@@ -234,7 +234,9 @@ def run_episode(
         k = world.step_count
         if hold is None and k % d_pi == 0:
             try:
-                answer = source.act(policy_observation(obs, config.float_images), task=instruction,
+                # a protocol's stage instruction where it has one, else this episode's (suite variants)
+                said = obs.instruction if obs.instruction != task.instruction else instruction
+                answer = source.act(policy_observation(obs, config.float_images), task=said,
                                     reset=(k == 0), chunk=config.chunked)
                 queries += 1
                 consecutive = 0

@@ -9,7 +9,7 @@ Runtime classes register under the spec's ``type`` name; an unknown type is an e
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -57,13 +57,27 @@ class WorldState(Protocol):
 
 @dataclass(frozen=True)
 class MechanismState:
-    """What a scripted mechanism reports (paper A.6)."""
+    """What a scripted mechanism reports (paper A.6), and an instrument's named values."""
 
-    triggered: bool
-    target: float
+    triggered: bool = False
+    target: float = 0.0
     """Current target of the driven joint (degrees or metres)."""
-    min_target: float
+    min_target: float = 0.0
     """Lowest target reached since reset."""
+    values: Mapping[str, float] = field(default_factory=dict)
+    """Every reported value by name: an instrument's ``closed``, ``running``, ``run_time_s``,
+    ``mass_g``, zone counts such as ``rotor`` and ``rotor.tube`` (1/0 flags, seconds, grams)."""
+
+    def value(self, name: str) -> float:
+        """The reported value ``name``.
+
+        Raises:
+            EvaluatorError: the mechanism reports no such value (the message lists those it does).
+        """
+        try:
+            return float(self.values[name])
+        except KeyError:
+            raise EvaluatorError(f"the mechanism reports no value {name!r}; {suggest(name, self.values)}") from None
 
 
 @dataclass(frozen=True)

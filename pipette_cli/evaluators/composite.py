@@ -29,6 +29,10 @@ Metrics: every child's metrics prefixed with its index (``"0.height_gain"``), pl
 ``satisfied`` (children satisfied on this step) for ``all``/``any``, and for ``sequence`` ``stage``
 (index of the stage being checked; the number of stages once done) and ``stages`` (how many
 there are): ``stage / stages`` is the episode's progress through a staged task.
+
+A ``sequence`` also says which stage it is on (:attr:`Sequence.stage`) and that stage's
+``instruction`` (:meth:`Sequence.stage_instruction`, nested sequences included), which the world
+hands out as the instruction of the moment.
 """
 
 from __future__ import annotations
@@ -116,9 +120,15 @@ class Sequence(Composite):
 
     spec_type = SequenceSpec
 
+    def __init__(self, spec: CompositeSpec) -> None:
+        super().__init__(spec)
+        self._stage = 0
+        self._done = False
+
     def start(self, state: WorldState) -> None:
         self._last = [None] * len(self.children)
         self._stage = 0
+        self._done = False
         self.children[0].reset(state)
 
     def check(self, state: WorldState) -> Check:
@@ -130,6 +140,7 @@ class Sequence(Composite):
         if not verdict.success:
             return Check(False, self._staged(self._stage), unmet=child_unmet(child))
         if self._stage == len(self.children) - 1:
+            self._done = True
             return Check(True, self._staged(len(self.children)))
         self._stage += 1
         self.children[self._stage].reset(state)
@@ -137,3 +148,16 @@ class Sequence(Composite):
 
     def _staged(self, stage: int) -> dict[str, float]:
         return {**self._metrics(), "stage": float(stage), "stages": float(len(self.children))}
+
+    @property
+    def stage(self) -> int:
+        """Index of the stage being checked; the number of stages once the sequence succeeded."""
+        return len(self.children) if self._done else self._stage
+
+    def stage_instruction(self) -> str | None:
+        """The instruction of the stage being checked (the last stage's once done): the innermost
+        one given, where a stage is itself a sequence."""
+        child = self.children[min(self._stage, len(self.children) - 1)]
+        inner = getattr(child, "stage_instruction", None)
+        text = inner() if callable(inner) else None
+        return text or child.spec.instruction

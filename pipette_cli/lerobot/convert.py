@@ -2,7 +2,10 @@
 
 Each kept control step becomes one frame: ``observation.images.{top,main,wrist}`` (uint8 HWC),
 ``observation.state`` (float32), ``action`` (float32 copy of the float64 joint targets and
-gripper command) and the episode's instruction as the ``task`` string. :mod:`.frames` decides
+gripper command), the step's instruction as the ``task`` string (a protocol's stage instruction,
+so policies can be trained on sub-tasks), ``stage`` (stages completed) and, for scenes with
+instruments, ``instrument_state`` (one named column per ``World.instrument_names``). The last two
+carry no ``observation.`` prefix on purpose: LeRobot would otherwise feed them to policies as state. :mod:`.frames` decides
 which steps are kept (fresh camera frames at 10 Hz by default). Successful episodes only,
 unless ``include_failed``.
 
@@ -262,6 +265,10 @@ def make_features(info: DatasetInfo, *, video: bool) -> dict[str, dict[str, Any]
         "dtype": "float32", "shape": (info.action_dim,),
         "names": [f"joint_{i}_target" for i in range(1, arm + 1)] + ["gripper_open"],
     }
+    features["stage"] = {"dtype": "int64", "shape": (1,), "names": ["stages_completed"]}
+    if info.instrument_names:
+        names = list(info.instrument_names)
+        features["instrument_state"] = {"dtype": "float32", "shape": (len(names),), "names": names}
     return features
 
 
@@ -320,12 +327,17 @@ def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode:
             images = _read_images(planned)
             states = arrays["state"][planned.steps].astype(np.float32)
             actions = arrays["action"][planned.steps].astype(np.float32)
-            task = str(planned.attrs.get("instruction", planned.info.instruction))
+            tasks = _step_instructions(arrays, planned)
+            stages = arrays["stage"][planned.steps] if "stage" in arrays else np.zeros(len(planned.steps), np.int64)
+            instruments = arrays["instrument_state"][planned.steps].astype(np.float32) if plan.info.instrument_names else None
             for row in range(len(planned.steps)):
                 frame: dict[str, Any] = {image_key(cam): images[cam][row] for cam in CAMERAS}
                 frame["observation.state"] = states[row]
                 frame["action"] = actions[row]
-                frame["task"] = task
+                frame["task"] = tasks[row]
+                frame["stage"] = np.array([stages[row]], dtype=np.int64)
+                if instruments is not None:
+                    frame["instrument_state"] = instruments[row]
                 dataset.add_frame(frame)
             dataset.save_episode()
             if on_episode is not None:
@@ -333,6 +345,13 @@ def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode:
     finally:
         dataset.finalize()
     (tmp / PROVENANCE_FILE).write_text(json.dumps(_provenance(plan, options), indent=2, default=str) + "\n")
+
+
+def _step_instructions(arrays: dict[str, np.ndarray], planned: PlannedEpisode) -> list[str]:
+    """Each kept step's instruction (its stage's on a protocol), else the episode's."""
+    if "instruction" in arrays:
+        return [t.decode() if isinstance(t, bytes) else str(t) for t in arrays["instruction"][planned.steps]]
+    return [str(planned.attrs.get("instruction", planned.info.instruction))] * len(planned.steps)
 
 
 def convert(

@@ -32,6 +32,11 @@ class Observation:
     wall_time: float
     step: int
     instruction: str
+    """The language instruction of this step: the current stage's own on a protocol task."""
+    stage: int = 0
+    """Stages of the task's ``sequence`` criterion completed before this step (0 for other tasks)."""
+    instrument: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The scene's instrument values (``World.instrument_names``) before this step."""
     extra: dict[str, object] = field(default_factory=dict)
 
 
@@ -79,7 +84,9 @@ class PipetteEnv:
             sim_time=self.world.time,
             wall_time=time.perf_counter() - self._wall0,
             step=k,
-            instruction=self.task.instruction,
+            instruction=self.world.instruction(),
+            stage=self.world.stage,
+            instrument=self.world.instrument_state(),
         )
 
     def reset(self, seed: int) -> Observation:

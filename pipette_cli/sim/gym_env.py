@@ -32,12 +32,13 @@ class PipetteGymEnv(gym.Env[dict[str, Any], np.ndarray]):
 
     @property
     def task(self) -> str:
-        """The language instruction (LeRobot reads ``task`` and ``task_description``)."""
-        return self.spec_task.instruction
+        """The language instruction of the moment (LeRobot reads ``task`` and ``task_description``):
+        on a protocol, the current stage's."""
+        return self.env.world.instruction()
 
     @property
     def task_description(self) -> str:
-        return self.spec_task.instruction
+        return self.task
 
     def __init__(
         self,

@@ -16,7 +16,7 @@ import numpy as np
 
 from pipette_cli.errors import SimError, suggest
 from pipette_cli.evaluators.base import MechanismState, Verdict, make_evaluator
-from pipette_cli.sim.mechanisms import make_mechanism
+from pipette_cli.sim.mechanisms import Memory, make_mechanism, memory_size
 from pipette_cli.sim.meshes import MeshDetail
 from pipette_cli.sim.robots import gripper_ctrl
 from pipette_cli.sim.scene import ROBOT_PREFIX, compile_scene, euler_to_quat, make_scene_spec
@@ -41,6 +41,10 @@ class World:
         self.task = task
         spec, self.robot, self.objects = make_scene_spec(task)
         self.spec = spec
+        self._memory: dict[str, tuple[int, int]] = {}
+        for mech in task.scene.mechanisms:  # each mechanism's state lives in its slots of data.userdata
+            self._memory[mech.name] = (spec.nuserdata, memory_size(mech))
+            spec.nuserdata += self._memory[mech.name][1]
         self.model = compile_scene(spec, task, meshes=meshes)
         self.data = mujoco.MjData(self.model)
         self.control_dt = 1.0 / task.timing.control_hz
@@ -199,6 +203,43 @@ class World:
             return self.mechanisms[name].state()
         except KeyError:
             raise SimError(f"{self.task.id}: no mechanism {name!r}; {suggest(name, self.mechanisms)}") from None
+
+    # ------------------------------------------------------------ instruments
+    def mechanism_memory(self, name: str, slots: tuple[str, ...] | list[str]) -> Memory:
+        """The ``userdata`` slots reserved for mechanism ``name`` at build time, by slot name."""
+        offset, size = self._memory[name]
+        if len(slots) != size:
+            raise SimError(f"{self.task.id}: mechanism {name!r} asks for {len(slots)} memory slots, {size} were reserved")
+        return Memory(self, offset, slots)
+
+    @cached_property
+    def instrument_names(self) -> list[str]:
+        """``mechanism.value`` for every value the scene's mechanisms report, in a fixed order."""
+        return [f"{name}.{key}" for name, mech in self.mechanisms.items() for key in mech.names()]
+
+    def instrument_state(self) -> np.ndarray:
+        """The values of :attr:`instrument_names` now (float64; 1/0 for flags)."""
+        out: list[float] = []
+        for mech in self.mechanisms.values():
+            values = mech.state().values
+            out += [values[key] for key in mech.names()]
+        return np.asarray(out, dtype=np.float64)
+
+    @property
+    def stage(self) -> int:
+        """The stage being worked on: a ``sequence`` criterion's stage index (the number of stages once
+        it succeeded); for other criteria 0, or 1 once it succeeded."""
+        stage = getattr(self.evaluator, "stage", None)
+        if isinstance(stage, int):
+            return stage
+        return int(self.verdict.success)
+
+    def instruction(self) -> str:
+        """The language instruction for now: the current stage's own, where the task's ``sequence``
+        criterion gives its stages instructions, else the task's."""
+        own = getattr(self.evaluator, "stage_instruction", None)
+        text = own() if callable(own) else None
+        return text or self.task.instruction
 
     # ------------------------------------------------------------------ robot
     def tcp_position(self) -> np.ndarray:

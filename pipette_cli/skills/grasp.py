@@ -6,7 +6,8 @@ candidates):
 
 * ``axis``: an upright object narrow enough for the gripper (a tube, a flask's neck, a bottle) is
   taken from above around its vertical axis, at its ``grasp`` site (or a named site), low enough
-  that its top stays below the palm.
+  that its top stays below the palm and high enough that the fingertips close above the rack,
+  rotor or holder it stands in (the open fingers would otherwise close on its walls).
 * ``across``: a lying tool (a pipette, a rod) is taken from above across its long axis.
 * ``pinch``: a flat, low object (a petri dish, a plate) is pinched near the rim facing the robot
   with the hand pitched down, across the widest chord the gripper spans; the pitch lets the
@@ -93,6 +94,15 @@ def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str
                             "across" if lying else "axis", then=then)
 
 
+def _fingertips_clear(ctx: SkillContext, name: str, shape: Shape) -> float:
+    """Lowest tcp height for a straight-down grasp about an upright object: its fingertips above
+    what the open fingers close over (the bench, or the rack or holder it stands in)."""
+    reach = ctx.robot.gripper.max_opening / 2
+    base = ctx.world.position(name)
+    around = ctx.scene.corridor_top(base, base, reach, ctx.scene.bodies(name), below=shape.top)
+    return max(shape.bottom, around) + FINGERTIP_LIFT
+
+
 def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None,
                  lying: bool) -> tuple[np.ndarray, np.ndarray, float]:
     """Grasp point, closing direction and the object's width across the fingers there."""
@@ -117,7 +127,7 @@ def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, hei
     else:
         z = shape.bottom + 0.6 * (top - shape.bottom)
     palm = ctx.robot.gripper.finger_depth - PALM_MARGIN
-    z = max(z, top - palm, shape.bottom + FINGERTIP_LIFT)
+    z = max(z, top - palm, _fingertips_clear(ctx, name, shape))
     z = min(z, top - 0.004)
     slab = _slab(ctx, name, shape, z)
     point = np.array([slab.center[0], slab.center[1], z])

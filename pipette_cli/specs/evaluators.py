@@ -23,6 +23,8 @@ class EvaluatorSpec(TypedSpec):
     """Base of all success criteria."""
 
     timeout_s: PositiveS | None = Field(None, description="episode fails with reason 'timeout' after this")
+    instruction: str | None = Field(
+        None, min_length=1, description="as a stage of a sequence: the language instruction for this stage")
 
 
 EVALUATORS: TypeRegistry[EvaluatorSpec] = TypeRegistry("evaluator", EvaluatorSpec)
@@ -188,6 +190,19 @@ class AnyOfSpec(CompositeSpec):
 
 @register_evaluator
 class SequenceSpec(CompositeSpec):
-    """Children must succeed in order; each starts being checked after the previous one succeeded."""
+    """Children must succeed in order; each starts being checked after the previous one succeeded.
+    Each stage may carry its own ``instruction`` (per-stage language, stored per frame)."""
 
     type: Literal["sequence"] = "sequence"
+
+
+@register_evaluator
+class InstrumentStateSpec(EvaluatorSpec):
+    """Values an instrument reports (:class:`~pipette_cli.specs.mechanisms.InstrumentSpec`) lie in
+    their bounds all at once for ``hold_s``; e.g. the centrifuge ran at least 2 s with a tube in a
+    rotor well and the lid closed: ``{run_time_s: {min: 2}, rotor: {min: 1}, closed: {min: 1}}``."""
+
+    type: Literal["instrument_state"] = "instrument_state"
+    mechanism: str = Field(pattern=r"^[a-z][a-z0-9_]*$", description="name of a scene mechanism")
+    values: dict[str, BoundSpec] = Field(min_length=1, description="reported value -> bound (flags are 1 or 0)")
+    hold_s: HoldS = 0.0

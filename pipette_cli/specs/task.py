@@ -209,6 +209,8 @@ class TaskSpec(Spec):
         for loc, named in _mechanism_refs(self.success, ("success",)):
             if named not in mechanisms:
                 yield loc, f"mechanism {named!r} is not defined in scene.mechanisms"
+        for loc in _misplaced_instructions(self.success, ("success",), stage=False):
+            yield loc, "an instruction is given to the stages of a 'sequence' only; the task's own is 'instruction' at the top"
         for name, cam in (("top", self.cameras.top), ("main", self.cameras.main), ("wrist", self.cameras.wrist)):
             if cam.mount not in ("world", "end_effector"):
                 yield from check(("cameras", name, "mount"), cam.mount)
@@ -230,10 +232,23 @@ class TaskSpec(Spec):
 
 
 def _mechanism_refs(spec: Any, loc: tuple[Any, ...]) -> Iterator[tuple[tuple[Any, ...], str]]:
-    if getattr(spec, "type", None) == "mechanism_triggered":
-        yield (*loc, "mechanism"), spec.mechanism
+    mechanism = getattr(spec, "mechanism", None)
+    if isinstance(mechanism, str):
+        yield (*loc, "mechanism"), mechanism
     for i, child in enumerate(getattr(spec, "of", None) or []):
         yield from _mechanism_refs(child, (*loc, "of", i))
+
+
+def _misplaced_instructions(spec: Any, loc: tuple[Any, ...], *, stage: bool) -> Iterator[tuple[Any, ...]]:
+    if getattr(spec, "instruction", None) is not None and not stage:
+        yield (*loc, "instruction")
+    for i, child in enumerate(getattr(spec, "of", None) or []):
+        yield from _misplaced_instructions(child, (*loc, "of", i), stage=getattr(spec, "type", None) == "sequence")
+
+
+def stage_specs(task: TaskSpec) -> list[Any]:
+    """The stages of a task whose criterion is a ``sequence`` (its children, in order); ``[]`` otherwise."""
+    return list(task.success.of) if task.success.type == "sequence" else []
 
 
 def _has_field(node: Any, parts: list[str]) -> bool:

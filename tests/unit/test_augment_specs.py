@@ -71,3 +71,16 @@ def test_yield_report_counts_attempts_kept_and_reasons() -> None:
     assert rows["light+speed"]["failures"] == {"dropped": 1} and rows["light+speed"]["yield"] == 0.5
     axes = {(r["axis"], r["magnitude"]): r for r in report["axes"]}
     assert axes[("light", "s_I=0.8")]["attempts"] == 4 and axes[("speed", "s_v=3")]["kept"] == 1
+
+
+def test_yield_report_says_at_which_stage_rejected_variants_of_a_protocol_failed() -> None:
+    outcome = lambda kept, stage, reason="": {"variant": "object", "magnitude": "xy=0.02", "kept": kept,  # noqa: E731
+                                              "reason": reason, "stage": stage}
+    demos = {
+        "a": {"status": "ok", "outcomes": [outcome(False, 0, "rotor_loaded.tube_unmet"), outcome(True, 4)]},
+        "b": {"status": "ok", "outcomes": [outcome(False, 2, "run_time_s_unmet"), outcome(False, 0, "undecided")]},
+        "old": {"status": "ok", "outcomes": [{"variant": "object", "magnitude": "xy=0.02", "kept": False, "reason": "dropped"}]},
+    }
+    row = yield_report(demos)["variants"][0]
+    assert (row["attempts"], row["kept"]) == (5, 1)
+    assert row["failed_at_stage"] == {"1": 2, "3": 1}  # stage numbers from 1; a ledger without stages counts none

@@ -52,11 +52,20 @@ def test_unreachable_rates_are_errors(mode: FrameFilter, fps: int, message: str)
 def test_features_are_uint8_hwc_cameras_state_and_action() -> None:
     info = DatasetInfo("lab/T-v1", "piper", "do it", 48, 64, ("top", "main", "wrist"), 600, 30, 10, 7, 7, 100)
     features = make_features(info, video=False)
-    assert set(features) == {"observation.images.top", "observation.images.main", "observation.images.wrist", "observation.state", "action"}
+    assert set(features) == {"observation.images.top", "observation.images.main", "observation.images.wrist", "observation.state",
+                             "action", "stage"}
     assert features["observation.images.wrist"]["shape"] == (48, 64, 3) and features["observation.images.top"]["dtype"] == "image"
     assert features["observation.state"]["shape"] == (7,) and features["observation.state"]["names"][-1] == "gripper"
     assert len(features["action"]["names"]) == 7
     assert make_features(info, video=True)["observation.images.main"]["dtype"] == "video"
+
+
+def test_instrument_values_are_named_columns() -> None:
+    info = DatasetInfo("lab/T-v1", "piper", "do it", 48, 64, ("top", "main", "wrist"), 600, 30, 10, 7, 7, 100,
+                       ("centrifuge.closed", "centrifuge.run_time_s"))
+    features = make_features(info, video=False)
+    assert features["instrument_state"] == {"dtype": "float32", "shape": (2,), "names": ["centrifuge.closed", "centrifuge.run_time_s"]}
+    assert "observation.instrument_state" not in features  # LeRobot would feed observation.* keys to policies
 
 
 def test_augmented_episodes_are_recognised() -> None:

@@ -42,7 +42,7 @@ def test_every_builtin_family_is_found() -> None:
     names = {cls.model_fields["type"].default for cls in BUILTIN_SPECS}
     assert names == {
         "lift_and_hold", "region_hold", "stable_placement", "joint_threshold", "displacement",
-        "near_target", "mechanism_triggered", "all", "any", "sequence",
+        "near_target", "mechanism_triggered", "instrument_state", "all", "any", "sequence",
     }  # fmt: skip
     assert names <= set(registered_types())
 
@@ -67,6 +67,7 @@ def _minimal(spec_cls: type[EvaluatorSpec]) -> EvaluatorSpec:
         "displacement": {"object": "tube", "delta": {"x": {"min": 0.1}}},
         "near_target": {"object": "tube", "target": "rack", "max_xy_distance": 0.1},
         "mechanism_triggered": {"mechanism": "button", "target": {"max": -39}},
+        "instrument_state": {"mechanism": "centrifuge", "values": {"running": {"min": 1}}},
     }
     name = spec_cls.model_fields["type"].default
     return spec_cls.model_validate(examples.get(name, {"of": [lift]}))

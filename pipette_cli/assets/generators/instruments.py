@@ -33,8 +33,11 @@ def _button_x(body: Body, name: str, pos: tuple[float, float, float], radius: fl
 
 
 def centrifuge(asset_id: str, description: str, depth: float, width: float, height: float, base_mass: float, lid_mass: float,
-               rotor_r: float, kp: float = 200.0, kv: float = 20.0, hinge_friction: float = 0.0) -> AssetDef:
-    """Top-loading centrifuge: a bowl in a case, a lid hinged at the back, a front lid-release button."""
+               rotor_r: float, kp: float = 200.0, kv: float = 20.0, hinge_friction: float = 0.0, *, rotor_h: float = 0.03,
+               wells: int = 8, well_r: float = 0.0065, well_depth: float = 0.015, tube_ml: float = 1.5) -> AssetDef:
+    """Top-loading centrifuge: a bowl in a case, a rotor with ``wells`` vertical tube wells (sites
+    ``well_0..``, at their floor), a lid hinged at the back, a red lid-release button and a green
+    start button on the front console."""
     base = Body("base", base_mass)
     panel = 0.035
     x0, x1 = -depth / 2 + panel, depth / 2
@@ -48,16 +51,25 @@ def centrifuge(asset_id: str, description: str, depth: float, width: float, heig
     p.solid_box(base, "wall_left", (x1 - x0 - 2 * wall, wall, wall_h), (cx, -width / 2 + wall / 2, zc), CASE)
     p.solid_box(base, "wall_right", (x1 - x0 - 2 * wall, wall, wall_h), (cx, width / 2 - wall / 2, zc), CASE)
     p.visual(base, "bowl", g.box((x1 - x0 - 2 * wall, width - 2 * wall, 0.002), (cx, 0, floor_h + 0.001)), p.STEEL)
-    rotor_h = 0.03
-    p.solid_cylinder(base, "rotor", rotor_r, rotor_h, (cx, 0, floor_h + rotor_h / 2), p.ALUMINIUM, 36)
-    holes = g.merge([g.cylinder(0.0065, 0.001, (cx + rotor_r * 0.7 * math.cos(a), rotor_r * 0.7 * math.sin(a), floor_h + rotor_h + 0.0005), 12)
-                     for a in (2 * math.pi * k / 8 for k in range(8))])
+    # the rotor: a plate under the wells, a hub between them and a wall round each well (a tube stands in it)
+    top, ring = floor_h + rotor_h, 0.7 * rotor_r
+    well_floor = top - well_depth
+    p.visual(base, "rotor", g.cylinder(rotor_r, rotor_h, (cx, 0, floor_h + rotor_h / 2), 36), p.ALUMINIUM)
+    p.cylinder_collider(base, "rotor_plate_col", rotor_r, well_floor - floor_h, (cx, 0, (floor_h + well_floor) / 2))
+    hub = ring - well_r - 0.003
+    p.cylinder_collider(base, "rotor_hub_col", hub, well_depth, (cx, 0, well_floor + well_depth / 2))
+    centres = [(cx + ring * math.cos(a), ring * math.sin(a)) for a in (2 * math.pi * (k + 0.5) / wells for k in range(wells))]
+    for k, (x, y) in enumerate(centres):
+        p.ring_colliders(base, f"well_{k}_wall", well_r, well_r + 0.003, well_floor, top, 8, (x, y))
+        p.site(base, f"well_{k}", (x, y, well_floor), 0.003)
+    holes = g.merge([g.cylinder(well_r, 0.001, (x, y, top + 0.0005), 16) for x, y in centres])
     p.visual(base, "rotor_holes", holes, p.DARK_PLASTIC)
     console_h = height * 0.55
     p.solid_box(base, "console", (panel, width, console_h), (-depth / 2 + panel / 2, 0, console_h / 2), CASE, 0.005)
     p.visual(base, "display", g.box((0.002, width * 0.3, console_h * 0.3), (-depth / 2 - 0.001, -width * 0.15, console_h * 0.6)), p.SCREEN)
     _button_x(base, "button", (-depth / 2 - 0.004, width * 0.25, console_h * 0.6), 0.011, p.RED_PLASTIC)
-    p.site(base, "rotor_center", (cx, 0, floor_h + rotor_h))
+    _button_x(base, "start_button", (-depth / 2 - 0.004, -width * 0.38, console_h * 0.6), 0.009, p.GREEN_PLASTIC)
+    p.site(base, "rotor_center", (cx, 0, top))
     lid_t = 0.03
     hinge = (x1, 0.0, height)
     lid = Body("lid", lid_mass, pos=hinge)
@@ -70,18 +82,21 @@ def centrifuge(asset_id: str, description: str, depth: float, width: float, heig
                   friction=hinge_friction, armature=0.01)
     # kv * timestep must stay well below the lid's inertia about the hinge (explicit Euler)
     drive = PositionDrive("lid_drive", "lid_hinge", kp=kp, kv=kv, max_force=1000.0, ctrl_range=(math.radians(-100), 0.0))
-    extra = {"lid_open_angle_deg": -40.0, "lid_closed_angle_deg": 0.0, "button_trigger_radius": 0.02}
+    extra = {"lid_open_angle_deg": -40.0, "lid_closed_angle_deg": 0.0, "button_trigger_radius": 0.02,
+             "rotor_wells": float(wells), "well_diameter": 2 * well_r, "well_depth": well_depth, "tube_ml": tube_ml}
     return _asset(asset_id, description, [base, lid], joints=[joint], drives=[drive], extra=extra)
 
 
 register("centrifuge_benchtop", CATEGORY, partial(
     centrifuge, "centrifuge_benchtop",
-    "Benchtop centrifuge: lid hinged at the back (lid_hinge, 0 closed, opens negative to -100 deg) held by a position servo (lid_drive); red lid-release button on the front console.",
-    0.52, 0.42, 0.30, 32.0, 1.6, 0.14, hinge_friction=3.2))
+    "Benchtop centrifuge: lid hinged at the back (lid_hinge, 0 closed, opens negative to -100 deg) held by a position servo (lid_drive); "
+    "rotor with 4 wells for 50 mL tubes (well_0..3); red lid-release button and green start button on the front console.",
+    0.52, 0.42, 0.30, 32.0, 1.6, 0.14, hinge_friction=3.2, wells=4, well_r=0.0155, well_depth=0.025, tube_ml=50.0))
 register("microcentrifuge", CATEGORY, partial(
     centrifuge, "microcentrifuge",
-    "Microcentrifuge for 24 x 1.5/2 mL tubes: hinged lid with servo (lid_hinge, opens negative), front lid-release button.",
-    0.30, 0.25, 0.13, 6.5, 0.35, 0.09, 20.0, 1.0))
+    "Microcentrifuge: hinged lid with servo (lid_hinge, opens negative), rotor with 8 vertical wells for 1.5/2 mL tubes "
+    "(well_0..7, 25 mm deep) whose caps stay under the lid; red lid-release button and green start button on the front.",
+    0.30, 0.25, 0.13, 6.5, 0.35, 0.09, 20.0, 1.0, rotor_h=0.051, well_depth=0.025))
 
 
 def incubator() -> AssetDef:
@@ -176,6 +191,7 @@ def spectrophotometer() -> AssetDef:
     p.visual(base, "display", screen, p.SCREEN)
     p.box_collider(base, "display_col", (0.10, 0.15, 0.03), (-0.11, -0.05, h + 0.015))
     p.visual(base, "keypad", g.box((0.06, 0.09, 0.004), (-0.14, 0.08, h + 0.002)), p.GREY_PLASTIC)
+    _button_x(base, "start_button", (-d / 2 - 0.004, 0.08, 0.03), 0.008, p.GREEN_PLASTIC)
     hinge = (cx1 + 0.01, slot[1], h)
     lid = Body("lid", 0.15, pos=hinge)
     length = cx1 + 0.01 - cx0 + 0.01
@@ -183,7 +199,8 @@ def spectrophotometer() -> AssetDef:
     p.site(lid, "lid_handle", (-length, 0, 0.007))
     joint = Joint("lid_hinge", "revolute", "base", "lid", anchor=hinge, axis="y", lower=0.0, upper=110.0, damping=0.05, friction=0.15)
     return _asset("spectrophotometer",
-                  "UV-Vis spectrophotometer with a single-cuvette compartment; its lid is hinged at the back (lid_hinge, 0 closed, opens positive to 110 deg).",
+                  "UV-Vis spectrophotometer with a single-cuvette compartment; its lid is hinged at the back (lid_hinge, 0 closed, "
+                  "opens positive to 110 deg); a start button on the front.",
                   [base, lid], joints=[joint], extra={"lid_open_angle_deg": 110.0, "cuvette_size": (0.0125, 0.0125)})
 
 
@@ -200,13 +217,14 @@ def electronic_balance() -> AssetDef:
     p.visual(base, "display_housing", display, CASE)
     p.visual(base, "display", g.box((0.002, 0.09, 0.016), (-0.153, 0, h + 0.012)), p.SCREEN)
     p.box_collider(base, "display_col", (0.05, 0.16, 0.02), (-0.135, 0, h + 0.01))
+    _button_x(base, "tare_button", (-d / 2 - 0.004, 0.06, 0.035), 0.008, p.BLUE_PLASTIC)
     pan_x, pan_r, pan_top = 0.03, 0.065, 0.09
     p.solid_cylinder(base, "pan_support", 0.012, pan_top - 0.006 - h, (pan_x, 0, (h + pan_top - 0.006) / 2), p.STEEL)
     pan = Body("pan", 0.25, pos=(pan_x, 0, pan_top - 0.006))
     p.solid_cylinder(pan, "pan_plate", pan_r, 0.006, (0, 0, 0.003), p.STEEL, 48)
     p.site(pan, "pan_center", (0, 0, 0.006))
     joint = Joint("pan_mount", "fixed", "base", "pan", anchor=(pan_x, 0, pan_top - 0.006))
-    return _asset("electronic_balance", "Precision electronic balance (620 g x 1 mg) with a round 130 mm stainless weighing pan.",
+    return _asset("electronic_balance", "Precision electronic balance (620 g x 1 mg) with a round 130 mm stainless weighing pan and a tare button on its front.",
                   [base, pan], joints=[joint],
                   extra={"pan_size": (2 * pan_r, 2 * pan_r), "pan_shape": "round", "pan_height": pan_top, "capacity_kg": 0.62, "readability_kg": 1e-6})
 
@@ -260,15 +278,33 @@ register("vortex_mixer", CATEGORY, vortex_mixer)
 
 
 def thermal_cycler() -> AssetDef:
+    """A 96-well block of real wells (crossing bars over a floor plate; sites ``well_a1`` .. ``well_h12``
+    at their floor), a heated lid on a motor (``lid_drive``) and two front buttons: ``lid_button``
+    (motorised lid) and ``start_button`` (run)."""
     base = Body("base", 10.0)
     d, w, h = 0.40, 0.26, 0.20
     p.solid_box(base, "case_lower", (d, w, 0.12), (0, 0, 0.06), CASE, 0.02)
     p.solid_box(base, "case_back", (0.16, w, h - 0.12), (d / 2 - 0.08, 0, (h + 0.12) / 2), CASE)
-    p.solid_box(base, "block", (0.125, 0.085, 0.02), (-0.03, 0, 0.13), p.ALUMINIUM)
-    wells = g.merge([g.cylinder(0.0028, 0.001, (x - 0.03, y, 0.1405), 8) for x, y in p.grid_positions(12, 8, (0.009, 0.009))])
-    p.visual(base, "wells", wells, p.DARK_PLASTIC)
+    block_x, floor, top = -0.03, 0.126, 0.14  # 14 mm deep wells: a 0.2 mL tube's cap stays under the heated lid
+    p.visual(base, "block", g.box((0.125, 0.085, top - 0.12), (block_x, 0, (top + 0.12) / 2)), p.ALUMINIUM)
+    p.box_collider(base, "block_floor_col", (0.125, 0.085, floor - 0.12), (block_x, 0, (floor + 0.12) / 2))
+    pitch, hole = 0.009, 0.0066
+    p.grid_bars(base, "block_grid", 12, 8, (pitch, pitch), (hole, hole), floor, top, (block_x, 0))
+    span = (12 * pitch + pitch - hole, 8 * pitch + pitch - hole)
+    for name, size, pos in (("xn", ((0.125 - span[0]) / 2, 0.085), (block_x - (0.125 + span[0]) / 4, 0)),
+                            ("xp", ((0.125 - span[0]) / 2, 0.085), (block_x + (0.125 + span[0]) / 4, 0)),
+                            ("yn", (span[0], (0.085 - span[1]) / 2), (block_x, -(0.085 + span[1]) / 4)),
+                            ("yp", (span[0], (0.085 - span[1]) / 2), (block_x, (0.085 + span[1]) / 4))):
+        p.box_collider(base, f"block_rim_{name}_col", (*size, top - floor), (*pos, (top + floor) / 2))
+    wells = p.grid_positions(12, 8, (pitch, pitch), (block_x, 0))
+    p.visual(base, "wells", g.merge([g.box((hole, hole, 0.001), (x, y, top + 0.0005)) for x, y in wells]), p.DARK_PLASTIC)
+    for k, (x, y) in enumerate(wells):  # row a at the front (-x), column 1 on the robot's right (-y)
+        row, col = divmod(k, 12)
+        p.site(base, f"well_{'abcdefgh'[row]}{col + 1}", (x, y, floor), 0.002)
     p.visual(base, "screen", g.box((0.002, 0.16, 0.07), (-d / 2 - 0.001, 0, 0.06)), p.SCREEN)
-    p.site(base, "block_center", (-0.03, 0, 0.14))
+    _button_x(base, "lid_button", (-d / 2 - 0.004, 0.105, 0.06), 0.009, p.GREY_PLASTIC)
+    _button_x(base, "start_button", (-d / 2 - 0.004, -0.105, 0.06), 0.009, p.GREEN_PLASTIC)
+    p.site(base, "block_center", (block_x, 0, top))
     hinge = (d / 2 - 0.16, 0, h - 0.02)
     lid = Body("lid", 1.2, pos=hinge)
     lid_len = d - 0.16
@@ -276,8 +312,13 @@ def thermal_cycler() -> AssetDef:
     p.solid_box(lid, "lid_grip", (0.02, 0.12, 0.015), (-lid_len - 0.005, 0, 0.0), p.DARK_PLASTIC)
     p.site(lid, "lid_handle", (-lid_len - 0.015, 0, 0.0))
     joint = Joint("lid_hinge", "revolute", "base", "lid", anchor=hinge, axis="y", lower=0.0, upper=100.0, damping=0.3, friction=0.8)
-    return _asset("thermal_cycler", "96-well thermal cycler (PCR machine) with a heated lid hinged at the back (lid_hinge, opens positive).",
-                  [base, lid], joints=[joint], extra={"block_size": (0.125, 0.085)})
+    drive = PositionDrive("lid_drive", "lid_hinge", kp=60.0, kv=6.0, max_force=40.0, ctrl_range=(0.0, math.radians(100)))
+    return _asset("thermal_cycler", "96-well thermal cycler (PCR machine): a block of 96 wells for 0.2 mL tubes (well_a1..well_h12), "
+                  "a heated lid hinged at the back (lid_hinge, opens positive) on a motor (lid_drive) worked by the lid button, "
+                  "and a start button.",
+                  [base, lid], joints=[joint], drives=[drive],
+                  extra={"block_size": (0.125, 0.085), "well_pitch": pitch, "well_depth": top - floor,
+                         "lid_open_angle_deg": 80.0, "lid_closed_angle_deg": 0.0})
 
 
 register("thermal_cycler", CATEGORY, thermal_cycler)
@@ -314,6 +355,8 @@ def microplate_reader() -> AssetDef:
     for side, y in (("l", -w / 2 + 0.02), ("r", w / 2 - 0.02)):
         p.solid_box(base, f"case_side_{side}", (0.2, 0.04, 0.04), (-d / 2 + 0.1, y, 0.07), CASE)
     p.visual(base, "status_bar", g.box((0.002, 0.2, 0.01), (-d / 2 - 0.001, 0, 0.18)), ACCENT)
+    _button_x(base, "drawer_button", (-d / 2 - 0.004, 0.12, 0.14), 0.009, p.GREY_PLASTIC)
+    _button_x(base, "start_button", (-d / 2 - 0.004, -0.12, 0.14), 0.009, p.GREEN_PLASTIC)
     drawer = Body("drawer", 0.6, pos=(-d / 2, 0, 0.05))
     p.solid_box(drawer, "carrier", (0.16, 0.12, 0.006), (0.08, 0, 0.003), p.DARK_PLASTIC)
     p.solid_box(drawer, "front", (0.01, 0.28, 0.04), (-0.005, 0, 0.02), CASE)
@@ -325,7 +368,8 @@ def microplate_reader() -> AssetDef:
     p.site(drawer, "drawer_handle", (-0.0225, 0, 0.02))
     joint = Joint("drawer_slide", "prismatic", "base", "drawer", anchor=(-d / 2, 0, 0.05), axis="-x", lower=0.0, upper=0.16, damping=5.0)
     drive = PositionDrive("drawer_drive", "drawer_slide", kp=400.0, kv=40.0, max_force=40.0, ctrl_range=(0.0, 0.16))
-    return _asset("microplate_reader", "Absorbance microplate reader with a plate-carrier drawer (drawer_slide, opens positive toward -x, 0-0.16 m) and a grip on its front.",
+    return _asset("microplate_reader", "Absorbance microplate reader with a motorised plate-carrier drawer (drawer_slide, opens positive "
+                  "toward -x, 0-0.16 m; drawer_drive) worked by the drawer button, a grip on the drawer's front, and a start button.",
                   [base, drawer], joints=[joint], drives=[drive], extra={"drawer_open": 0.16, "plate_pocket": (0.13, 0.087)})
 
 
