@@ -248,7 +248,7 @@ def _misplaced_instructions(spec: Any, loc: tuple[Any, ...], *, stage: bool) -> 
 
 def stage_specs(task: TaskSpec) -> list[Any]:
     """The stages of a task whose criterion is a ``sequence`` (its children, in order); ``[]`` otherwise."""
-    return list(task.success.of) if task.success.type == "sequence" else []
+    return list(getattr(task.success, "of", [])) if task.success.type == "sequence" else []
 
 
 def _has_field(node: Any, parts: list[str]) -> bool:
