@@ -27,7 +27,8 @@ import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame, unit
-from pipette_cli.skills.runtime import SkillContext, SkillFailure
+from pipette_cli.skills.moves import SkillFailure
+from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.skills.scene import Shape
 
 GRIP_MARGIN = 0.006

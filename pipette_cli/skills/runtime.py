@@ -14,99 +14,41 @@ import logging
 from collections.abc import Callable, Iterator
 from collections.abc import Set as AbstractSet
 from contextlib import contextmanager
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from pipette_cli.errors import PipetteError
 from pipette_cli.plugins import Plugins
 from pipette_cli.sim.world import World
-from pipette_cli.skills.frames import UP, rotation_angle, slerp
+from pipette_cli.skills import transit
+from pipette_cli.skills.frames import rotation_angle, slerp
 from pipette_cli.skills.ik import ArmIK, IKSolution
+from pipette_cli.skills.moves import (  # re-exported: skills import them from here
+    APPROACH_SPEED,
+    CLOSED,
+    COMFORT,
+    COVER_ROOM,
+    EASY_TRAVEL,
+    ENOUGH,
+    FLIP,
+    FREE_TOLERANCE,
+    HELD_SPEED,
+    MAX_SWING,
+    MIN_SECONDS,
+    OPEN,
+    TRANSIT_SPEED,
+    TURN_SPEED,
+    Held,
+    Leg,
+    Move,
+    SkillFailure,
+    fmt,
+)
 from pipette_cli.skills.scene import SceneQuery
 
 log = logging.getLogger(__name__)
 
-OPEN, CLOSED = 1.0, 0.0
-TRANSIT_SPEED = 0.30
-"""m/s of the tool through free space."""
-HELD_SPEED = 0.15
-"""m/s at most with an object in the hand (a friction grasp slips when jerked)."""
-APPROACH_SPEED = 0.12
-"""m/s for the last centimetres toward a grasp or a surface."""
-FINE_SPEED = 0.05
-"""m/s in contact: inserting, pushing a lid, pressing."""
-TURN_SPEED = 1.6
-"""rad/s of the tool's rotation."""
-MIN_SECONDS = 0.2
-MAX_SWING = 0.3
-"""Radians a held object may turn away from the straight (slerped) rotation on a joint-space move."""
-FREE_TOLERANCE = 0.015
-"""Metres a waypoint through free space may be missed by (what matters there is clearance)."""
-EASY_TRAVEL = 1.5
-"""Radians of summed joint travel below which a solution is taken without trying its flip."""
-FLIP = np.diag([-1.0, -1.0, 1.0])
-"""Half a turn about the tool's approach axis."""
-CLEARANCE = 0.04
-"""Metres kept between what the hand carries and the surfaces under its path."""
-FINAL_APPROACH = 0.04
-"""Metres of the last descent onto a target done as a straight tool line (the rest through free space)."""
-HAND_HEIGHT = 0.15
-COVER_ROOM = 0.4
-"""Metres: something overhead closer than this (a shelf, a roof) means a place is reached level, not from above."""
-"""Metres the hand stands above its tcp (pointing down): the band a path must keep free."""
-COMFORT = 0.25
-ENOUGH = 3
-"""Feasible but uncomfortable candidates looked at before taking the best of them."""
-"""Radians every arm joint should keep from its limits for a pose to count as comfortable."""
-
-
-class SkillFailure(PipetteError):
-    """A skill cannot do its job here (out of reach, no grasp, a joint that does not move)."""
-
-
-@dataclass(frozen=True)
-class Move:
-    """Bring the tcp to ``pos``/``rot`` over ``seconds`` with the gripper at ``gripper`` (1 open)."""
-
-    pos: np.ndarray
-    rot: np.ndarray
-    gripper: float
-    seconds: float
-    q: np.ndarray
-    """Arm joints that reach the end pose (from the planning dry run)."""
-    free: bool = False
-    """Through free space: interpolate the joints to ``q`` (the dry run's solution) instead of
-    following a straight tool line, so the arm never has to find its way by itself."""
-
-
-@dataclass(frozen=True)
-class Leg:
-    """A planned tool pose with the arm joints that reach it, and the speed to get there."""
-
-    pos: np.ndarray
-    rot: np.ndarray
-    q: np.ndarray
-    speed: float
-    straight: bool = False
-    """Along a straight tool line (IK every control step) rather than through joint space."""
-
-
-@dataclass(frozen=True)
-class Held:
-    """An object in the hand: its origin and rotation in the tcp frame, measured after the grasp."""
-
-    name: str
-    pos: np.ndarray
-    rot: np.ndarray
-
-
 Skill = Callable[["SkillContext", Any], Iterator[Move]]
-
-
-def fmt(p: np.ndarray) -> str:
-    return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"
 
 
 class SkillContext:
@@ -404,226 +346,36 @@ class SkillContext:
     def held_bodies(self) -> set[int]:
         return self.scene.bodies(self.held.name) if self.held else set()
 
-    # ------------------------------------------------------------------ paths
+    # ------------------------------------------------------------------ paths (skills/transit.py)
     def transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(), radius: float = 0.04,
                 what: str = "the approach") -> Iterator[Move]:
         """Go to ``pos``/``rot`` over whatever stands in between (see :meth:`plan_transit`)."""
-        legs = self.plan_transit(pos, rot, exclude=exclude, radius=radius)
-        if legs is None:
-            raise SkillFailure(f"{what}: no path to {fmt(np.asarray(pos))} within the {self.robot.name}'s reach "
-                               "that touches nothing on the way")
-        for leg in legs:
-            yield self.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight)
+        return transit.transit(self, pos, rot, exclude=exclude, radius=radius, what=what)
 
     def can_reach(self, pos: np.ndarray, rot: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> bool:
         """Whether :meth:`transit` finds a path from the hand to ``pos``/``rot``."""
-        return self.plan_transit(pos, rot, exclude=exclude) is not None
+        return transit.can_reach(self, pos, rot, exclude)
 
     def plan_transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(),
                      radius: float = 0.04) -> list[Leg] | None:
-        """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything
-        (dry run of the IK and of the arm's collisions), or ``None``.
-
-        Out of an enclosure the hand is in, level; then up to a safe height over the corridor (surfaces
-        under the path plus what hangs below the hand), across and down, or, when that is out of the
-        arm's reach, at the hand's height where it is free or round the side; into a covered
-        destination (a shelf under a roof) level through its mouth.
-        """
-        pos = np.asarray(pos, dtype=float)
-        skip = set(exclude) | self.held_bodies()
-        hang = self.hang() if self.held else 0.012
-        if self.held is not None:
-            radius = max(radius, float(np.max(self.scene.shape(self.held.name).world_half()[:2])) + 0.02)
-        start = Leg(self.pos, self.rot, self.q, TRANSIT_SPEED)
-        legs: list[Leg] = []
-        if self.covered(self.pos, skip):
-            direction, mouth = self.scene.way_out(self.pos, skip, prefer=self.base - self.pos)
-            out = self.pos + direction * (mouth + 0.05)
-            out[2] += 0.01
-            leg = self._reach(start, out, self.rot, APPROACH_SPEED, 0.004, keep=True)
-            if leg is None:
-                return None
-            legs.append(leg)
-            start = leg
-        route = [pos]
-        if self.covered(pos, skip):
-            direction, mouth = self.scene.way_out(pos + 0.01 * UP, skip, prefer=self.base - pos)
-            route.insert(0, pos + direction * (mouth + radius + 0.02))
-        first = route[0]
-        if np.linalg.norm(first[:2] - start.pos[:2]) > 0.01:
-            crossing = self._route(start, first, rot, skip, radius, hang, precise=len(route) == 1)
-            if crossing is None:
-                log.debug("no route to %s", fmt(first))
-                return None
-            legs += crossing
-        else:
-            leg = self._reach(start, first, rot, APPROACH_SPEED, 0.004 if len(route) == 1 else FREE_TOLERANCE)
-            if leg is None:
-                return None
-            legs.append(leg)
-        for point in route[1:]:  # level through the mouth of the enclosure
-            leg = self._reach(legs[-1], point, rot, APPROACH_SPEED, 0.004, keep=True)
-            if leg is None:
-                log.debug("no way through the mouth to %s", fmt(point))
-                return None
-            legs.append(leg)
-        return legs
-
-    def _reach(self, start: Leg, point: np.ndarray, rot: np.ndarray, speed: float, tolerance: float,
-               keep: bool = False) -> Leg | None:
-        """The leg from ``start`` to ``point``/``rot`` if the arm reaches it touching nothing: along a
-        straight tool line below transit speed (as it will be executed), through joint space above it."""
-        if keep:
-            rot = start.rot
-        if speed < TRANSIT_SPEED:
-            if not keep and self.held is None:
-                rot = self.nearest_flip(rot, start.rot)
-            q = self.straight_line(start, point, rot, tolerance)
-            return None if q is None else Leg(np.asarray(point, float), rot, q, speed)
-        if keep:
-            solution = self.solve(point, rot, start.q)
-        else:
-            rot, solution = self.solve_flip(point, rot, start.q)
-        if solution.ok(tolerance) and self.clear_path(start.q, solution.qpos):
-            return Leg(np.asarray(point, float), rot, solution.qpos, speed)
-        return None
-
-    def _route(self, start: Leg, goal: np.ndarray, rot: np.ndarray, skip: set[int], radius: float,
-               hang: float, precise: bool = True) -> list[Leg] | None:
-        """Legs from ``start`` to ``goal``: straight over the top, at the hand's height, or by a detour to
-        either side; the first the arm reaches touching nothing."""
-        here = start.pos
-        heading = goal[:2] - here[:2]
-        heading = heading / (np.linalg.norm(heading) + 1e-12)
-        side = np.array([-heading[1], heading[0], 0.0])
-        here_flat = np.array([here[0], here[1], goal[2]])
-        paths: list[tuple[list[np.ndarray], bool | None]] = [([goal], False), ([goal], True), ([goal], None)]
-        paths += [([here_flat + s * d * side, goal + s * d * side, goal], True) for d in (0.3, 0.42) for s in (1.0, -1.0)]
-        for path, low in paths:
-            if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
-                points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]
-            else:
-                points = self._waypoints(here, path, goal, skip, radius, hang, low)
-            if points is None:
-                continue
-            resolved = self._feasible(start, points, rot, precise)
-            if resolved is not None:
-                return resolved
-        return None
-
-    def _waypoints(self, here: np.ndarray, path: list[np.ndarray], goal: np.ndarray, skip: set[int], radius: float,
-                   hang: float, low: bool) -> list[tuple[np.ndarray, bool | None]] | None:
-        """Climb-and-cross waypoints through ``path`` (and whether each is on the last leg): over everything
-        under each leg, or (``low``) at the hand's height where that band is free (under an overhang,
-        beside an instrument)."""
-        points: list[tuple[np.ndarray, bool | None]] = []
-        pos = here.copy()
-        for i, end in enumerate(path):
-            last = i == len(path) - 1
-            floor = goal[2] if last else 0.0
-            over = self.scene.corridor_top(pos, end, radius, skip) + CLEARANCE + hang
-            z = max(over, floor)
-            if low:
-                z = max(pos[2], floor)
-                under = self.scene.corridor_top(pos, end, radius, skip, below=z + HAND_HEIGHT)
-                if under + CLEARANCE + hang > z:  # something in the way at this height: climb over it all
-                    z = max(over, z)
-            if z > pos[2] + 0.005:
-                if self.scene.clearance_above(pos, skip) < z - pos[2] + HAND_HEIGHT:
-                    return None  # something overhead: cannot climb here
-                points.append((np.array([pos[0], pos[1], z]), False))
-            pos = np.array([end[0], end[1], z])
-            points.append((pos, last))
-        if pos[2] - goal[2] > FINAL_APPROACH + 0.01:
-            points.append((goal + FINAL_APPROACH * UP, None))  # the descent: a straight line
-            pos = points[-1][0]
-        if np.linalg.norm(pos - goal) > 0.003:
-            points.append((goal.copy(), True))
-        return points
-
-    def _feasible(self, start: Leg, points: list[tuple[np.ndarray, bool | None]], rot: np.ndarray,
-                  precise: bool = True) -> list[Leg] | None:
-        """Legs through ``points`` when the arm reaches each in turn touching nothing, else ``None``. The
-        hand keeps its rotation while climbing and crossing and turns on the last leg; it turns earlier
-        where keeping it is out of reach up there, and arrives unturned where turning is."""
-        q, current = start.q, start.rot
-        out: list[Leg] = []
-        turned = False
-        for i, (point, last) in enumerate(points):
-            final = i == len(points) - 1
-            tolerance = 0.004 if precise and final else FREE_TOLERANCE
-            if last is None:  # a straight descent onto the goal, turned to its rotation on the way
-                target = current if turned else self.nearest_flip(rot, current)
-                reached = self.straight_line(Leg(out[-1].pos if out else start.pos, current, q, TRANSIT_SPEED), point, target, tolerance)
-                if reached is None:
-                    return None
-                turned, q, current = True, reached, target
-                out.append(Leg(point, target, q, TRANSIT_SPEED, straight=True))
-                continue
-            if final:  # the goal: in the rotation asked for, whatever happened on the way
-                options = [(False, rot)]
-            elif turned:
-                options = [(True, current)]
-            else:
-                options = [(False, rot), (True, current)] if last else [(True, current), (False, rot)]
-            for keep, target in options:
-                if keep:
-                    solution = self.solve(point, target, q)
-                else:
-                    target, solution = self.solve_flip(point, target, q, best=True)
-                if solution.ok(tolerance) and self.clear_path(q, solution.qpos):
-                    turned = turned or not keep
-                    q, current = solution.qpos, target
-                    speed = APPROACH_SPEED if final and precise else TRANSIT_SPEED
-                    out.append(Leg(point, target, q, speed))
-                    break
-            else:
-                return None
-        return out
+        """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything ..."""
+        return transit.plan_transit(self, pos, rot, exclude=exclude, radius=radius)
 
     def covered(self, point: np.ndarray, exclude: set[int], room: float = COVER_ROOM) -> bool:
         """Whether something overhead (a shelf, a roof) is within ``room`` metres above ``point``."""
-        return self.scene.clearance_above(np.asarray(point, float) + 0.01 * UP, exclude) < room
+        return transit.covered(self, point, exclude, room)
 
     def leave_enclosure(self, exclude: set[int]) -> Iterator[Move]:
         """Back the hand (and what it holds) out of whatever covers it, level, toward the robot."""
-        direction, mouth = self.scene.way_out(self.pos, set(exclude) | self.held_bodies(), prefer=self.base - self.pos)
-        start = Leg(self.pos, self.rot, self.q, APPROACH_SPEED)
-        for extra in (0.05, 0.03, 0.08):
-            out = self.pos + direction * (mouth + extra)
-            out[2] += 0.01
-            leg = self._reach(start, out, self.rot, APPROACH_SPEED, FREE_TOLERANCE, keep=True)
-            if leg is not None:
-                yield self.planned(leg.pos, leg.rot, leg.q, speed=APPROACH_SPEED)
-                return
-        raise SkillFailure(f"no way out of the enclosure from {fmt(self.pos)} that touches nothing")
+        return transit.leave_enclosure(self, exclude)
 
     def lift_clear(self, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False) -> Iterator[Move]:
-        """Lift by ``height``: less where something is overhead or the arm cannot go higher (unless
-        ``required``, when a lift the arm cannot make fails the skill)."""
-        room = self.scene.clearance_above(self.pos + 0.02 * UP, set(exclude) | self.held_bodies()) + 0.02
-        up = min(height, max(0.0, room - 0.05))
-        if up <= 0.003:
-            return
-        for fraction in (1.0, 0.6, 0.3):
-            try:
-                move = self.move(self.pos + fraction * up * UP, speed=APPROACH_SPEED, what="the lift")
-            except SkillFailure:
-                if required and fraction == 0.3:
-                    raise
-                continue
-            yield move
-            return
+        """Lift by ``height``: less where something is overhead or the arm cannot go higher (unless ..."""
+        return transit.lift_clear(self, height, exclude, required=required)
 
     def withdraw(self, distance: float) -> Iterator[Move]:
         """Move the empty hand back along its approach axis by up to ``distance`` (less where the arm cannot)."""
-        for fraction in (1.0, 0.5):
-            try:
-                move = self.move(self.pos - fraction * distance * self.rot[:, 2], speed=APPROACH_SPEED, what="backing off")
-            except SkillFailure:
-                continue
-            yield move
-            return
+        return transit.withdraw(self, distance)
 
 
 SKILL_RUNTIMES: Plugins[Skill] = Plugins("skill", SkillFailure)

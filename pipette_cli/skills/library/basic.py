@@ -5,7 +5,8 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 from pipette_cli.skills.library.place import back_off
-from pipette_cli.skills.runtime import OPEN, TRANSIT_SPEED, Move, SkillContext, skill
+from pipette_cli.skills.moves import OPEN, TRANSIT_SPEED, Move
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import RetreatSpec, WaitSpec
 
 

@@ -24,16 +24,8 @@ from pipette_cli.skills.frames import UP, axis_rotation, down_frame, pitched_fra
 from pipette_cli.skills.grasp import plan_grasp, semantics
 from pipette_cli.skills.library.pick import grasp
 from pipette_cli.skills.library.place import back_off
-from pipette_cli.skills.runtime import (
-    APPROACH_SPEED,
-    CLOSED,
-    FINE_SPEED,
-    OPEN,
-    Move,
-    SkillContext,
-    SkillFailure,
-    skill,
-)
+from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillFailure
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import CloseHingeSpec, HingeSpec, OpenHingeSpec, SlideSpec
 
 log = logging.getLogger(__name__)

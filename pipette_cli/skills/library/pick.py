@@ -10,7 +10,8 @@ import numpy as np
 from pipette_cli.skills.frames import UP
 from pipette_cli.skills.grasp import FollowThrough, _support_of, plan_grasp
 from pipette_cli.skills.library.place import put_down, resolve_target
-from pipette_cli.skills.runtime import APPROACH_SPEED, CLOSED, OPEN, Move, SkillContext, SkillFailure, skill
+from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Move, SkillFailure
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
 
 SETTLE_S = 0.25

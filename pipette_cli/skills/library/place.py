@@ -15,18 +15,8 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_frame, unit
 from pipette_cli.skills.grasp import semantics
-from pipette_cli.skills.runtime import (
-    APPROACH_SPEED,
-    CLOSED,
-    FINE_SPEED,
-    OPEN,
-    Held,
-    Move,
-    SkillContext,
-    SkillFailure,
-    fmt,
-    skill,
-)
+from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Held, Move, SkillFailure, fmt
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
 
 log = logging.getLogger(__name__)

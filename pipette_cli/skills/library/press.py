@@ -7,7 +7,8 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, down_frame, pitched_frame, tool_frame
-from pipette_cli.skills.runtime import CLOSED, FINE_SPEED, Move, SkillContext, SkillFailure, skill
+from pipette_cli.skills.moves import CLOSED, FINE_SPEED, Move, SkillFailure
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import PressSpec
 
 STANDOFFS = (0.08, 0.05, 0.03)

@@ -14,7 +14,8 @@ import numpy as np
 from pipette_cli.skills.frames import UP, axis_rotation
 from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.library.place import resolve_target
-from pipette_cli.skills.runtime import APPROACH_SPEED, Move, SkillContext, SkillFailure, skill
+from pipette_cli.skills.moves import APPROACH_SPEED, Move, SkillFailure
+from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
 
 
