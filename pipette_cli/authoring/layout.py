@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.authoring.measure import robot_boxes
+from pipette_cli.sim.scene import robot_boxes
 
 BENCH_Z = 0.55
 BENCH_X = (-0.3, 1.2)

@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
+from pipette_cli.sim.scene import collision_boxes
 
 FREE_CATEGORIES = ("tools", "consumables")
 
@@ -80,18 +81,6 @@ class AssetGeometry:
         return float(self.high[2] - self.low[2])
 
 
-def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms) -> np.ndarray:
-    out = []
-    for g in geoms:
-        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
-            continue
-        rot = data.geom_xmat[g].reshape(3, 3)
-        center = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3]
-        half = np.abs(rot) @ model.geom_aabb[g, 3:]
-        out.append(np.concatenate([center - half, center + half]))
-    return np.array(out).reshape(-1, 6)
-
-
 def quat_to_euler_deg(quat) -> tuple[float, float, float]:
     """wxyz quaternion -> intrinsic x-y-z Euler angles in degrees (MuJoCo's eulerseq "xyz")."""
     mat = np.zeros(9)
@@ -131,26 +120,7 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
         info = joints[name]
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = np.deg2rad(value) if info.kind == "hinge" else value
     mujoco.mj_forward(model, data)
-    boxes = _geom_boxes(model, data, range(model.ngeom))
+    boxes = collision_boxes(model, data, range(model.ngeom))
     sites = {model.site(i).name: tuple(float(v) for v in data.site_xpos[i]) for i in range(model.nsite)}
     return AssetGeometry(asset_id, entry.category, free, semantics, boxes, sites, joints,
                          quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0))
-
-
-@cache
-def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55)) -> np.ndarray:
-    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose."""
-    from pipette_cli.sim.robots import home_joints, make_robot_spec
-
-    spec, config = make_robot_spec(robot)
-    scene = mujoco.MjSpec()
-    for field in ("timestep", "integrator", "cone", "impratio"):
-        setattr(scene.option, field, getattr(spec.option, field))
-    frame = scene.worldbody.add_frame(pos=list(base))
-    scene.attach(spec, prefix="r/", frame=frame)
-    model = scene.compile()
-    data = mujoco.MjData(model)
-    for joint, value in zip(config.arm_joints, home_joints(robot), strict=True):
-        data.qpos[model.jnt_qposadr[model.joint("r/" + joint).id]] = value
-    mujoco.mj_forward(model, data)
-    return _geom_boxes(model, data, range(model.ngeom))

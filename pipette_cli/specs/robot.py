@@ -94,6 +94,15 @@ class TcpSpec(Spec):
         return np.column_stack([np.cross(y, z), y, z])
 
 
+class WristCameraSpec(Spec):
+    """The wrist camera's pose in the canonical hand frame (the tcp frame's axes at the camera body's
+    origin) and field of view: a task run on this robot gets it unless the task is authored for it."""
+
+    pos: Vec3
+    euler_deg: Vec3
+    fovy_deg: float = Field(70.0, gt=0, lt=180)
+
+
 class EndEffectorSpec(Spec):
     body: str
     tcp: TcpSpec
@@ -111,7 +120,9 @@ class RobotSpec(Spec):
     arm: ArmSpec
     gripper: GripperSpec
     end_effector: EndEffectorSpec
+    wrist_camera: WristCameraSpec
     base_height: float = Field(0.55, description="default base height: the bench top")
+    footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
     reach: float = Field(gt=0, description="metres from the base axis for a top-down grasp at bench height")
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
     payload_kg: float = Field(gt=0)
