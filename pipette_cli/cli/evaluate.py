@@ -9,7 +9,7 @@ import click
 import typer
 from typer.core import TyperCommand
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.errors import PipetteError
 
 
@@ -48,6 +48,7 @@ def eval_command(
     dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented: the label `eval report` groups by.")] = "raw",
     image_size: Annotated[int | None, typer.Option("--image-size", help="Camera image side (must match the policy's).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Evaluate a policy on a task (30 Hz control, 10 Hz queries; paper A.4/A.6).
 
@@ -63,9 +64,8 @@ def eval_command(
     import json
 
     from pipette_cli.lerobot.evaluate import DecodeConfig, InProcessSource, evaluate, resolve_policy_type
-    from pipette_cli.registry import load_registry
 
-    task = load_registry(STATE.registry_dirs).get(task_id)
+    task = load_task(task_id, robot)
     config = DecodeConfig.for_policy(resolve_policy_type(policy_type, policy))
     if endpoint is not None:
         from pipette_cli.lerobot.client import PolicyClient

@@ -147,8 +147,12 @@ class RobotSpec(Spec):
         return self.gripper.open_ctrl if command >= 0.5 else self.gripper.closed_ctrl
 
     def state_names(self) -> list[str]:
-        """Names of the state/action vector entries: arm joints, then the gripper."""
+        """Names of the state vector's entries: the arm joints' positions, then the gripper joint's."""
         return [*self.arm.joints, "gripper"]
+
+    def action_names(self) -> list[str]:
+        """Names of the action vector's entries: arm joint targets, then the binary gripper command."""
+        return [f"{joint}_target" for joint in self.arm.joints] + ["gripper_open"]
 
 
 def _axis(name: str) -> np.ndarray:
@@ -210,5 +214,5 @@ def robot_spec(name: str) -> RobotSpec:
             return spec
     keys = [*robots, *(a for s in robots.values() for a in s.aliases)]
     hint = suggest(name, keys)
-    known = ", ".join(sorted(robots))
+    known = ", ".join(f"{key} ({robots[key].aliases[0]})" if robots[key].aliases else key for key in sorted(robots))
     raise SpecError(f"unknown robot {name!r}; {hint}" + ("" if hint.startswith("valid names") else f" (robots: {known})"))
