@@ -3,7 +3,8 @@
 ``on_robot(task, "ur5e_2f85")`` returns the task with ``embodiment`` (and the wrist camera, when it
 is mounted on the hand) taken from the robot's facts (``registry/robots/``). The task's skill
 program is robot-agnostic and runs unchanged. Where the task's base pose leaves a point the program
-works at out of the robot's comfortable reach, the base slides along the bench (x first: toward or
+works at out of the robot's comfortable reach (hand-down reach for what it picks up, its full
+reach for the rest), the base slides along the bench (x first: toward or
 away from the work area; then sideways) to the nearest pose on the bench top, clear of every object,
 from which all work points are. A robot that physically cannot do the task (payload, reach from any
 base pose on the bench) is refused with :class:`~pipette_cli.errors.InfeasibleTask` naming the limit.
@@ -37,13 +38,15 @@ STEP = 0.025
 """Grid step (metres) of the base poses tried."""
 MAX_SHIFT = 0.6
 """Farthest the base moves from the task's own base pose, metres."""
+LOW = 0.1
+"""Metres over the bench top below which a picked object counts against the hand-down reach."""
 HOLDING_SKILLS = ("pick", "remove_from")
 """Skills whose ``object`` the robot carries (its mass counts against the payload)."""
 
 
 @dataclass(frozen=True)
 class Workspace:
-    """What the base placement needs of a compiled scene: the program's work points (x, y), every
+    """What the base placement needs of a compiled scene: the program's work points (x, y, z), every
     object's collision boxes (n, 6), the bench top's extent (x0, y0, x1, y1) and the carried masses."""
 
     points: dict[str, np.ndarray]
@@ -122,7 +125,7 @@ def measure_workspace(task: TaskSpec) -> Workspace:
     for ref in sorted(refs):
         pos = _position(model, data, ref, objects)
         if pos is not None:
-            points[ref] = pos[:2]
+            points[ref] = pos
     owners = np.array([model.body(b).name.split("/", 1)[0] for b in model.geom_bodyid])
     bench_boxes = collision_boxes(model, data, np.flatnonzero(owners == "bench"))
     top = bench_boxes[bench_boxes[:, 5] > task.embodiment.base.pos[2] - 0.01]  # the top slab, not the legs
@@ -177,7 +180,11 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
     offsets = np.round(np.arange(-MAX_SHIFT, MAX_SHIFT + 1e-9, STEP), 6)
     grid = np.array([(dx, dy) for dx in offsets for dy in offsets])
     grid = grid[np.argsort(np.abs(grid[:, 0]) + 2.0 * np.abs(grid[:, 1]) + 1e-6 * np.arange(len(grid)), kind="stable")]
-    points = np.array(list(space.points.values())).reshape(-1, 2)
+    points = np.array(list(space.points.values())).reshape(-1, 3)
+    # what the program picks up off the bench top is grasped from above: the hand-down reach applies
+    low = points[:, 2] < home[2] + LOW
+    limit = COMFORT * np.where(low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach)
+    points = points[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench
     arm = robot_boxes(config.name, tuple(home))
@@ -191,7 +198,7 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
                                  or _overlap(arm + [dx, dy, 0.0, dx, dy, 0.0], space.boxes)):
             continue
         dist = np.linalg.norm(points - xy, axis=1)
-        far = dist - COMFORT * config.reach
+        far = dist - limit
         near = config.min_reach - dist
         worst = max(far.max(initial=-np.inf), near.max(initial=-np.inf))
         if worst <= 0:
@@ -204,8 +211,8 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
             best_miss = (worst, f"{list(space.points)[i]} is {dist[i]:.2f} m away")
     raise InfeasibleTask(
         f"{task.id} on the {config.name}: reach: no base pose on the bench puts every work point between "
-        f"{config.min_reach:.2f} m and {COMFORT * config.reach:.2f} m ({100 * COMFORT:.0f} % of its {config.reach:.2f} m "
-        f"reach) of the base (best: {best_miss[1]})"
+        f"{config.min_reach:.2f} m and {100 * COMFORT:.0f} % of its reach ({config.reach:.2f} m; "
+        f"{config.top_down_reach:.2f} m hand down, for what it picks up) from the base (best: {best_miss[1]})"
     )
 
 

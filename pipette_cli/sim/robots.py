@@ -85,8 +85,9 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
     drive = config.gripper.drive
     if drive is not None:
         act = spec.actuator(config.gripper.actuator)
-        act.gainprm[0] = drive.kp
-        act.biasprm[:3] = [0.0, -drive.kp, -drive.kv]
+        if drive.kp is not None:
+            act.gainprm[0] = drive.kp
+            act.biasprm[:3] = [0.0, -drive.kp, -(drive.kv or 0.0)]
         lo, hi = sorted((config.gripper.closed_ctrl, config.gripper.open_ctrl))
         if not config.arm.limit_ctrl_to_joint_range:
             act.ctrlrange = [lo, hi]

@@ -58,11 +58,12 @@ class ArmSpec(Spec):
 
 
 class DriveSpec(Spec):
-    """Position servo gains of the gripper actuator (overriding menagerie's)."""
+    """The gripper actuator's position servo gains and force limit, overriding menagerie's (gains
+    left out keep menagerie's, for actuators whose control is not a joint position)."""
 
-    kp: float = Field(gt=0)
-    kv: float = Field(ge=0)
-    force: float = Field(gt=0, description="newtons")
+    kp: float | None = Field(None, gt=0)
+    kv: float | None = Field(None, ge=0)
+    force: float = Field(gt=0, description="the actuator's force limit (newtons, or its own units)")
 
 
 class GripperSpec(Spec):
@@ -123,7 +124,10 @@ class RobotSpec(Spec):
     wrist_camera: WristCameraSpec
     base_height: float = Field(0.55, description="default base height: the bench top")
     footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
-    reach: float = Field(gt=0, description="metres from the base axis for a top-down grasp at bench height")
+    reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, the hand "
+                                           "pitched at most 45 deg toward the robot")
+    top_down_reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, "
+                                                    "the hand pointing straight down")
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
     payload_kg: float = Field(gt=0)
 
