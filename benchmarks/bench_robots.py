@@ -78,7 +78,8 @@ def main() -> None:
             print(f"{task_id:45s} {robot:14s} {cell_text(row):>8s}  {detail}", flush=True)
     result = {"commit": git_state(), "episodes_per_cell": args.episodes, "first_seed": args.seed, "robots": robots,
               "cells": rows, "wall_s": time.perf_counter() - started, "cpu_count": os.cpu_count()}
-    table = markdown(rows, ids, robots, args.episodes, args.seed, result["commit"])
+    sha, dirty = result["commit"] if isinstance(result["commit"], list | tuple) else (result["commit"], False)
+    table = markdown(rows, ids, robots, args.episodes, args.seed, f"{sha[:10]}{' + local changes' if dirty else ''}")
     print("\n" + table)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

@@ -19,6 +19,7 @@ from pipette_cli.authoring.layout import BENCH_Z, Footprint, Layout, PlacedObjec
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.vocabulary import Vocabulary
 from pipette_cli.errors import suggest
+from pipette_cli.specs.robot import robot_spec
 
 DEFAULT_ROBOT = "franka_panda"
 CATEGORY = {"pick": "consumable_handling", "position": "consumable_handling", "place": "placement_relocation",
@@ -32,8 +33,11 @@ SURFACE_SIZE = {"pan_center": "pan_size", "platform_center": "platform_size", "p
                 "shelf_0_center": "shelf_size", "shelf_1_center": "shelf_size", "top_center": "top_size",
                 "center": "inner_size", "drawer_center": "plate_pocket", "block_center": "block_size",
                 "cuvette_slot": "cuvette_size"}
-WRIST = {"agilex_piper": {"mount": "end_effector", "pos": (0.0, 0.07, 0.06), "euler_deg": (180.0, 0.0, 0.0), "fovy_deg": 75}}
-WRIST_DEFAULT = {"mount": "end_effector", "pos": (0.06, 0.0, 0.0), "euler_deg": (180.0, 0.0, -90.0), "fovy_deg": 70}
+RANDOMIZE_PER_REACH = 0.035
+"""Amplitude (m) of a free object's start-position randomisation per metre of the robot's reach."""
+TIMEOUT_S = 15.0
+"""Time limit of a placement for a robot of at least :data:`TIMEOUT_REACH`; a shorter arm moves slower."""
+TIMEOUT_REACH = 0.75
 
 
 @dataclass
@@ -181,7 +185,7 @@ class Composer(HatchFamilies):
         return placed
 
     def free_randomize(self, geom: AssetGeometry) -> dict[str, Any]:
-        amp = 0.02 if self.robot == "agilex_piper" else 0.03
+        amp = round(RANDOMIZE_PER_REACH * robot_spec(self.robot).reach, 2)
         hx, hy = geom.half_xy
         round_ = geom.semantics.get("upright", True) and abs(hx - hy) < 0.2 * max(hx, hy)
         return {"xy": (amp, amp), "yaw_deg": 180 if round_ else 15}
@@ -398,7 +402,7 @@ class Composer(HatchFamilies):
         th = self.th
         upright = bool(item_geom.semantics.get("upright", True))
         hold = th.hold_s if th.hold_s is not None else 1.0
-        timeout = th.timeout_s or (20 if self.robot == "agilex_piper" else 15)
+        timeout = th.timeout_s or round(TIMEOUT_S * max(1.0, TIMEOUT_REACH / robot_spec(self.robot).reach))
         dname = placed_dest.name
         if site == "slot_grid":
             slots = np.array([v for k, v in dest_geom.sites.items() if k.startswith("slot_")])
@@ -519,13 +523,13 @@ class Composer(HatchFamilies):
         cameras = {
             "top": {"pos": (_r(cx + 0.5, 2), cy, 1.6), "look_at": (cx, cy, 0.6), "fovy_deg": 55},
             "main": {"pos": (_r(cx + 0.75, 2), _r(cy - 0.75, 2), 1.1), "look_at": (cx, cy, 0.65), "fovy_deg": 45},
-            "wrist": WRIST.get(self.robot, WRIST_DEFAULT),
+            "wrist": {"mount": "end_effector", **robot_spec(self.robot).wrist_camera.model_dump()},
         }
         tags = ["generated", intent]
         if any(self.vocab.assets[o.asset].category == "instruments" for o in objects):
             tags.append("instrument")
         if self.robot != DEFAULT_ROBOT:
-            tags.append(self.robot.split("_")[-1] if self.robot == "agilex_piper" else self.robot.split("_")[0])
+            tags.append(next(iter(robot_spec(self.robot).aliases), self.robot))
         self.notes.insert(0, ("scene.objects", "VERIFY the layout: computed by pipette new-task to be reachable and "
                                                "collision-free at reset; render it with pipette sim render."))
         self.notes.insert(1, ("success", "VERIFY the thresholds (derived from the assets' geometry, see the comments) "

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.sim.scene import robot_boxes
+from pipette_cli.specs.robot import robot_spec
 
 BENCH_Z = 0.55
 BENCH_X = (-0.3, 1.2)
@@ -22,23 +23,6 @@ BENCH_Y = (-0.47, 0.47)
 GRID_STEP = 0.025
 CLEARANCE = 0.02
 """Metres kept between any two objects, and between an object and the robot at home."""
-
-
-@dataclass(frozen=True)
-class Workspace:
-    """Where one robot works comfortably (horizontal distances from its base)."""
-
-    center_x: float
-    lane_y: float
-    min_reach: float
-    max_reach: float
-
-
-WORKSPACES = {
-    "franka_panda": Workspace(center_x=0.5, lane_y=0.16, min_reach=0.3, max_reach=0.85),
-    "ur5e_robotiq": Workspace(center_x=0.5, lane_y=0.16, min_reach=0.3, max_reach=0.85),
-    "agilex_piper": Workspace(center_x=0.32, lane_y=0.15, min_reach=0.2, max_reach=0.55),
-}
 
 
 @dataclass
@@ -67,7 +51,7 @@ class Layout:
     """Places footprints one by one; remembers the placed boxes as obstacles."""
 
     def __init__(self, robot: str) -> None:
-        self.workspace = WORKSPACES[robot]
+        self.workspace = robot_spec(robot).workspace
         self.obstacles = robot_boxes(robot).copy()
         self.obstacles = self.obstacles[self.obstacles[:, 5] > BENCH_Z + 0.002]  # parts below the bench top never collide
         xs = np.arange(0.1, BENCH_X[1] + 1e-9, GRID_STEP)

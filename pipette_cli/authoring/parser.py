@@ -14,12 +14,8 @@ from dataclasses import dataclass, field
 
 from pipette_cli.authoring.draft import DraftError, DraftObjectSpec, DraftThresholdsSpec, TaskDraftSpec
 from pipette_cli.authoring.vocabulary import BENCH_WORDS, Vocabulary, size_class
+from pipette_cli.specs.robot import load_robot_specs
 
-ROBOT_WORDS = {
-    "franka_panda": ("franka emika panda", "franka panda", "franka", "panda"),
-    "agilex_piper": ("agilex piper", "piper", "agilex"),
-    "ur5e_robotiq": ("ur5e", "ur 5e", "ur5", "universal robots", "universal robot"),
-}
 VERBS: dict[str, tuple[str, ...]] = {
     "transfer": ("transfer", "relocate", "remove", "unload", "retrieve", "take out", "take off", "move from"),
     "position": ("position", "hover", "align", "point"),
@@ -142,9 +138,14 @@ def _extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
     return text, found
 
 
+def robot_words() -> dict[str, list[str]]:
+    """Phrases naming each robot in a description (``words`` of ``registry/robots/*.yaml``)."""
+    return {name: spec.words for name, spec in load_robot_specs().items()}
+
+
 def _extract_robots(text: str) -> tuple[str, list[str]]:
     robots: list[str] = []
-    for robot, words in ROBOT_WORDS.items():
+    for robot, words in robot_words().items():
         for word in words:
             pattern = rf"\b(?:with|using|by)?\s*(?:the\s+)?{re.escape(word)}(?:\s+(?:arm|robot))?\b"
             if re.search(rf"\b{re.escape(word)}\b", text):
@@ -579,7 +580,9 @@ def instruction_from(description: str) -> str:
     """The description as one clean imperative sentence."""
     text = re.sub(r"\s+", " ", description).strip()
     text = re.sub(r"^(please|robot,?|hey robot,?)\s+", "", text, flags=re.I)
-    text = re.sub(r",?\s*(?:with|using) (?:the )?(?:franka(?: emika)? panda|franka|panda|agilex piper|piper|agilex|ur5e?|universal robots?)(?: arm| robot)?", "", text, flags=re.I)
+    words = sorted((w for ws in robot_words().values() for w in ws), key=len, reverse=True)
+    names = "|".join(re.escape(w) for w in words)
+    text = re.sub(rf",?\s*(?:with|using) (?:the )?(?:{names})(?: arm| robot)?\b", "", text, flags=re.I)
     text = re.sub(r"\s*,?\s*please\s*[.!]?$", "", text, flags=re.I)
     text = text.rstrip(" .!")
     return (text[:1].upper() + text[1:] + ".") if text else text

@@ -110,11 +110,22 @@ class EndEffectorSpec(Spec):
     wrist_camera_body: str
 
 
+class WorkspaceSpec(Spec):
+    """Where ``pipette new-task`` lays objects out for this robot: a band of comfortable distances
+    from the base axis, the preferred distance of the work area and the lateral lane of its parts."""
+
+    center_x: float = Field(gt=0)
+    lane_y: float = Field(gt=0)
+    min_reach: float = Field(gt=0)
+    max_reach: float = Field(gt=0)
+
+
 class RobotSpec(Spec):
     """Everything Pipette knows about one robot."""
 
     name: Name
-    aliases: list[Name] = []
+    aliases: list[Name] = Field([], description="other ids; the first is the short name (`--robot piper`, tags)")
+    words: list[str] = Field([], description="phrases that name the robot in a task description, longest first")
     description: str = ""
     menagerie: MenagerieRef
     attach: AttachSpec | None = None
@@ -130,6 +141,7 @@ class RobotSpec(Spec):
                                                     "the hand pointing straight down")
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
     payload_kg: float = Field(gt=0)
+    workspace: WorkspaceSpec
 
     @property
     def arm_dof(self) -> int:
