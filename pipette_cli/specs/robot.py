@@ -136,7 +136,7 @@ class RobotSpec(Spec):
     base_height: float = Field(0.55, description="default base height: the bench top")
     footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
     reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, the hand "
-                                           "pitched at most 45 deg toward the robot")
+                                           "tilted 30 deg from the vertical")
     top_down_reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, "
                                                     "the hand pointing straight down")
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
