@@ -48,6 +48,10 @@ class ArmSpec(Spec):
     actuators: list[str] = Field(min_length=3)
     home: list[float] = Field(description="a comfortable configuration facing +x, radians")
     limit_ctrl_to_joint_range: bool = False
+    joint_damping: float | None = Field(None, ge=0, description="passive damping of every arm joint (N m s/rad), "
+                                                                 "overriding menagerie's")
+    kp_scale: float = Field(1.0, gt=0, description="factor on the stiffness kp of menagerie's arm position servos "
+                                                    "(their damping kv kept: the lag kv/kp shrinks)")
 
     @model_validator(mode="after")
     def _lengths(self) -> ArmSpec:
