@@ -2,7 +2,7 @@
 
 Every module that needs a robot's joints, home pose, gripper mapping, tool centre point, reach or
 payload reads it from here (``robot_spec("franka_panda")``); nothing else writes those literals.
-Adding a robot is a new file here plus its ``mujoco_menagerie`` folder (docs/extending/adding_a_robot.md).
+Adding a robot is a new file here plus its ``mujoco_menagerie`` folder (docs/robots.md).
 
 The tool centre point (tcp) is given in the end-effector body's frame together with two of its axes
 (``approach``: the direction the fingers point; ``closing``: the direction the fingers close along).
