@@ -86,9 +86,8 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         act = spec.actuator(act_name)
         act.gainprm[0] *= config.arm.kp_scale
         act.biasprm[1] *= config.arm.kp_scale
-    if config.arm.joint_damping is not None:
-        for joint in config.arm_joints:
-            spec.joint(joint).damping = [config.arm.joint_damping, 0.0, 0.0]
+    for joint, damping in zip(config.arm_joints, config.arm.joint_damping or (), strict=False):
+        spec.joint(joint).damping = [damping, 0.0, 0.0]
     drive = config.gripper.drive
     if drive is not None:
         act = spec.actuator(config.gripper.actuator)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from functools import cache
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
@@ -48,8 +48,8 @@ class ArmSpec(Spec):
     actuators: list[str] = Field(min_length=3)
     home: list[float] = Field(description="a comfortable configuration facing +x, radians")
     limit_ctrl_to_joint_range: bool = False
-    joint_damping: float | None = Field(None, ge=0, description="passive damping of every arm joint (N m s/rad), "
-                                                                 "overriding menagerie's")
+    joint_damping: list[Annotated[float, Field(ge=0)]] | None = Field(
+        None, description="passive damping of each arm joint (N m s/rad), overriding menagerie's")
     kp_scale: float = Field(1.0, gt=0, description="factor on the stiffness kp of menagerie's arm position servos "
                                                     "(their damping kv kept: the lag kv/kp shrinks)")
 
@@ -58,6 +58,8 @@ class ArmSpec(Spec):
         if not len(self.joints) == len(self.actuators) == len(self.home):
             raise ValueError(f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
                              f"({len(self.home)}) must have one entry per arm joint")
+        if self.joint_damping is not None and len(self.joint_damping) != len(self.joints):
+            raise ValueError(f"joint_damping has {len(self.joint_damping)} entries for {len(self.joints)} arm joints")
         return self
 
 
