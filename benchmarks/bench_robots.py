@@ -76,9 +76,9 @@ def main() -> None:
             detail = row.get("refused") or (f"{100 * row['success_rate']:5.0f} %  base {row['base'][:2]}  "
                                             f"{row['failures'] or ''}")
             print(f"{task_id:45s} {robot:14s} {cell_text(row):>8s}  {detail}", flush=True)
-    result = {"commit": git_state(), "episodes_per_cell": args.episodes, "first_seed": args.seed, "robots": robots,
+    sha, dirty = git_state()
+    result = {"git_sha": sha, "git_dirty": dirty, "episodes_per_cell": args.episodes, "first_seed": args.seed, "robots": robots,
               "cells": rows, "wall_s": time.perf_counter() - started, "cpu_count": os.cpu_count()}
-    sha, dirty = result["commit"] if isinstance(result["commit"], list | tuple) else (result["commit"], False)
     table = markdown(rows, ids, robots, args.episodes, args.seed, f"{sha[:10]}{' + local changes' if dirty else ''}")
     print("\n" + table)
     if args.out:

@@ -101,3 +101,15 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     assert [p.stat().st_mtime for p in checkpoints] == stamp
     assert "training ACT" not in rerun.stdout
     assert json.loads((docs / "results.json").read_text())["results"][0]["versions"] == row["versions"]
+
+
+def test_bench_robots_fills_the_task_by_robot_table(tmp_path) -> None:
+    out, md = tmp_path / "robots.json", tmp_path / "robots.md"
+    result = bench("bench_robots.py", "--tasks", "PickUpTestTube", "--robots", "piper,ur5e_2f85", "--episodes", "1",
+                   "--out", str(out), "--markdown", str(md))
+    data = read(out)
+    cells = {c["robot"]: c for c in data["cells"]}
+    assert set(cells) == {"agilex_piper", "ur5e_robotiq"} and data["robots"] == ["agilex_piper", "ur5e_robotiq"]
+    assert cells["agilex_piper"]["successes"] == 1 and cells["agilex_piper"]["base"][0] > 0  # placed, then picked
+    assert "| pipette/PickUpTestTube-v1 | 1/1 | 1/1 |" in md.read_text()
+    assert "agilex_piper" in result.stdout
