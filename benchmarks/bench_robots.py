@@ -14,8 +14,10 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 import time
+from collections import Counter
 from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -59,6 +61,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=None, help="Write the results as JSON here.")
     parser.add_argument("--markdown", type=Path, default=None, help="Write the table as markdown here.")
+    parser.add_argument("--merge", action="store_true",
+                        help="Keep the cells of --out that this run does not redo (a new robot's column, say).")
     args = parser.parse_args()
     registry = load_registry()
     if args.tasks in ("all", "benchmark"):
@@ -77,9 +81,17 @@ def main() -> None:
                                             f"{row['failures'] or ''}")
             print(f"{task_id:45s} {robot:14s} {cell_text(row):>8s}  {detail}", flush=True)
     sha, dirty = git_state()
+    for row in rows:
+        row.update(git_sha=sha, git_dirty=dirty)
+    wall = time.perf_counter() - started
+    if args.merge and args.out is not None and args.out.is_file():
+        rows, ids, robots, wall = merged(json.loads(args.out.read_text()), rows, ids, robots, wall)
     result = {"git_sha": sha, "git_dirty": dirty, "episodes_per_cell": args.episodes, "first_seed": args.seed, "robots": robots,
-              "cells": rows, "wall_s": time.perf_counter() - started, "cpu_count": os.cpu_count()}
-    table = markdown(rows, ids, robots, args.episodes, args.seed, f"{sha[:10]}{' + local changes' if dirty else ''}")
+              "tasks": ids, "cells": rows, "wall_s": wall, "cpu_count": os.cpu_count()}
+    commits = {(r["git_sha"][:10], r["git_dirty"]) for r in rows}
+    commit = (f"{sha[:10]}{' + local changes' if dirty else ''}" if len(commits) == 1
+              else "per cell in docs/benchmarks/bench_robots.json")
+    table = markdown(rows, ids, robots, args.episodes, args.seed, commit)
     print("\n" + table)
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -87,6 +99,17 @@ def main() -> None:
     if args.markdown:
         args.markdown.parent.mkdir(parents=True, exist_ok=True)
         args.markdown.write_text(table, encoding="utf-8")
+
+
+def merged(old: dict, rows: list[dict], ids: list[str], robots: list[str], wall: float) -> tuple[list[dict], list[str], list[str], float]:
+    """The cells of an earlier run (``old``, its JSON) that this run did not redo, plus this run's."""
+    done = {(r["task"], r["robot"]) for r in rows}
+    sha, dirty = (old["git_sha"], old.get("git_dirty", False)) if "git_sha" in old else old["commit"]
+    kept = [{"git_sha": sha, "git_dirty": dirty, **r}
+            for r in old["cells"] if (r["task"], r["robot"]) not in done]
+    all_ids = list(dict.fromkeys([*old.get("tasks", [r["task"] for r in old["cells"]]), *ids]))
+    all_robots = sorted({*old["robots"], *robots})
+    return kept + rows, all_ids, all_robots, old.get("wall_s", 0.0) + wall
 
 
 def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int, seed: int, commit: str) -> str:
@@ -103,7 +126,9 @@ def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int,
             notes.append(f"- {row['refused']}")
         elif row["failures"]:
             reasons = ", ".join(f"{k}: {v}" for k, v in row["failures"].items())
-            notes.append(f"- {row['task']} on the {row['robot']}: {reasons}")
+            why = Counter(re.sub(r"-?[0-9.]+(?= ?(?:mm|m|deg|kg)\b)", "N", v) for v in row.get("expert_failures", {}).values())
+            example = f" (most often: {why.most_common(1)[0][0]})" if why else ""
+            notes.append(f"- {row['task']} on the {row['robot']}: {reasons}{example}")
     if notes:
         lines += ["", "Refusals and failures:", "", *notes]
     return "\n".join(lines) + "\n"
