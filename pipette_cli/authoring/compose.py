@@ -19,9 +19,8 @@ from pipette_cli.authoring.layout import BENCH_Z, Footprint, Layout, PlacedObjec
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.vocabulary import Vocabulary
 from pipette_cli.errors import suggest
-from pipette_cli.specs.robot import robot_spec
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 
-DEFAULT_ROBOT = "franka_panda"
 CATEGORY = {"pick": "consumable_handling", "position": "consumable_handling", "place": "placement_relocation",
             "insert": "placement_relocation", "transfer": "placement_relocation", "open": "hatch_control",
             "close": "hatch_control", "press": "hatch_control"}

@@ -12,13 +12,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipette_cli.authoring.backends import AuthoringBackend
-from pipette_cli.authoring.compose import DEFAULT_ROBOT, TaskPlan, compose
+from pipette_cli.authoring.compose import TaskPlan, compose
 from pipette_cli.authoring.draft import INTENTS, ROLES_BY_INTENT, DraftError, TaskDraftSpec
 from pipette_cli.authoring.render import environment, render_plan
 from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
 from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
-from pipette_cli.specs.robot import robot_names
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 

@@ -24,6 +24,8 @@ from pipette_cli.resources import data_dir
 from pipette_cli.specs.base import Name, Spec, Vec3
 
 Axis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+DEFAULT_ROBOT = "franka_panda"
+"""The robot of a task that names none (the paper's)."""
 ROBOTS_FOLDER = "robots"
 """Sub-folder of the registry holding robot facts (never task files)."""
 
