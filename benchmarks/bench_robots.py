@@ -23,15 +23,16 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipette_cli.demos.check import check_expert  # noqa: E402
-from pipette_cli.demos.embodiment import on_robot, resolve_robot  # noqa: E402
-from pipette_cli.demos.provenance import git_state  # noqa: E402
-from pipette_cli.errors import InfeasibleTask  # noqa: E402
-from pipette_cli.registry import load_registry  # noqa: E402
-from pipette_cli.specs.robot import robot_names  # noqa: E402
+from pipette_cli.demos.check import check_expert
+from pipette_cli.demos.embodiment import on_robot, resolve_robot
+from pipette_cli.demos.provenance import git_state
+from pipette_cli.errors import InfeasibleTask
+from pipette_cli.registry import load_registry
+from pipette_cli.specs.robot import robot_names
+from pipette_cli.specs.task import TaskSpec
 
 
-def run_cell(task, robot: str, episodes: int, seed: int) -> dict:  # noqa: ANN001
+def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
     """One task on one robot: success over ``episodes`` seeds, or the refusal."""
     try:
         placed = on_robot(task, robot)
@@ -115,8 +116,8 @@ def merged(old: dict, rows: list[dict], ids: list[str], robots: list[str], wall:
 def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int, seed: int, commit: str) -> str:
     """The task x robot table (successes/episodes per cell), then every refusal and failure reason."""
     by = {(r["task"], r["robot"]): r for r in rows}
-    lines = [f"Scripted success per task and robot, {episodes} seeds from {seed} per cell "
-             f"(`python benchmarks/bench_robots.py --episodes {episodes}`, commit {commit}).", "",
+    lines = [(f"Scripted success per task and robot, {episodes} seeds from {seed} per cell "
+              f"(`python benchmarks/bench_robots.py --episodes {episodes}`, commit {commit})."), "",
              "| task | " + " | ".join(robots) + " |", "| --- |" + " ---: |" * len(robots)]
     for task_id in ids:
         lines.append(f"| {task_id} | " + " | ".join(cell_text(by[task_id, r]) for r in robots) + " |")

@@ -180,11 +180,11 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
     offsets = np.round(np.arange(-MAX_SHIFT, MAX_SHIFT + 1e-9, STEP), 6)
     grid = np.array([(dx, dy) for dx in offsets for dy in offsets])
     grid = grid[np.argsort(np.abs(grid[:, 0]) + 2.0 * np.abs(grid[:, 1]) + 1e-6 * np.arange(len(grid)), kind="stable")]
-    points = np.array(list(space.points.values())).reshape(-1, 3)
+    points3 = np.array(list(space.points.values())).reshape(-1, 3)
     # what the program picks up off the bench top is grasped from above: the hand-down reach applies
-    low = points[:, 2] < home[2] + LOW
+    low = points3[:, 2] < home[2] + LOW
     limit = COMFORT * np.where(low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach)
-    points = points[:, :2]
+    points = points3[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench
     arm = robot_boxes(config.name, tuple(home))

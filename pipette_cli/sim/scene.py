@@ -20,8 +20,8 @@ import numpy as np
 from pipette_cli.errors import AssetError, SimError
 from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
 from pipette_cli.sim.robots import make_robot_spec, match_options, wrist_camera_pose
-from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.base import PoseSpec
+from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.task import CameraSpec, TaskSpec
 
 log = logging.getLogger(__name__)
