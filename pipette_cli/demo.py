@@ -246,7 +246,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
              f"{task.id}: {summary['successes']}/{summary['episodes']} evaluation episodes succeeded")
     learned = summary["success_rate"] >= MIN_SUCCESS if size.judged else None
     report = {
-        "task": task.id, "demos": len(collected.added), "demo_successes": sum(e.success for e in collected.added),
+        "task": task.id, "robot": task.embodiment.robot, "demos": len(collected.added), "demo_successes": sum(e.success for e in collected.added),
         "augmented_attempts": tried, "augmented_kept": kept, "yield": kept / tried if tried else 0.0,
         "dataset_mb": folder_size(root) / 1e6, "dataset": str(root), "checkpoint": str(checkpoint),
         "train_steps": size.train_steps, "batch_size": size.batch_size, "eval_episodes": summary["episodes"],
@@ -275,6 +275,7 @@ def verdict_line(report: dict[str, Any]) -> str:
 def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         ("task", report["task"]),
+        ("robot", report["robot"]),
         ("scripted demos (succeeded)", f"{report['demos']} ({report['demo_successes']})"),
         ("augmented variants kept", f"{report['augmented_kept']}/{report['augmented_attempts']} (yield {100 * report['yield']:.0f} %)"),
         ("LeRobot dataset", f"{report['dataset_mb']:.1f} MB: {report['dataset']}"),

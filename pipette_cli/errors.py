@@ -48,6 +48,10 @@ class SimError(PipetteError):
     """A scene cannot be built or simulated."""
 
 
+class InfeasibleTask(SimError):
+    """A robot physically cannot do a task (payload, reach, gripper width); the message names the limit."""
+
+
 class BackendError(PipetteError):
     """An LLM backend failed (network, timeout, invalid answer)."""
 

@@ -104,6 +104,13 @@ def check_inputs(task: TaskSpec, source: Path, out: Path, rejected: Path | None)
     return status.info
 
 
+def check_robot(task: TaskSpec, info: DatasetInfo, source: Path) -> None:
+    """Refuse to replay demos on a robot other than the one that recorded them."""
+    if info.embodiment != task.embodiment.robot:
+        raise DatasetError(f"{source} was recorded on the {info.embodiment}, but the task is set up for the "
+                           f"{task.embodiment.robot}; place the task on the {info.embodiment} (--robot {info.embodiment})")
+
+
 def augment(
     task: TaskSpec,
     source: Path,
@@ -128,6 +135,7 @@ def augment(
     source, out = Path(source), Path(out)
     started = time.perf_counter()
     in_info = check_inputs(task, source, out, rejected)
+    check_robot(task, in_info, source)
     size = spec.image_size
     info = dataclasses.replace(in_info, image_height=size, image_width=size) if size else in_info
     outputs = [out] + ([Path(rejected)] if rejected is not None else [])

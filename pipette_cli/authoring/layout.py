@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.authoring.measure import robot_boxes
+from pipette_cli.sim.scene import robot_boxes
+from pipette_cli.specs.robot import robot_spec
 
 BENCH_Z = 0.55
 """Height of the bench top (the task's default robot base height stands on it)."""

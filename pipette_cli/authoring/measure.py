@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
+from pipette_cli.sim.scene import collision_boxes
 
 FREE_CATEGORIES = ("tools", "consumables")
 
@@ -143,22 +144,3 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
     sites = {model.site(i).name: _point(data.site_xpos[i]) for i in range(model.nsite)}
     return AssetGeometry(asset_id, entry.category, free, semantics, boxes, sites, joints,
                          quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0))
-
-
-@cache
-def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55)) -> np.ndarray:
-    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose."""
-    from pipette_cli.sim.robots import home_joints, make_robot_spec
-
-    spec, config = make_robot_spec(robot)
-    scene = mujoco.MjSpec()
-    for field in ("timestep", "integrator", "cone", "impratio"):
-        setattr(scene.option, field, getattr(spec.option, field))
-    frame = scene.worldbody.add_frame(pos=list(base))
-    scene.attach(spec, prefix="r/", frame=frame)
-    model = scene.compile()
-    data = mujoco.MjData(model)
-    for joint, value in zip(config.arm_joints, home_joints(robot), strict=True):
-        data.qpos[model.jnt_qposadr[model.joint("r/" + joint).id]] = value
-    mujoco.mj_forward(model, data)
-    return _geom_boxes(model, data, range(model.ngeom))

@@ -13,9 +13,10 @@ from rich.table import Table
 from pipette_cli.augment.specs import (
     AugmentSpec, CameraPoseSpec, JointNoiseSpec, LightingSpec, ObjectPoseSpec, SpeedSpec, default_atoms, make_variants,
 )
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
+from pipette_cli.cli.common import (
+    STATE, RobotOption, err_console, load_task, out_console, print_json, spec_default, spec_help,
+)
 from pipette_cli.errors import PipetteError, SpecError
-from pipette_cli.registry import load_registry
 
 
 def _table(report: dict) -> Table:
@@ -55,10 +56,14 @@ def augment(
     report: Annotated[Path | None, typer.Option("--report", help="Write the yield report JSON here.")] = None,
     target_yield: Annotated[float | None, typer.Option("--target-yield", help="Shrink all magnitudes (x0.7 per round, physics only, first 3 demos) until this fraction of variants passes.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the yield report as JSON.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Replay every demo under perturbations (lighting, speed, joint noise, camera pose, object
     pose), re-simulate without rendering, keep only variants the task's evaluator passes, then
     render the kept ones from their recorded states. Resumable; Ctrl-C safe (docs/augmentation.md).
+
+    The demos replay on the robot that recorded them (the input file's); --robot, when given,
+    must name that robot.
 
     Example: pipette augment PickUpTestTube --input raw.h5 --output aug.h5 --workers 4
     """
@@ -76,12 +81,16 @@ def augment(
     if not names:
         raise SpecError("--variants is empty")
     spec = AugmentSpec(variants=make_variants(names, atoms), seed=seed, image_size=image_size)
-    task = load_registry(STATE.registry_dirs).get(task_id)
     from pipette_cli.augment.run import augment as run_augment
     from pipette_cli.augment.run import check_inputs
     from pipette_cli.demos.collect import deferred_sigint
+    from pipette_cli.demos.embodiment import resolve_robot
 
-    check_inputs(task, input, output, rejected)
+    recorded = check_inputs(load_task(task_id), input, output, rejected).embodiment
+    if robot is not None and resolve_robot(robot).name != recorded:
+        raise PipetteError(f"--robot {robot}: {input} was recorded on the {recorded}; augmentation replays demos on the "
+                           "robot that recorded them (record new ones with `pipette collect --robot`)")
+    task = load_task(task_id, recorded)
     if target_yield is not None:
         from pipette_cli.augment.calibrate import calibrate
 

@@ -9,9 +9,8 @@ from typing import Annotated
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from pipette_cli.cli.common import STATE, err_console, out_console
+from pipette_cli.cli.common import STATE, RobotOption, err_console, load_task, out_console
 from pipette_cli.errors import PipetteError
-from pipette_cli.registry import load_registry
 
 
 class Source(str, Enum):
@@ -29,15 +28,16 @@ def collect(
     workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes recording episodes in parallel (scripted only).")] = 1,
     max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Control-step cap per episode (default: the task's timeout + 1 s).")] = None,
     profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "fast",
+    robot: RobotOption = None,
 ) -> None:
     """Record demonstrations of a task: per control step three RGB views, state, action and
     simulator state; per episode the verdict and provenance (docs/data_format.md).
 
     Ctrl-C or a crash never damages recorded episodes; rerunning the same command resumes.
 
-    Example: pipette collect PickUpTestTube --episodes 50 --out tube.h5 --workers 4
+    Example: pipette collect PickUpTestTube --robot ur5e_2f85 --episodes 50 --out tube_ur5e.h5 --workers 4
     """
-    spec = load_registry(STATE.registry_dirs).get(task_id)
+    spec = load_task(task_id, robot)
     if source is Source.teleop and workers != 1:
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
     from pipette_cli.demos.collect import collect as collect_episodes

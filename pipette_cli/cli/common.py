@@ -6,10 +6,14 @@ import json
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 from pydantic import BaseModel
+import typer
 from rich.console import Console
+
+if TYPE_CHECKING:
+    from pipette_cli.specs.task import TaskSpec
 
 err_console = Console(stderr=True, highlight=False)
 out_console = Console(highlight=False, soft_wrap=True)
@@ -43,3 +47,30 @@ def spec_help(model: type[BaseModel], field: str, text: str = "") -> str:
     """``text`` followed by the field's own description (units, the paper's symbol and section)."""
     description = model.model_fields[field].description or ""
     return f"{text} ({description})" if text and description else text or description
+RobotOption = Annotated[str | None, typer.Option(
+    "--robot", help="Robot to run the task on: panda, piper, ur5e_2f85 or any id of registry/robots "
+                    "(default: the task's embodiment.robot). The base moves along the bench where needed to reach.")]
+
+
+def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
+    """The registry's task ``task_id``, placed on ``robot`` when one is given (a line on stderr says
+    where its base moved, if it did).
+
+    Raises:
+        TaskNotFound: unknown task.
+        SimError: unknown robot (the line lists the robots).
+        InfeasibleTask: the robot cannot do the task (the line names the limit).
+    """
+    from pipette_cli.registry import load_registry
+
+    task = load_registry(STATE.registry_dirs).get(task_id)
+    if robot is None:
+        return task
+    from pipette_cli.demos.embodiment import on_robot
+
+    placed = on_robot(task, robot)
+    before, after = task.embodiment.base.pos, placed.embodiment.base.pos
+    if placed.embodiment.robot != task.embodiment.robot and before != after:
+        err_console.print(f"{placed.embodiment.robot}: base moved from ({before[0]:.2f}, {before[1]:.2f}) to "
+                          f"({after[0]:.2f}, {after[1]:.2f}) on the bench to reach the task's work points", soft_wrap=True)
+    return placed

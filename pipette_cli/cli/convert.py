@@ -23,7 +23,8 @@ def convert(
     video: Annotated[bool, typer.Option("--video/--images", help="Cameras as MP4 video (lossy, small) or PNG images (exact).")] = True,
     dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented; the two go to separate datasets.")] = "raw",
     include_failed: Annotated[bool, typer.Option("--include-failed", help="Keep failed episodes too.")] = False,
-    allow_mixed: Annotated[bool, typer.Option("--allow-mixed", help="Allow several tasks or embodiments in one dataset.")] = False,
+    allow_mixed: Annotated[bool, typer.Option("--allow-mixed", help="Allow several tasks in one dataset.")] = False,
+    allow_mixed_robots: Annotated[bool, typer.Option("--allow-mixed-robots", help="Allow episodes of several robots (same state/action size) in one dataset.")] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing dataset at --root.")] = False,
     vcodec: Annotated[str, typer.Option("--vcodec", help="Video codec: libsvtav1 (LeRobot default) or h264 (faster).")] = "libsvtav1",
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable result.")] = False,
@@ -52,7 +53,7 @@ def convert(
         root = root or default_root(first.task_id, version)
     options = ConvertOptions(
         repo_id=repo_id, root=root, fps=fps, frame_filter=frame_filter, video=video, dataset_version=version,
-        include_failed=include_failed, allow_mixed=allow_mixed, overwrite=overwrite, vcodec=vcodec,
+        include_failed=include_failed, allow_mixed=allow_mixed, allow_mixed_robots=allow_mixed_robots, overwrite=overwrite, vcodec=vcodec,
     )
     with Progress(
         TextColumn("converting"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),

@@ -120,7 +120,9 @@ def replay(
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
     status.episode(episode)  # range check before building the scene
-    task = load_registry(STATE.registry_dirs).get(status.info.task_id)
+    from pipette_cli.demos.embodiment import on_robot
+
+    task = on_robot(load_registry(STATE.registry_dirs).get(status.info.task_id), status.info.embodiment)
     report = replay_episode(file, episode, task)
     if report.spec_changed:
         err_console.print(f"[yellow]warning:[/yellow] the {task.id} spec changed since episode {episode} was recorded", soft_wrap=True)

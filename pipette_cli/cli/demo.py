@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.demo import DEFAULT_TASK
 
 
@@ -17,18 +17,18 @@ def demo(
     out: Annotated[Path, typer.Option("--out", "-o", help="Empty folder for every artefact.")] = Path("demo_run"),
     fast: Annotated[bool, typer.Option("--fast", help="Smoke run (CI): 2 demos, 32 px, 2 training steps, 2 evaluation episodes; trains no usable policy.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Scripted demos -> success-verified augmentation -> LeRobot dataset -> ACT training ->
     evaluation, on one task, on a CPU (about 10 minutes on 2 cores); prints a summary table, where
     the dataset, videos and plots are, and whether the learned policy works. Exits 1 when the
     policy succeeds in fewer than half of its evaluation episodes.
 
-    Example: pipette demo --out demo_run
+    Example: pipette demo --robot ur5e_2f85 --out demo_run
     """
     from pipette_cli.demo import FAST, FULL, run_demo, summary_rows, verdict_line
-    from pipette_cli.registry import load_registry
 
-    task = load_registry(STATE.registry_dirs).get(task_id)
+    task = load_task(task_id, robot)
     report = run_demo(task, out, FAST if fast else FULL, say=lambda line: err_console.print(line, soft_wrap=True))
     if as_json:
         print_json(report)

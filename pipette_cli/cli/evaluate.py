@@ -10,7 +10,7 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from typer.core import TyperCommand
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, RobotOption, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 
 
@@ -57,6 +57,7 @@ def eval_command(
     dead_after: Annotated[float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")] = 5.0,
     connect_timeout: Annotated[float, typer.Option("--connect-timeout", min=0.1, help="Seconds to wait for the server at the start.")] = 30.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summaries as JSON.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Evaluate a policy on a task or a suite (30 Hz control, 10 Hz queries; paper A.4/A.6).
 
@@ -78,7 +79,7 @@ def eval_command(
     temporary = tempfile.TemporaryDirectory(prefix="pipette-eval-") if out is None else None
     folder = out if out is not None else Path(temporary.name)  # type: ignore[union-attr]
     try:
-        runs, settings = _plan(registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version)
+        runs, settings = _plan(registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version, robot)
         if source.endpoints:
             cameras = runs[0].task.cameras
             size = settings.image_size
@@ -98,15 +99,18 @@ def eval_command(
 
 
 def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: int | None, seed: int | None,
-          image_size: int | None, out: Path, config: Any, dataset_version: str) -> tuple[list[Any], Any]:
-    """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself)."""
+          image_size: int | None, out: Path, config: Any, dataset_version: str,
+          robot: str | None = None) -> tuple[list[Any], Any]:
+    """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself),
+    each task placed on ``robot`` when one is given."""
+    from pipette_cli.demos.embodiment import on_robot
     from pipette_cli.evaluation.runner import EvalSettings, TaskRun
     from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
 
     if suite_id is None:
         if task_id is None:
             raise PipetteError("name a task or a suite: pipette eval TASK ... or pipette eval --suite ID ...")
-        task = registry.get(task_id)
+        task = on_robot(registry.get(task_id), robot)
         plan = adhoc_plan(task, episodes or 100, seed or 0)
         return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, "fast", dataset_version)
     fixed = [flag for flag, value in (("--episodes", episodes), ("--seed", seed), ("--image-size", image_size)) if value is not None]
@@ -115,7 +119,7 @@ def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: in
     suite = load_suites(registry, STATE.registry_dirs).get(suite_id)
     tasks = None if task_id is None else [registry.get(task_id).id]
     by_task = episode_plan(suite.spec, tasks)
-    runs = [TaskRun(registry.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()]
+    runs = [TaskRun(on_robot(registry.get(t), robot), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()]
     settings = EvalSettings(config, suite.spec.image_size, suite.spec.render_profile, dataset_version, suite.record())
     return runs, settings
 

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.demos.check import ExpertReport, check_expert, step_of
 from pipette_cli.registry import load_registry
 
@@ -31,16 +31,17 @@ def check(
     seed: Annotated[int, typer.Option("--seed", help="First seed.")] = 0,
     markdown: Annotated[Path | None, typer.Option("--markdown", help="Also write the table as markdown here.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Run each task's scripted expert on N seeds (physics only) and tabulate success.
 
-    Example: pipette experts check --episodes 50 --markdown docs/experts_table.md
+    Example: pipette experts check PickUpTestTube --robot piper --episodes 20
     """
     registry = load_registry(STATE.registry_dirs)
     ids = [registry.get(t).id for t in tasks] if tasks else registry.ids()
     reports = []
     for task_id in ids:
-        report = check_expert(registry.get(task_id), episodes, seed)
+        report = check_expert(load_task(task_id, robot), episodes, seed)
         err_console.print(f"{task_id}: {report.successes}/{report.episodes} in {report.seconds:.0f} s", soft_wrap=True, markup=False)
         for failed_seed, why in report.expert_failures.items():
             err_console.print(f"  seed {failed_seed}: {why}", soft_wrap=True, markup=False)

@@ -10,9 +10,8 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.errors import PipetteError
-from pipette_cli.registry import load_registry
 from pipette_cli.sim.render import PROFILES
 
 app = typer.Typer(help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png", no_args_is_help=True)
@@ -40,14 +39,15 @@ def render(
     image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
     profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "full",
     settle: Annotated[int, typer.Option("--settle", help="Control steps to hold still before rendering.")] = 0,
+    robot: RobotOption = None,
 ) -> None:
     """Render the top, main and wrist views of a task side by side.
 
-    Example: pipette sim render pipette/OpenCentrifugeLid-v1 --seed 3 --out docs/views.png
+    Example: pipette sim render pipette/OpenCentrifugeLid-v1 --robot ur5e_2f85 --seed 3 --out docs/views.png
     """
     from pipette_cli.sim.env import PipetteEnv
 
-    spec = load_registry(STATE.registry_dirs).get(task_id)
+    spec = load_task(task_id, robot)
     env = PipetteEnv(spec, image_size=image_size, render_profile=profile)  # type: ignore[arg-type]
     try:
         env.reset(seed)
@@ -66,14 +66,15 @@ def step_rate(
     steps: Annotated[int, typer.Option("--steps", help="Control steps to time.")] = 60,
     image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
+    robot: RobotOption = None,
 ) -> None:
     """Physics real-time factor and 3-camera render rate per profile.
 
-    Example: pipette sim step-rate PickUpTestTube --steps 90
+    Example: pipette sim step-rate PickUpTestTube --robot piper --steps 90
     """
     from pipette_cli.sim.env import PipetteEnv
 
-    spec = load_registry(STATE.registry_dirs).get(task_id)
+    spec = load_task(task_id, robot)
     results: dict[str, float] = {}
     env = PipetteEnv(spec, render=False)
     env.reset(0)
@@ -111,6 +112,7 @@ def step_rate(
 def view(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
     seed: Annotated[int, typer.Option("--seed", help="Episode seed.")] = 0,
+    robot: RobotOption = None,
 ) -> None:
     """Open the interactive MuJoCo viewer on a task (needs a display).
 
@@ -124,6 +126,6 @@ def view(
 
     from pipette_cli.sim.world import World
 
-    world = World(load_registry(STATE.registry_dirs).get(task_id))
+    world = World(load_task(task_id, robot))
     world.reset(seed)
     mujoco.viewer.launch(world.model, world.data)

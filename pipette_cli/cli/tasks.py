@@ -19,6 +19,7 @@ from pipette_cli.registry import (
     task_files,
     validate_task_document,
 )
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec, stage_specs
 from pipette_cli.specs.yaml_io import dump_yaml, format_problem, parse_yaml, read_yaml
 from pipette_cli.templating import render_task_template, task_template_names
@@ -225,8 +226,8 @@ def new_task(
             "task_id": task_id,
             "name": name,
             "instruction": instruction or f"{name}.",
-            "robot": "franka_panda",
-            "initial_joints": [0.0, -0.3, 0.0, -2.2, 0.0, 1.9, 0.785],
+            "robot": DEFAULT_ROBOT,
+            "initial_joints": robot_spec(DEFAULT_ROBOT).arm.home,
         }
         if asset:
             context["asset"] = asset

@@ -65,6 +65,10 @@ def sim_state(model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
     return out
 
 
+OPTIONAL_ATTRS = ("instrument_names", "state_names", "action_names")
+"""File attributes that older files lack (read as empty)."""
+
+
 @dataclass(frozen=True)
 class DatasetInfo:
     """File-level attributes every episode of a dataset file shares."""
@@ -83,6 +87,10 @@ class DatasetInfo:
     sim_state_size: int
     instrument_names: tuple[str, ...] = ()
     """Columns of each episode's ``instrument_state`` (``mechanism.value``); none without instruments."""
+    state_names: tuple[str, ...] = ()
+    """Per-robot names of the state entries (``robot_spec(embodiment).state_names()``); empty in
+    files written before robots were switchable."""
+    action_names: tuple[str, ...] = ()
 
     @classmethod
     def from_env(cls, env: PipetteEnv) -> DatasetInfo:
@@ -103,6 +111,8 @@ class DatasetInfo:
             action_dim=env.world.action_dim,
             sim_state_size=mujoco.mj_stateSize(env.world.model, SIM_STATE),
             instrument_names=tuple(env.world.instrument_names),
+            state_names=tuple(env.world.robot.state_names()),
+            action_names=tuple(env.world.robot.action_names()),
         )
 
     def write(self, attrs: h5py.AttributeManager) -> None:
@@ -123,11 +133,10 @@ class DatasetInfo:
         try:
             values: dict[str, Any] = {}
             for name, kind in cls.__annotations__.items():
-                if name == "instrument_names":  # files written before instruments had state: none
-                    values[name] = tuple(_text(c) for c in attrs.get(name, ()))
+                if name not in attrs and name in OPTIONAL_ATTRS:  # files written before these existed
                     continue
                 raw = attrs[name]
-                if name == "cameras":
+                if name in ("cameras", *OPTIONAL_ATTRS):
                     values[name] = tuple(_text(c) for c in raw)
                 elif kind == "int":
                     values[name] = int(raw)
@@ -146,7 +155,10 @@ class DatasetInfo:
                 f"its images are {self.image_height}x{self.image_width}, not {other.image_height}x{other.image_width} "
                 f"(pass --image-size {self.image_height})"
             )
-        for name in ("embodiment", "cameras", "state_dim", "action_dim", "sim_state_size", "control_hz", "physics_hz",
+        if other.embodiment != self.embodiment:
+            return (f"it holds episodes recorded on the {self.embodiment}, not the {other.embodiment}; "
+                    "record each robot into its own file")
+        for name in ("cameras", "state_dim", "action_dim", "sim_state_size", "control_hz", "physics_hz",
                      "instrument_names"):
             if getattr(self, name) != getattr(other, name):
                 return f"its {name} is {getattr(self, name)}, not {getattr(other, name)} (the task changed)"

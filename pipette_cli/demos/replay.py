@@ -84,6 +84,9 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
     assert status.info is not None
     if status.info.task_id != task.id:
         raise DatasetError(f"{path} holds episodes of task {status.info.task_id}, not {task.id}")
+    if status.info.embodiment != task.embodiment.robot:
+        raise DatasetError(f"{path} was recorded on the {status.info.embodiment}, not the {task.embodiment.robot}; "
+                           "replay it on the task placed on that robot (pipette_cli.demos.embodiment.on_robot)")
     record = read_episode(ref)
     states = record.arrays["sim_state"]
     actions = record.arrays["action"]

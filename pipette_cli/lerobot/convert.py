@@ -2,15 +2,16 @@
 
 Each kept control step becomes one frame: ``observation.images.{top,main,wrist}`` (uint8 HWC),
 ``observation.state`` (float32), ``action`` (float32 copy of the float64 joint targets and
-gripper command), the step's instruction as the ``task`` string (a protocol's stage instruction,
-so policies can be trained on sub-tasks), ``stage`` (stages completed) and, for scenes with
-instruments, ``instrument_state`` (one named column per ``World.instrument_names``). The last two
-carry no ``observation.`` prefix on purpose: LeRobot would otherwise feed them to policies as state. :mod:`.frames` decides
+gripper command), their entries named after the robot's joints, the step's instruction as the
+``task`` string (a protocol's stage instruction, so policies can be trained on sub-tasks),
+``stage`` (stages completed) and, for scenes with instruments, ``instrument_state`` (one named
+column per ``World.instrument_names``). The last two carry no ``observation.`` prefix on purpose:
+LeRobot would otherwise feed them to policies as state. :mod:`.frames` decides
 which steps are kept (fresh camera frames at 10 Hz by default). Successful episodes only,
 unless ``include_failed``.
 
-Everything is checked before anything is written (readable inputs, one task and embodiment
-unless ``allow_mixed``, one image size, raw vs augmented episodes, a free target). The dataset
+Everything is checked before anything is written (readable inputs, one task unless
+``allow_mixed``, one robot unless ``allow_mixed_robots``, one image size, raw vs augmented episodes, a free target). The dataset
 is then built in a hidden folder beside the target and renamed onto it on success; on any
 error or Ctrl-C that folder is deleted, so no partial dataset is left behind. Provenance
 (source files, seeds, success, perturbations) goes to ``meta/pipette.json`` in the dataset.
@@ -92,7 +93,9 @@ class ConvertOptions:
         video: Cameras as MP4 videos (lossy) rather than PNG images (exact).
         dataset_version: ``raw`` or ``augmented``; the other kind of episode is refused.
         include_failed: Keep failed episodes too (default: successful ones only).
-        allow_mixed: Allow several tasks or embodiments (same state/action size) in one dataset.
+        allow_mixed: Allow several tasks in one dataset.
+        allow_mixed_robots: Allow episodes of several robots (same state/action size) in one dataset;
+            its state/action entries are then named by position (``joint_i``), not by the robots' joints.
         overwrite: Replace an existing dataset at ``root``.
         vcodec: Video codec (LeRobot's default ``libsvtav1``; ``h264`` is faster).
         image_writer_threads: Threads writing PNG frames while converting.
@@ -106,6 +109,7 @@ class ConvertOptions:
     dataset_version: DatasetVersion = DatasetVersion.raw
     include_failed: bool = False
     allow_mixed: bool = False
+    allow_mixed_robots: bool = False
     overwrite: bool = False
     vcodec: str = "libsvtav1"
     image_writer_threads: int = 4
@@ -239,8 +243,9 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
         )
     if len(tasks) > 1 and not options.allow_mixed:
         raise DatasetError(_mixed("task", list(tasks)))
-    if len(embodiments) > 1 and not options.allow_mixed:
-        raise DatasetError(_mixed("embodiment", list(embodiments)))
+    if len(embodiments) > 1 and not options.allow_mixed_robots:
+        raise DatasetError(f"the inputs were recorded on {len(embodiments)} robots ({', '.join(embodiments)}); their "
+                           "joints differ: convert each robot's episodes separately or pass --allow-mixed-robots")
     if not episodes:
         total = len(skipped)
         raise DatasetError(
@@ -250,21 +255,32 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
     return ConversionPlan(episodes, skipped, first, list(tasks), list(embodiments))
 
 
-def make_features(info: DatasetInfo, *, video: bool) -> dict[str, dict[str, Any]]:
-    """The LeRobot features dict: three uint8 HWC cameras, state and action (float32)."""
+def vector_names(info: DatasetInfo, *, mixed_robots: bool = False) -> tuple[list[str], list[str]]:
+    """Names of the state and action entries: the robot's own (its joints), or, for episodes of
+    several robots in one dataset, ``joint_i``/``joint_i_target`` by position."""
+    if not mixed_robots:
+        if info.state_names and info.action_names:
+            return list(info.state_names), list(info.action_names)
+        from pipette_cli.specs.robot import load_robot_specs
+
+        robot = load_robot_specs().get(info.embodiment)
+        if robot is not None and robot.arm_dof + 1 == info.state_dim:
+            return robot.state_names(), robot.action_names()
     arm = info.state_dim - 1
+    return [f"joint_{i}" for i in range(1, arm + 1)] + ["gripper"], [f"joint_{i}_target" for i in range(1, arm + 1)] + ["gripper_open"]
+
+
+def make_features(info: DatasetInfo, *, video: bool, mixed_robots: bool = False) -> dict[str, dict[str, Any]]:
+    """The LeRobot features dict: three uint8 HWC cameras, state and action (float32), named after
+    the robot's joints."""
+    state_names, action_names = vector_names(info, mixed_robots=mixed_robots)
     shape = (info.image_height, info.image_width, 3)
     features: dict[str, dict[str, Any]] = {
         image_key(cam): {"dtype": "video" if video else "image", "shape": shape, "names": ["height", "width", "channels"]}
         for cam in CAMERAS
     }
-    features["observation.state"] = {
-        "dtype": "float32", "shape": (info.state_dim,), "names": [f"joint_{i}" for i in range(1, arm + 1)] + ["gripper"],
-    }
-    features["action"] = {
-        "dtype": "float32", "shape": (info.action_dim,),
-        "names": [f"joint_{i}_target" for i in range(1, arm + 1)] + ["gripper_open"],
-    }
+    features["observation.state"] = {"dtype": "float32", "shape": (info.state_dim,), "names": state_names}
+    features["action"] = {"dtype": "float32", "shape": (info.action_dim,), "names": action_names}
     features["stage"] = {"dtype": "int64", "shape": (1,), "names": ["stages_completed"]}
     if info.instrument_names:
         names = list(info.instrument_names)
@@ -317,7 +333,7 @@ def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode:
     datasets.disable_progress_bars()  # one "Map" bar per episode otherwise; pipette reports progress itself
     dataset = LeRobotDataset.create(
         repo_id=options.repo_id, fps=options.fps, root=tmp, robot_type=",".join(plan.embodiments),
-        features=make_features(plan.info, video=options.video), use_videos=options.video,
+        features=make_features(plan.info, video=options.video, mixed_robots=len(plan.embodiments) > 1), use_videos=options.video,
         image_writer_threads=options.image_writer_threads, video_backend="pyav",  # decoding is not used here
         rgb_encoder=RGBEncoderConfig(vcodec=options.vcodec) if options.video else None,
     )

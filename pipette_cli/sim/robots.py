@@ -57,6 +57,12 @@ def _menagerie_spec(ref: MenagerieRef) -> mujoco.MjSpec:
     return spec
 
 
+def match_options(child: mujoco.MjSpec, parent: mujoco.MjSpec) -> None:
+    """Give a child spec the parent's global options so attaching raises no conflict."""
+    for field in ("timestep", "integrator", "cone", "impratio", "gravity"):
+        setattr(child.option, field, getattr(parent.option, field))
+
+
 def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
     """A fresh, editable spec of robot ``name`` ready to be attached into a scene."""
     config = robot_config(name)
@@ -68,17 +74,26 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         site = spec.site(config.attach.site)
         if site is None:
             raise SimError(f"robot {name!r}: no site {config.attach.site!r} to attach {config.attach.menagerie.model!r} to")
-        spec.attach(_menagerie_spec(config.attach.menagerie), prefix=config.attach.prefix, site=site)
+        tool = _menagerie_spec(config.attach.menagerie)
+        match_options(tool, spec)  # the scene sets them later; attaching raises no conflict
+        spec.attach(tool, prefix=config.attach.prefix, site=site)
     if config.arm.limit_ctrl_to_joint_range:
         for act_name in (*config.arm_actuators, config.gripper.actuator):
             act = spec.actuator(act_name)
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
             act.ctrlrange = spec.joint(act.target).range
+    for act_name in config.arm_actuators if config.arm.kp_scale != 1.0 else ():
+        act = spec.actuator(act_name)
+        act.gainprm[0] *= config.arm.kp_scale
+        act.biasprm[1] *= config.arm.kp_scale
+    for joint, damping in zip(config.arm_joints, config.arm.joint_damping or (), strict=False):
+        spec.joint(joint).damping = [damping, 0.0, 0.0]
     drive = config.gripper.drive
     if drive is not None:
         act = spec.actuator(config.gripper.actuator)
-        act.gainprm[0] = drive.kp
-        act.biasprm[:3] = [0.0, -drive.kp, -drive.kv]
+        if drive.kp is not None:
+            act.gainprm[0] = drive.kp
+            act.biasprm[:3] = [0.0, -drive.kp, -(drive.kv or 0.0)]
         lo, hi = sorted((config.gripper.closed_ctrl, config.gripper.open_ctrl))
         if not config.arm.limit_ctrl_to_joint_range:
             act.ctrlrange = [lo, hi]

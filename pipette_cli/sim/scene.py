@@ -10,16 +10,18 @@ with nominal poses; per-episode randomisation moves bodies at reset (:mod:`.worl
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cache
 
 import mujoco
 import numpy as np
 
 from pipette_cli.errors import AssetError, SimError
 from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
-from pipette_cli.sim.robots import make_robot_spec, wrist_camera_pose
-from pipette_cli.specs.robot import RobotSpec
+from pipette_cli.sim.robots import make_robot_spec, match_options, wrist_camera_pose
 from pipette_cli.specs.base import PoseSpec
+from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.task import CameraSpec, TaskSpec
 
 log = logging.getLogger(__name__)
@@ -93,12 +95,6 @@ def _configure(spec: mujoco.MjSpec, task: TaskSpec) -> None:
     spec.stat.extent = 1.2
 
 
-def _match_options(child: mujoco.MjSpec, parent: mujoco.MjSpec) -> None:
-    """Give a child spec the parent's global options so attaching raises no conflict."""
-    for field in ("timestep", "integrator", "cone", "impratio", "gravity"):
-        setattr(child.option, field, getattr(parent.option, field))
-
-
 def _add_room(spec: mujoco.MjSpec) -> None:
     spec.add_texture(
         name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
@@ -118,7 +114,7 @@ def _add_room(spec: mujoco.MjSpec) -> None:
 
 def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotSpec:
     robot_spec, config = make_robot_spec(task.embodiment.robot)
-    _match_options(robot_spec, spec)
+    match_options(robot_spec, spec)
     wrist = task.cameras.wrist
     if wrist.mount == "end_effector":
         body = robot_spec.body(config.end_effector.wrist_camera_body)
@@ -176,6 +172,35 @@ def make_scene_spec(task: TaskSpec) -> tuple[mujoco.MjSpec, RobotSpec, dict[str,
     config = _attach_robot(spec, task)
     _add_cameras(spec, task, objects)
     return spec, config, objects
+
+
+def collision_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Iterable[int]) -> np.ndarray:
+    """World-aligned boxes (n, 6: x0, y0, z0, x1, y1, z1) around the collision geoms among ``geoms``."""
+    out = []
+    for g in geoms:
+        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
+            continue
+        rot = data.geom_xmat[g].reshape(3, 3)
+        center = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3]
+        half = np.abs(rot) @ model.geom_aabb[g, 3:]
+        out.append(np.concatenate([center - half, center + half]))
+    return np.array(out).reshape(-1, 6)
+
+
+@cache
+def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55)) -> np.ndarray:
+    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose."""
+    spec, config = make_robot_spec(robot)
+    scene = mujoco.MjSpec()
+    match_options(spec, scene)
+    frame = scene.worldbody.add_frame(pos=list(base))
+    scene.attach(spec, prefix="r/", frame=frame)
+    model = scene.compile()
+    data = mujoco.MjData(model)
+    for joint, value in zip(config.arm_joints, config.home(), strict=True):
+        data.qpos[model.jnt_qposadr[model.joint("r/" + joint).id]] = value
+    mujoco.mj_forward(model, data)
+    return collision_boxes(model, data, range(model.ngeom))
 
 
 def compile_scene(spec: mujoco.MjSpec, task: TaskSpec, *, meshes: MeshDetail = "full") -> mujoco.MjModel:

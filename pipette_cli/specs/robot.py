@@ -2,7 +2,7 @@
 
 Every module that needs a robot's joints, home pose, gripper mapping, tool centre point, reach or
 payload reads it from here (``robot_spec("franka_panda")``); nothing else writes those literals.
-Adding a robot is a new file here plus its ``mujoco_menagerie`` folder (docs/extending/adding_a_robot.md).
+Adding a robot is a new file here plus its ``mujoco_menagerie`` folder (docs/robots.md).
 
 The tool centre point (tcp) is given in the end-effector body's frame together with two of its axes
 (``approach``: the direction the fingers point; ``closing``: the direction the fingers close along).
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from functools import cache
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import Field, ValidationError, model_validator
@@ -24,6 +24,8 @@ from pipette_cli.resources import data_dir
 from pipette_cli.specs.base import Name, Spec, Vec3
 
 Axis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
+DEFAULT_ROBOT = "franka_panda"
+"""The robot of a task that names none (the paper's)."""
 ROBOTS_FOLDER = "robots"
 """Sub-folder of the registry holding robot facts (never task files)."""
 
@@ -48,21 +50,28 @@ class ArmSpec(Spec):
     actuators: list[str] = Field(min_length=3)
     home: list[float] = Field(description="a comfortable configuration facing +x, radians")
     limit_ctrl_to_joint_range: bool = False
+    joint_damping: list[Annotated[float, Field(ge=0)]] | None = Field(
+        None, description="passive damping of each arm joint (N m s/rad), overriding menagerie's")
+    kp_scale: float = Field(1.0, gt=0, description="factor on the stiffness kp of menagerie's arm position servos "
+                                                    "(their damping kv kept: the lag kv/kp shrinks)")
 
     @model_validator(mode="after")
     def _lengths(self) -> ArmSpec:
         if not len(self.joints) == len(self.actuators) == len(self.home):
             raise ValueError(f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
                              f"({len(self.home)}) must have one entry per arm joint")
+        if self.joint_damping is not None and len(self.joint_damping) != len(self.joints):
+            raise ValueError(f"joint_damping has {len(self.joint_damping)} entries for {len(self.joints)} arm joints")
         return self
 
 
 class DriveSpec(Spec):
-    """Position servo gains of the gripper actuator (overriding menagerie's)."""
+    """The gripper actuator's position servo gains and force limit, overriding menagerie's (gains
+    left out keep menagerie's, for actuators whose control is not a joint position)."""
 
-    kp: float = Field(gt=0)
-    kv: float = Field(ge=0)
-    force: float = Field(gt=0, description="newtons")
+    kp: float | None = Field(None, gt=0)
+    kv: float | None = Field(None, ge=0)
+    force: float = Field(gt=0, description="the actuator's force limit (newtons, or its own units)")
 
 
 class GripperSpec(Spec):
@@ -94,27 +103,53 @@ class TcpSpec(Spec):
         return np.column_stack([np.cross(y, z), y, z])
 
 
+class WristCameraSpec(Spec):
+    """The wrist camera's pose in the canonical hand frame (the tcp frame's axes at the camera body's
+    origin) and field of view: a task run on this robot gets it unless the task is authored for it."""
+
+    pos: Vec3
+    euler_deg: Vec3
+    fovy_deg: float = Field(70.0, gt=0, lt=180)
+
+
 class EndEffectorSpec(Spec):
     body: str
     tcp: TcpSpec
     wrist_camera_body: str
 
 
+class WorkspaceSpec(Spec):
+    """Where ``pipette new-task`` lays objects out for this robot: a band of comfortable distances
+    from the base axis, the preferred distance of the work area and the lateral lane of its parts."""
+
+    center_x: float = Field(gt=0)
+    lane_y: float = Field(gt=0)
+    min_reach: float = Field(gt=0)
+    max_reach: float = Field(gt=0)
+
+
 class RobotSpec(Spec):
     """Everything Pipette knows about one robot."""
 
     name: Name
-    aliases: list[Name] = []
+    aliases: list[Name] = Field([], description="other ids; the first is the short name (`--robot piper`, tags)")
+    words: list[str] = Field([], description="phrases that name the robot in a task description, longest first")
     description: str = ""
     menagerie: MenagerieRef
     attach: AttachSpec | None = None
     arm: ArmSpec
     gripper: GripperSpec
     end_effector: EndEffectorSpec
+    wrist_camera: WristCameraSpec
     base_height: float = Field(0.55, description="default base height: the bench top")
-    reach: float = Field(gt=0, description="metres from the base axis for a top-down grasp at bench height")
+    footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
+    reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, the hand "
+                                           "tilted 30 deg from the vertical")
+    top_down_reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, "
+                                                    "the hand pointing straight down")
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
     payload_kg: float = Field(gt=0)
+    workspace: WorkspaceSpec
 
     @property
     def arm_dof(self) -> int:
@@ -136,8 +171,12 @@ class RobotSpec(Spec):
         return self.gripper.open_ctrl if command >= 0.5 else self.gripper.closed_ctrl
 
     def state_names(self) -> list[str]:
-        """Names of the state/action vector entries: arm joints, then the gripper."""
+        """Names of the state vector's entries: the arm joints' positions, then the gripper joint's."""
         return [*self.arm.joints, "gripper"]
+
+    def action_names(self) -> list[str]:
+        """Names of the action vector's entries: arm joint targets, then the binary gripper command."""
+        return [f"{joint}_target" for joint in self.arm.joints] + ["gripper_open"]
 
 
 def _axis(name: str) -> np.ndarray:
@@ -199,5 +238,5 @@ def robot_spec(name: str) -> RobotSpec:
             return spec
     keys = [*robots, *(a for s in robots.values() for a in s.aliases)]
     hint = suggest(name, keys)
-    known = ", ".join(sorted(robots))
+    known = ", ".join(f"{key} ({robots[key].aliases[0]})" if robots[key].aliases else key for key in sorted(robots))
     raise SpecError(f"unknown robot {name!r}; {hint}" + ("" if hint.startswith("valid names") else f" (robots: {known})"))

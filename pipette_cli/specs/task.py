@@ -17,7 +17,7 @@ from pipette_cli.specs.base import Name, PoseSpec, Ref, Spec, Vec3
 from pipette_cli.specs.evaluators import EvaluatorField
 from pipette_cli.specs.expert import StepField
 from pipette_cli.specs.mechanisms import MechanismField
-from pipette_cli.specs.robot import robot_spec
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 
 TASK_ID_PATTERN = r"^[a-z][a-z0-9_]*/[A-Z][A-Za-z0-9]*-v[0-9]+$"
 Category = Literal["consumable_handling", "hatch_control", "placement_relocation", "other"]
@@ -26,7 +26,7 @@ Category = Literal["consumable_handling", "hatch_control", "placement_relocation
 class EmbodimentSpec(Spec):
     """Which robot, where it stands, and its joint state at reset."""
 
-    robot: str = Field("franka_panda", description="a robot of registry/robots/ (name or alias)")
+    robot: str = Field(DEFAULT_ROBOT, description="a robot of registry/robots/ (name or alias)")
     base: PoseSpec = PoseSpec(pos=(0.0, 0.0, 0.55))
     initial_joints: list[float] = Field(description="arm joint positions in radians")
     gripper: Literal["open", "closed"] = "open"

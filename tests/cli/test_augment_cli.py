@@ -39,6 +39,13 @@ def test_raw_file_of_another_task_is_refused(run_cli, tmp_path_factory, tmp_path
     assert not list(tmp_path.iterdir())
 
 
+def test_demos_replay_on_the_robot_that_recorded_them(run_cli, tmp_path_factory, tmp_path: Path) -> None:
+    raw = raw_demo(tmp_path_factory)  # recorded on the task's own robot, the Panda
+    result = run_cli("augment", "PickUpTestTube", "-i", raw, "-o", tmp_path / "a.h5", "--robot", "piper")
+    assert result.exit_code == 1 and "was recorded on the franka_panda" in result.stderr
+    assert not list(tmp_path.iterdir())
+
+
 def test_small_run_reports_yield_as_json(run_cli, tmp_path_factory, tmp_path: Path) -> None:
     raw = raw_demo(tmp_path_factory)
     out, report = tmp_path / "aug.h5", tmp_path / "yield.json"

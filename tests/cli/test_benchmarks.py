@@ -122,3 +122,13 @@ def test_bench_eval_measures_episodes_per_hour_and_dead_server_detection(tmp_pat
     assert set(dead) == {"killed", "stopped"}
     assert 4 <= dead["killed"]["to_safe_hold_s"] < 10 and dead["stopped"]["to_safe_hold_s"] < 15  # 5 s default (+3 s heartbeats)
     assert "episodes/h" in result.stdout
+def test_bench_robots_fills_the_task_by_robot_table(tmp_path) -> None:
+    out, md = tmp_path / "robots.json", tmp_path / "robots.md"
+    result = bench("bench_robots.py", "--tasks", "PickUpTestTube", "--robots", "piper,ur5e_2f85", "--episodes", "1",
+                   "--out", str(out), "--markdown", str(md))
+    data = read(out)
+    cells = {c["robot"]: c for c in data["cells"]}
+    assert set(cells) == {"agilex_piper", "ur5e_robotiq"} and data["robots"] == ["agilex_piper", "ur5e_robotiq"]
+    assert cells["agilex_piper"]["successes"] == 1 and cells["agilex_piper"]["base"][0] > 0  # placed, then picked
+    assert "| pipette/PickUpTestTube-v1 | 1/1 | 1/1 |" in md.read_text()
+    assert "agilex_piper" in result.stdout

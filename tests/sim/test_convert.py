@@ -32,6 +32,7 @@ sys.path.insert(0, str(FIXTURES))
 import demo_experts  # noqa: E402
 
 CAMERAS = ("top", "main", "wrist")
+PANDA_JOINTS = [f"joint{i}" for i in range(1, 8)]
 LOADER = """
 import sys, numpy as np
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
@@ -179,9 +180,11 @@ def test_bad_inputs_leave_nothing_behind(recording: Path, tmp_path: Path) -> Non
     root = tmp_path / "ds"
     with pytest.raises(DatasetError, match="--allow-mixed"):
         convert([recording, other_task], ConvertOptions(repo_id="local/m", root=root, video=False))
-    other_robot = renamed_copy(recording, tmp_path / "robot.h5", embodiment="ur5e")
-    with pytest.raises(DatasetError, match="2 embodiments"):
+    other_robot = renamed_copy(recording, tmp_path / "robot.h5", embodiment="ur5e_robotiq")
+    with pytest.raises(DatasetError, match="2 robots .*--allow-mixed-robots"):
         convert([recording, other_robot], ConvertOptions(repo_id="local/m", root=root, video=False))
+    with pytest.raises(DatasetError, match="--allow-mixed-robots"):  # mixing tasks does not allow mixing robots
+        convert([recording, other_robot], ConvertOptions(repo_id="local/m", root=root, video=False, allow_mixed=True))
     with pytest.raises(DatasetError, match="already in"):
         convert([recording, recording], ConvertOptions(repo_id="local/m", root=root, video=False))
     small = renamed_copy(recording, tmp_path / "small.h5", image_height=16)
@@ -190,6 +193,14 @@ def test_bad_inputs_leave_nothing_behind(recording: Path, tmp_path: Path) -> Non
     assert sorted(p.name for p in tmp_path.iterdir()) == ["other.h5", "robot.h5", "small.h5"]
     mixed = convert([recording, other_task], ConvertOptions(repo_id="local/m", root=root, video=False, allow_mixed=True))
     assert mixed.episodes == 2 and dataset_stats(root)["provenance"]["task_ids"] == ["testlab/HoldTube-v1", "testlab/Other-v1"]
+    features = json.loads((root / "meta" / "info.json").read_text())["features"]
+    assert features["observation.state"]["names"] == [*PANDA_JOINTS, "gripper"]  # one robot: its joints
+    assert features["action"]["names"] == [f"{j}_target" for j in PANDA_JOINTS] + ["gripper_open"]
+    both = tmp_path / "both"
+    convert([recording, other_robot], ConvertOptions(repo_id="local/r", root=both, video=False, allow_mixed_robots=True))
+    info = json.loads((both / "meta" / "info.json").read_text())
+    assert info["robot_type"] == "franka_panda,ur5e_robotiq"
+    assert info["features"]["observation.state"]["names"][:2] == ["joint_1", "joint_2"]  # robots mixed: by position
 
 
 def test_existing_dataset_needs_overwrite_and_a_failed_write_keeps_the_old_one(recording: Path, tmp_path: Path, monkeypatch) -> None:

@@ -1,0 +1,54 @@
+"""A task on another robot: home pose, wrist camera and a base pose it reaches from; refusals that
+name the violated limit; the CLI's ``--robot``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipette_cli.demos.embodiment import check_payload, measure_workspace, on_robot, reachable_base
+from pipette_cli.errors import InfeasibleTask, SimError
+from pipette_cli.registry import load_registry
+from pipette_cli.sim.world import World
+from pipette_cli.specs.robot import robot_spec
+
+REGISTRY = load_registry()
+
+
+def test_the_task_s_own_robot_leaves_the_task_unchanged() -> None:
+    task = REGISTRY.get("PickUpTestTube")
+    assert on_robot(task, None) is task
+    assert on_robot(task, "panda") is task
+    assert on_robot(task, "franka_panda") is task
+
+
+def test_another_robot_gets_its_home_pose_wrist_camera_and_a_base_that_reaches() -> None:
+    task = REGISTRY.get("PlaceTubeOnBalance")
+    piper = robot_spec("piper")
+    placed = on_robot(task, "piper")
+    assert placed.embodiment.robot == "agilex_piper"
+    assert placed.embodiment.initial_joints == piper.arm.home
+    assert placed.cameras.wrist.pos == piper.wrist_camera.pos
+    base = np.asarray(placed.embodiment.base.pos)
+    assert base[0] > 0.05 and base[2] == task.embodiment.base.pos[2]  # moved along the bench toward the work
+    tube = np.asarray(placed.object("tube").pose.pos[:2])
+    assert piper.min_reach <= np.linalg.norm(tube - base[:2]) <= piper.top_down_reach  # picked from above
+    assert on_robot(task, "piper") == placed  # deterministic: a replay rebuilds the same scene
+    World(placed)  # builds: nothing interpenetrates, every target within reach
+
+
+def test_an_unknown_robot_is_one_line_listing_the_robots() -> None:
+    with pytest.raises(SimError, match=r"unknown robot 'kuka'.*robots: agilex_piper \(piper\), franka_panda \(panda\), ur5e_robotiq"):
+        on_robot(REGISTRY.get("PickUpTestTube"), "kuka")
+
+
+def test_payload_and_reach_refusals_name_the_limit() -> None:
+    task = on_robot(REGISTRY.get("PlaceFlaskOnShaker"), "panda")
+    space = measure_workspace(task)
+    assert 0.1 < space.carried["flask"] < 1.0
+    weak = robot_spec("panda").model_copy(update={"payload_kg": 0.05})
+    with pytest.raises(InfeasibleTask, match=r"payload: 'flask' weighs 0\.\d\d kg, over the robot's 0\.05 kg payload"):
+        check_payload(task, weak, space)
+    short = robot_spec("panda").model_copy(update={"reach": 0.1, "top_down_reach": 0.1})
+    with pytest.raises(InfeasibleTask, match=r"reach: no base pose on the bench puts every work point"):
+        reachable_base(task, short, space)

@@ -1,0 +1,125 @@
+"""The contract every robot of ``registry/robots/`` keeps (docs/robots.md, "Adding a robot").
+
+Parametrised over every registered robot, so a new ``registry/robots/X.yaml`` is checked without
+editing this file: the menagerie model loads, the home pose is inside the joint limits and free of
+self-collision, the ``tcp`` site exists with the canonical frame, the binary gripper command really
+opens and closes the fingers, IK reaches points well inside the stated reach, and the test-tube pick
+(the skill program of PickUpTestTube, unchanged) succeeds with the robot placed on the bench.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from pipette_cli.demos.check import run_expert_episode
+from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.registry import load_registry
+from pipette_cli.sim.robots import make_robot_spec, match_options
+from pipette_cli.sim.world import World
+from pipette_cli.skills.ik import ArmIK
+from pipette_cli.specs.robot import load_robot_specs, robot_names
+
+ROBOTS = robot_names()
+PREFIX = "r/"
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def robot(request: pytest.FixtureRequest) -> str:
+    return request.param
+
+
+@pytest.fixture(scope="module")
+def tube_world(robot: str) -> World:
+    """PickUpTestTube with ``robot`` placed by ``on_robot`` (its home pose, a base that reaches)."""
+    return World(on_robot(load_registry().get("PickUpTestTube"), robot))
+
+
+def _alone(name: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The robot alone, standing at the origin, arm at home."""
+    spec, config = make_robot_spec(name)
+    scene = mujoco.MjSpec()
+    match_options(spec, scene)
+    scene.attach(spec, prefix=PREFIX, frame=scene.worldbody.add_frame())
+    model = scene.compile()
+    data = mujoco.MjData(model)
+    for joint, value in zip(config.arm_joints, config.home(), strict=True):
+        data.qpos[model.joint(PREFIX + joint).qposadr[0]] = value
+        data.ctrl[model.actuator(PREFIX + config.arm_actuators[config.arm_joints.index(joint)]).id] = value
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def test_model_loads_with_every_named_part(robot: str) -> None:
+    config = load_robot_specs()[robot]
+    model, _ = _alone(robot)
+    for joint in (*config.arm_joints, config.gripper.joint):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, PREFIX + joint) >= 0, joint
+    for actuator in (*config.arm_actuators, config.gripper.actuator):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_ACTUATOR, PREFIX + actuator) >= 0, actuator
+    for body in (config.end_effector.body, config.end_effector.wrist_camera_body):
+        assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, PREFIX + body) >= 0, body
+
+
+def test_home_is_inside_the_joint_limits_and_free_of_self_collision(robot: str) -> None:
+    config = load_robot_specs()[robot]
+    model, data = _alone(robot)
+    for joint, value in zip(config.arm_joints, config.home(), strict=True):
+        j = model.joint(PREFIX + joint)
+        if model.jnt_limited[j.id]:
+            low, high = j.range
+            assert low <= value <= high, f"{joint}: home {value} outside [{low}, {high}]"
+    penetrating = [(model.body(model.geom_bodyid[c.geom1]).name, model.body(model.geom_bodyid[c.geom2]).name)
+                   for c in data.contact[: data.ncon] if c.dist < -1e-3]
+    assert not penetrating, penetrating
+
+
+def test_tcp_frame_points_the_fingers_and_closes_across_them(tube_world: World) -> None:
+    """At home the tool hangs over the bench: z (approach) points down, in front of the base."""
+    world = tube_world
+    world.reset(0)
+    rot = world.tcp_rotation()
+    assert rot[2, 2] < -0.8, f"tcp approach axis {rot[:, 2]} does not point down at home"
+    base = np.asarray(world.task.embodiment.base.pos)
+    assert world.tcp_position()[2] > base[2] + 0.15
+    assert np.linalg.norm(world.tcp_position()[:2] - base[:2]) < world.robot.reach
+
+
+def test_binary_gripper_command_opens_and_closes_the_fingers(tube_world: World) -> None:
+    world = tube_world
+    world.reset(0)
+    home = world.robot.home()
+    low, high = world.gripper_range
+    positions = {}
+    for command in (0.0, 1.0, 0.0):
+        for _ in range(20):  # 0.67 s
+            world.step(np.append(home, command))
+        positions[command] = world.data.qpos[world.gripper_qpos_adr]
+    travel = abs(positions[1.0] - positions[0.0])
+    assert travel > 0.5 * (high - low), f"the fingers moved {travel:.4f} of a {high - low:.4f} range"
+    # "open" is the end of the range that the facts' open control drives toward
+    opens_high = world.robot.gripper.open_ctrl > world.robot.gripper.closed_ctrl
+    assert (positions[1.0] > positions[0.0]) == opens_high
+
+
+@pytest.mark.parametrize(("fraction", "pitch_deg"), [(0.5, 0.0), (0.8, 30.0)])
+def test_ik_reaches_points_well_inside_the_stated_reach(tube_world: World, fraction: float, pitch_deg: float) -> None:
+    """The stated reach is for a grasp 10 cm over the bench with the hand tilted 30 deg away from
+    the robot; half of it is reached pointing straight down."""
+    world = tube_world
+    world.reset(0)
+    base = np.asarray(world.task.embodiment.base.pos)
+    pitch = np.deg2rad(pitch_deg)
+    approach = np.array([np.sin(pitch), 0.0, -np.cos(pitch)])  # down, tipped away from the base
+    across = np.array([0.0, -1.0, 0.0])
+    rot = np.column_stack([np.cross(across, approach), across, approach])
+    target = base + np.array([fraction * world.robot.reach, 0.0, 0.1])
+    solution = ArmIK(world).reachable(target, rot, world.arm_qpos())
+    assert solution.ok(), f"IK misses {target} by {solution.position_error * 1000:.0f} mm"
+
+
+def test_the_test_tube_pick_succeeds(tube_world: World) -> None:
+    verdict, failure = run_expert_episode(tube_world, seed=0)
+    assert failure is None, failure
+    assert verdict.success, verdict.reason
