@@ -18,15 +18,14 @@ from pipette_cli.authoring.layout import PlacedObject
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
 from pipette_cli.authoring.scene import SceneBuilder, r
 from pipette_cli.authoring.stages import Stage, StageBuilder
-from pipette_cli.authoring.validate import DEFAULT_ROBOT, CheckedPlan
+from pipette_cli.authoring.validate import CheckedPlan
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs.expert import StepSpec
 from pipette_cli.specs.mechanisms import MechanismSpec
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 
 CATEGORY = {"pick": "consumable_handling", "position": "consumable_handling", "place": "placement_relocation",
             "remove": "placement_relocation", "open": "hatch_control", "close": "hatch_control", "press": "hatch_control"}
-WRIST = {"agilex_piper": {"mount": "end_effector", "pos": (0.0, 0.07, 0.06), "euler_deg": (180.0, 0.0, 0.0), "fovy_deg": 75}}
-WRIST_DEFAULT = {"mount": "end_effector", "pos": (0.06, 0.0, 0.0), "euler_deg": (180.0, 0.0, -90.0), "fovy_deg": 70}
 
 
 @dataclass
@@ -143,7 +142,7 @@ def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str 
     if multi:
         tags.append("multi-step")
     if robot != DEFAULT_ROBOT:
-        tags.append(robot.split("_")[-1] if robot == "agilex_piper" else robot.split("_")[0])
+        tags.append(next(iter(robot_spec(robot).aliases), robot))
     notes = [("scene.objects", "VERIFY the layout: computed by pipette new-task to be reachable and collision-free at "
                                "reset; render it with pipette sim render."),
              ("success", "VERIFY the thresholds (derived from the assets' geometry, see the comments) against a "
@@ -167,5 +166,5 @@ def _cameras(objects: list[PlacedObject], robot: str) -> dict[str, dict[str, Any
     return {
         "top": {"pos": (r(cx + 0.5, 2), cy, 1.6), "look_at": (cx, cy, 0.6), "fovy_deg": 55},
         "main": {"pos": (r(cx + 0.75, 2), r(cy - 0.75, 2), 1.1), "look_at": (cx, cy, 0.65), "fovy_deg": 45},
-        "wrist": WRIST.get(robot, WRIST_DEFAULT),
+        "wrist": {"mount": "end_effector", **robot_spec(robot).wrist_camera.model_dump()},
     }

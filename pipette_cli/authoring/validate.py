@@ -17,9 +17,8 @@ from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, 
 from pipette_cli.authoring.resolve import Wanted, candidates
 from pipette_cli.authoring.text import normalise, tokenise
 from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
-from pipette_cli.specs.robot import RobotSpec, robot_spec
+from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 
-DEFAULT_ROBOT = "franka_panda"
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 
 
