@@ -27,7 +27,7 @@ BUILTIN_SPECS = [
     for _, cls in inspect.getmembers(spec_module, inspect.isclass)
     if issubclass(cls, EvaluatorSpec)
     and cls.__module__ == spec_module.__name__
-    and "type" in cls.__dict__.get("__annotations__", {})
+    and "type" in inspect.get_annotations(cls)
 ]
 
 
