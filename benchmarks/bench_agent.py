@@ -21,9 +21,9 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from pipette_cli.cli.main import load_catalog
 from pipette_cli.agent.devset import CaseResult, DevCaseSpec, load_dev_set, run_case
 from pipette_cli.agent.offline import OfflineAgent
+from pipette_cli.cli.main import load_catalog
 from pipette_cli.demos.provenance import git_state
 from pipette_cli.registry import load_registry
 

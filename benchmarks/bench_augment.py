@@ -159,7 +159,7 @@ def floor(task, raw: Path, spec: AugmentSpec) -> dict[str, Any]:
     kept = 0
     render_view = rig.render
 
-    def timed_render(data, camera):  # noqa: ANN001, ANN202
+    def timed_render(data, camera):
         nonlocal render
         t0 = time.perf_counter()
         image = render_view(data, camera)
@@ -197,7 +197,7 @@ def make_input(task, demos: int, folder: Path) -> Path:
     return raw
 
 
-def measure(name: str, fn, *args, **kwargs) -> dict[str, Any]:  # noqa: ANN001
+def measure(name: str, fn, *args, **kwargs) -> dict[str, Any]:
     load = os.getloadavg()
     row = fn(*args, **kwargs)
     row["loadavg_before"] = [round(x, 2) for x in load]

@@ -25,13 +25,13 @@ if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie")
     os.environ["MENAGERIE_ROOT"] = str(ROOT.parent / "shared" / "menagerie")
 sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "demos"))
 
+import demo_experts  # noqa: E402
 import h5py  # noqa: E402
 
-import demo_experts  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
+from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, convert  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
-from pipette_cli.demos.provenance import git_state  # noqa: E402
 
 
 def main() -> None:

@@ -21,10 +21,10 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipette_cli.demos.check import check_expert, step_of  # noqa: E402
-from pipette_cli.demos.experts.base import expert_program  # noqa: E402
-from pipette_cli.demos.provenance import git_state  # noqa: E402
-from pipette_cli.registry import load_registry  # noqa: E402
+from pipette_cli.demos.check import check_expert, step_of
+from pipette_cli.demos.experts.base import expert_program
+from pipette_cli.demos.provenance import git_state
+from pipette_cli.registry import load_registry
 
 
 def main() -> None:

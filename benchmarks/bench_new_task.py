@@ -27,13 +27,13 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ruamel.yaml import YAML  # noqa: E402
+from ruamel.yaml import YAML
 
-from pipette_cli.authoring.backends import make_backend  # noqa: E402
-from pipette_cli.authoring.check import check_task  # noqa: E402
-from pipette_cli.authoring.workflow import draft_task, plan_summary  # noqa: E402
-from pipette_cli.demos.provenance import git_state  # noqa: E402
-from pipette_cli.errors import PipetteError  # noqa: E402
+from pipette_cli.authoring.backends import make_backend
+from pipette_cli.authoring.check import check_task
+from pipette_cli.authoring.workflow import draft_task, plan_summary
+from pipette_cli.demos.provenance import git_state
+from pipette_cli.errors import PipetteError
 
 
 def load_cases(path: Path) -> list[dict]:
@@ -51,7 +51,7 @@ def judge(case: dict, backend, solve: bool, episodes: int) -> dict:
         message = " ".join(getattr(exc, "problems", None) or [str(exc)])
         row.update(outcome="refused", message=message,
                    right="refuse" in case and case["refuse"].lower() in message.lower())
-    except Exception as exc:  # noqa: BLE001 - a traceback is a result here
+    except Exception as exc:
         row.update(outcome="traceback", message=f"{type(exc).__name__}: {exc}", right=False,
                    traceback=traceback.format_exc()[-2000:])
     else:

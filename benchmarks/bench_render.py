@@ -38,7 +38,7 @@ from pipette_cli.sim.env import PipetteEnv  # noqa: E402
 from pipette_cli.sim.render import PROFILES, CameraRig  # noqa: E402
 
 
-def triangles(model) -> int:  # noqa: ANN001
+def triangles(model) -> int:
     """Triangles of the mesh geoms the cameras can see (geom groups 0-2)."""
     meshes = [model.geom_dataid[g] for g in range(model.ngeom)
               if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH and model.geom_group[g] <= 2]
@@ -49,7 +49,7 @@ ORIGINAL_MESHES = "fast-original-meshes"
 """The fast profile's render settings with the original meshes: the fast profile before decimation."""
 
 
-def make_env(task, profile: str, size: int) -> PipetteEnv:  # noqa: ANN001
+def make_env(task, profile: str, size: int) -> PipetteEnv:
     if profile != ORIGINAL_MESHES:
         return PipetteEnv(task, image_size=size, render_profile=profile)  # type: ignore[arg-type]
     env = PipetteEnv(task, image_size=size, render=False)  # built with the original meshes

@@ -26,12 +26,12 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "policy"))
 
 import numpy as np  # noqa: E402
+from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
+from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.serving.client import PolicyClient  # noqa: E402
 from pipette_cli.serving.protocol import check_observation, pack, parse_request, unpack  # noqa: E402
 from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: E402
-from pipette_cli.demos.provenance import git_state  # noqa: E402
-from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
 
 
 def _ms(samples: list[float]) -> dict[str, float]:

@@ -48,14 +48,14 @@ from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
 from pipette_cli.evaluation import report  # noqa: E402
-from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.evaluation.evaluate import DecodeConfig  # noqa: E402
 from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
 from pipette_cli.evaluation.significance import ALPHA, Comparison  # noqa: E402
+from pipette_cli.evaluation.suites import RegisteredSuite, episode_plan, load_suites  # noqa: E402
+from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.specs.task import TaskSpec  # noqa: E402
-from pipette_cli.evaluation.suites import RegisteredSuite, episode_plan, load_suites  # noqa: E402
 
 
 @dataclass(frozen=True)
@@ -128,13 +128,13 @@ def run_task(task: TaskSpec, suite: RegisteredSuite, preset: Preset, work: Path,
                                device=preset.device, datasets_root=datasets, output_root=folder / "train",
                                if_exists=IfExists.skip, offline=True, extra=preset.act_flags)
         checkpoint = train_checkpoint(task.id, options, on_train=lambda job: say(
-            f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)"))
+            f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)"))  # noqa: B023  (called at once, in this iteration)
         seconds[f"train_{name}"] = time.perf_counter() - t
         t = time.perf_counter()
         run = TaskRun(task, folder / "eval" / name, tuple(episode_plan(suite.spec, [task.id])[task.id]))
         settings = EvalSettings(DecodeConfig.for_policy("act"), image_size, suite.spec.render_profile, name, suite.record())
         evaluated = evaluate_runs([run], PolicySource(checkpoint=checkpoint, device=preset.device), settings, workers=workers,
-                                  on_start=lambda done, todo: say(f"{task.id}: evaluating ACT on {name}: "
+                                  on_start=lambda done, todo: say(f"{task.id}: evaluating ACT on {name}: "  # noqa: B023  (called at once, in this iteration)
                                                                   f"{done} episodes logged, {todo} to go"))
         summary = evaluated.summaries[task.id]
         seconds[f"eval_{name}"] = time.perf_counter() - t

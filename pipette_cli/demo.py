@@ -188,9 +188,9 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     from pipette_cli.augment.run import augment
     from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
     from pipette_cli.demos.collect import collect
-    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
     from pipette_cli.evaluation.evaluate import DecodeConfig
     from pipette_cli.evaluation.runner import PolicySource, evaluate_task
+    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
     from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 
     if out.exists() and any(out.iterdir()):

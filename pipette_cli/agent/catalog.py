@@ -17,7 +17,6 @@ import types
 import typing
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
-from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -236,7 +235,7 @@ def _kind_and_choices(param: Any, hint: Any) -> tuple[str, tuple[str, ...]]:
     annotation, _ = _annotation(param, hint)
     if param.name in TASK_PARAMS:
         return "task", ()
-    if getattr(param, "is_flag", False) and not getattr(param, "count", False) or annotation is bool:
+    if (getattr(param, "is_flag", False) and not getattr(param, "count", False)) or annotation is bool:
         return "bool", ()
     if isinstance(annotation, type) and issubclass(annotation, enum.Enum):
         return "str", tuple(str(m.value) for m in annotation)

@@ -193,10 +193,10 @@ class OfflineAgent:
             best: tuple[int, ParamInfo] | None = None
             for param in (p for p in numeric if p.name not in taken):
                 names = param.names
-                tests = ((3, param.units, lambda p: phrase_pattern(p).match(after)),
-                         (2, param.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),
+                tests = ((3, param.units, lambda p: phrase_pattern(p).match(after)),  # noqa: B023  (called at once, in this iteration)
+                         (2, param.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),  # noqa: B023  (called at once, in this iteration)
                          (1, names, lambda p: re.search(rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
-                                                        before)))
+                                                        before)))  # noqa: B023  (called at once, in this iteration)
                 for rank, phrases, matcher in tests:
                     if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
                         best = (rank, param)
@@ -268,7 +268,7 @@ class OfflineAgent:
             for path in saved:  # "... and save it to x.yaml" is not part of the description
                 said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(path)}\S*", "", said)
             quoted = _QUOTED.search(said)
-            cues = self.vocab.intents[info.name] if info.name in self.vocab.intents else None
+            cues = self.vocab.intents.get(info.name, None)
             cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
             rest = said[cue.end():] if cue else said
             rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)

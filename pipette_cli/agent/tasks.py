@@ -98,7 +98,7 @@ class TaskIndex:
             def add(words: list[str], kind: str) -> None:
                 for w in self.concepts(" ".join(words)):
                     weight = WEIGHTS[kind] * (0.5 if w in self._actions else 1.0)
-                    terms[w] = max(terms.get(w, 0.0), weight)
+                    terms[w] = max(terms.get(w, 0.0), weight)  # noqa: B023  (called at once, in this iteration)
 
             names = camel_words(short_name(tid))
             add(names, "name")

@@ -21,7 +21,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo, AgentError, Unsupported, is_empty
+from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, StepRef
 from pipette_cli.agent.products import product_of
 from pipette_cli.agent.tasks import short_name, task_in_file_name

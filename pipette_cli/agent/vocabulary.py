@@ -14,9 +14,9 @@ from pathlib import Path
 
 from pydantic import Field, ValidationError
 
+from pipette_cli.errors import SpecError
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
-from pipette_cli.errors import SpecError
 
 VOCABULARY_FILE = Path(__file__).with_name("vocabulary.yaml")
 WEIGHTS = {"phrases": 3, "verbs": 2, "nouns": 1}

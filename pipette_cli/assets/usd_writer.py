@@ -207,7 +207,7 @@ def _define_joint(stage: Usd.Stage, root: Sdf.Path, joint: Joint, bodies: dict[s
     parent, child = bodies[joint.parent], bodies[joint.child]
     prim_joint.CreateBody0Rel().SetTargets([root.AppendChild(parent.name)])
     prim_joint.CreateBody1Rel().SetTargets([root.AppendChild(child.name)])
-    anchor = [a for a in joint.anchor]
+    anchor = list(joint.anchor)
     prim_joint.CreateLocalPos0Attr(_vec3([a - p for a, p in zip(anchor, parent.pos, strict=True)]))
     prim_joint.CreateLocalPos1Attr(_vec3([a - p for a, p in zip(anchor, child.pos, strict=True)]))
     if joint.kind == "fixed":

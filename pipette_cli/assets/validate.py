@@ -253,7 +253,7 @@ def validate_asset(path: Path, category: str | None = None, *, physics: bool = T
     report.problems += semantic_problems(stage, category)
     try:
         load_asset_spec(path).compile()
-    except Exception as exc:  # noqa: BLE001 - report every failure as a problem
+    except Exception as exc:
         report.problems.append(f"mujoco: does not compile: {exc}".replace(f"{path.stem}: ", ""))
         report.seconds = time.perf_counter() - t0
         return report
@@ -263,7 +263,7 @@ def validate_asset(path: Path, category: str | None = None, *, physics: bool = T
                 problems, metrics = sweep_joints(path)
             else:
                 problems, metrics = settle_free(path, _attr(stage, "rest_quat", (1, 0, 0, 0)), bool(_attr(stage, "upright", True)))
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             problems, metrics = [f"physics: test scene failed: {exc}"], {}
         report.problems += problems
         report.metrics.update(metrics)

@@ -12,12 +12,12 @@ from __future__ import annotations
 import logging
 import os
 import signal
-from collections.abc import Callable, Generator, Iterator
+from collections.abc import Callable, Generator
 from typing import Any, Literal
 
 from pipette_cli.augment.pipeline import DemoAugmenter, DemoJob, DemoResult
-from pipette_cli.errors import PipetteError
 from pipette_cli.demos.pool import ordered_pool
+from pipette_cli.errors import PipetteError
 
 log = logging.getLogger(__name__)
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.augment import formulas
+from pipette_cli.augment.simulate import ObjectOffset
 from pipette_cli.augment.specs import (
     CameraPoseSpec,
     JointNoiseSpec,
@@ -24,7 +25,6 @@ from pipette_cli.augment.specs import (
     SpeedSpec,
     VariantSpec,
 )
-from pipette_cli.augment.simulate import ObjectOffset
 from pipette_cli.sim.scene import CAMERA_NAMES
 
 

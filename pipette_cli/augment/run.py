@@ -165,7 +165,7 @@ def augment(
                 parts_dir(path).mkdir(parents=True, exist_ok=True)
             runs = run_jobs(kwargs, jobs, executor=executor, workers=workers or default_workers(), stop=stop, address=address)
             try:
-                for job, outcome in runs:
+                for _job, outcome in runs:
                     if outcome is None:
                         result.interrupted = True
                         break

@@ -53,7 +53,6 @@ class Workspace:
 
     @classmethod
     def of(cls, robot: str) -> Workspace:
-        from pipette_cli.specs.robot import robot_spec
 
         facts = robot_spec(robot)
         low, high = facts.min_reach + INNER_MARGIN, facts.reach - OUTER_MARGIN

@@ -16,7 +16,6 @@ import mujoco
 import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
-from pipette_cli.sim.scene import collision_boxes
 
 FREE_CATEGORIES = ("tools", "consumables")
 

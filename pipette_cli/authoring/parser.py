@@ -17,7 +17,12 @@ from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
 from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, PlanThresholdsSpec, TaskPlanSpec
 from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
 from pipette_cli.authoring.text import (
-    extract_robots, extract_thresholds, has_negation, normalise, split_steps, tokenise,
+    extract_robots,
+    extract_thresholds,
+    has_negation,
+    normalise,
+    split_steps,
+    tokenise,
 )
 from pipette_cli.authoring.vocabulary import Vocabulary
 
@@ -171,15 +176,13 @@ class Builder:
         if clause.implied_target and not targets:
             implied = Mention(0, 0, clause.implied_target, clause.implied_target)
             targets.append((self.obj(implied, clause, "holder", taken), None))
-        if overs and not dests or (action == "position"):
+        if (overs and not dests) or (action == "position"):
             action = "position"
         elif targets:
             action = "place"
         elif action == "place" and self._dangling_dest(clause) and not on_bench:
             targets.append((self.pronoun("holder", clause), None))
-        elif action == "pick" and source is not None and sources[0].prep_phrase in REMOVING:
-            action = "remove"
-        elif action == "place" and (on_bench or source is not None):
+        elif (action == "pick" and source is not None and sources[0].prep_phrase in REMOVING) or (action == "place" and (on_bench or source is not None)):
             action = "remove"
         elif action == "place" and not on_bench and self._opened():
             targets.append((self._opened()[-1], None))  # "open the cycler, load the plate, close it"
@@ -320,7 +323,7 @@ def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
             if clause.action is None or clause.verb == phrase:
                 raise PlanError(f"cannot '{phrase}': {groups[group].reason}", final=True)
         leftover = " ".join(clause.unknown)  # "the buffer bottle" names a bottle: moving it is fine
-        for group, spec in groups.items():
+        for spec in groups.values():
             for word in spec.words:
                 if re.search(rf"\b{re.escape(word)}\b", leftover):
                     raise PlanError(f"'{word}': {spec.reason}", final=True)

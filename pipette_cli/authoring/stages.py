@@ -27,7 +27,13 @@ from pipette_cli.authoring.layout import Footprint, PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
 from pipette_cli.authoring.scene import (
-    HANDLES, SceneBuilder, covered, hatch_joint, open_value, r, receiving_site,
+    HANDLES,
+    SceneBuilder,
+    covered,
+    hatch_joint,
+    open_value,
+    r,
+    receiving_site,
 )
 from pipette_cli.authoring.validate import separate_lid
 from pipette_cli.authoring.vocabulary import load_vocabulary
@@ -129,7 +135,7 @@ class StageBuilder:
         item, dest = step.object, step.required_target()
         igeom, dgeom = self.geom(item), self.scene.geoms.get(dest) or self.geom(dest)
         site = receiving_site(dgeom, step.part, self.placed[item].asset)
-        if site is None or "lid_seat" in dgeom.sites and site != "lid_seat":
+        if site is None or ("lid_seat" in dgeom.sites and site != "lid_seat"):
             raise PlanError(f"impossible request: the {self.human(dest)} has no surface, slot or opening to put the "
                             f"{self.human(item)} in or on")
         take = self._take(item)

@@ -27,7 +27,7 @@ from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_p
 from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
 from pipette_cli.errors import SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
-from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_names
+from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 

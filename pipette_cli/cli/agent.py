@@ -12,7 +12,7 @@ from rich.table import Table
 
 from pipette_cli.agent.answers import Answer, answer
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, cli_catalog, render_args, say_missing
-from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec, StepRef, plain
+from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepRef, StepSpec, plain
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry

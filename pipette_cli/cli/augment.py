@@ -11,10 +11,24 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from pipette_cli.augment.specs import (
-    AugmentSpec, CameraPoseSpec, JointNoiseSpec, LightingSpec, ObjectPoseSpec, SpeedSpec, default_atoms, make_variants,
+    AugmentSpec,
+    CameraPoseSpec,
+    JointNoiseSpec,
+    LightingSpec,
+    ObjectPoseSpec,
+    SpeedSpec,
+    default_atoms,
+    make_variants,
 )
 from pipette_cli.cli.common import (
-    STATE, RobotOption, err_console, load_task, out_console, print_json, spec_default, spec_help,
+    STATE,
+    RobotOption,
+    err_console,
+    load_task,
+    out_console,
+    print_json,
+    spec_default,
+    spec_help,
 )
 from pipette_cli.errors import PipetteError, SpecError
 
@@ -111,7 +125,7 @@ def augment(
         progress.update(bar, total=todo)
         progress.start()
 
-    def finished(result) -> None:  # noqa: ANN001
+    def finished(result) -> None:
         nonlocal kept, tried
         kept += sum(o.kept for o in result.outcomes)
         tried += len(result.outcomes)

@@ -11,7 +11,6 @@ from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.errors import PipetteError
 
 BACKEND_HELP = "offline (default: a deterministic parser), openai (OpenAI-compatible server) or ollama."
 

@@ -8,8 +8,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel
 import typer
+from pydantic import BaseModel
 from rich.console import Console
 
 if TYPE_CHECKING:

@@ -39,7 +39,8 @@ def convert(
     """
     from pipette_cli.demos.store import scan
     from pipette_cli.errors import DatasetError
-    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert as run_convert, default_root, slug
+    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
+    from pipette_cli.lerobot.convert import convert as run_convert
 
     try:
         version = DatasetVersion(dataset_version)
@@ -107,7 +108,7 @@ def stats(
     for column in ("feature", "dtype", "shape", "min", "max"):
         table.add_column(column)
     for name, f in report["features"].items():
-        fmt = lambda v: "-" if v is None else " ".join(f"{x:.3g}" for x in v)  # noqa: E731
+        fmt = lambda v: "-" if v is None else " ".join(f"{x:.3g}" for x in v)
         table.add_row(name, f["dtype"], "x".join(map(str, f["shape"])), fmt(f.get("min")), fmt(f.get("max")))
     out_console.print(table)
     prov = report.get("provenance")

@@ -26,17 +26,18 @@ from pipette_cli import __version__
 from pipette_cli.agent.catalog import CommandCatalog, cli_catalog
 from pipette_cli.cli import agent as agent_cli
 from pipette_cli.cli import assets as assets_cli
+from pipette_cli.cli import augment as augment_cli
+from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
+from pipette_cli.cli import collect as collect_cli
+from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
+from pipette_cli.cli import data as data_cli
 from pipette_cli.cli import demo as demo_cli
 from pipette_cli.cli import evaluate as evaluate_cli
 from pipette_cli.cli import experts as experts_cli
-from pipette_cli.cli import authoring as authoring_cli  # also adds `assets new`
-from pipette_cli.cli import collect as collect_cli, data as data_cli
-from pipette_cli.cli import convert as convert_cli  # also adds `data stats`
 from pipette_cli.cli import serve as serve_cli
 from pipette_cli.cli import sim as sim_cli
 from pipette_cli.cli import tasks as tasks_cli
 from pipette_cli.cli import train as train_cli
-from pipette_cli.cli import augment as augment_cli
 from pipette_cli.cli.common import STATE, err_console
 from pipette_cli.errors import PipetteError
 

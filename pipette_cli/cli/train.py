@@ -44,7 +44,13 @@ def train(
     from pipette_cli.errors import DatasetError
     from pipette_cli.lerobot.convert import DatasetVersion
     from pipette_cli.lerobot.train import (
-        TrainError, TrainOptions, lerobot_train_executable, missing_datasets, plan, resolve_tasks, run_job,
+        TrainError,
+        TrainOptions,
+        lerobot_train_executable,
+        missing_datasets,
+        plan,
+        resolve_tasks,
+        run_job,
     )
     from pipette_cli.registry import load_registry
 

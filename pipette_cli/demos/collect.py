@@ -32,6 +32,7 @@ import numpy as np
 
 from pipette_cli.demos.check import EXPERT_FAILED
 from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
+from pipette_cli.demos.pool import ordered_pool
 from pipette_cli.demos.provenance import model_sha256, provenance
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeSummary, EpisodeWriter, commit_tmp, sim_state
 from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan
@@ -39,7 +40,6 @@ from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.specs.task import TaskSpec
-from pipette_cli.demos.pool import ordered_pool
 
 log = logging.getLogger(__name__)
 

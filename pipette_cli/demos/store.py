@@ -28,9 +28,9 @@ from pipette_cli.demos.recorder import (
     EPISODES,
     DatasetInfo,
     EpisodeSummary,
-    fsync_dir,
     commit_tmp,
     episode_name,
+    fsync_dir,
     fsync_file,
     read_summary,
 )

@@ -33,8 +33,8 @@ from pipette_cli.demos.recorder import write_json_atomic
 from pipette_cli.errors import DatasetError
 from pipette_cli.evaluation.evaluate import DecodeConfig, EpisodeLog
 from pipette_cli.evaluation.significance import wilson_interval
-from pipette_cli.specs.task import TaskSpec
 from pipette_cli.evaluation.suites import EpisodePlan
+from pipette_cli.specs.task import TaskSpec
 
 RUN_FORMAT = "pipette.eval/1"
 MANIFEST_FILE = "run.json"

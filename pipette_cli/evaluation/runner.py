@@ -35,7 +35,6 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
 from pipette_cli.evaluation.evaluate import (
     ActionSource,
     DecodeConfig,
@@ -53,10 +52,11 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
+from pipette_cli.evaluation.suites import EpisodePlan
+from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import gl_info
 from pipette_cli.specs.task import TaskSpec
-from pipette_cli.evaluation.suites import EpisodePlan
 
 log = logging.getLogger(__name__)
 

@@ -16,6 +16,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from pipette_cli.errors import EvaluatorError, suggest
+from pipette_cli.plugins import Plugins
 from pipette_cli.specs.evaluators import EvaluatorSpec
 
 
@@ -107,19 +108,12 @@ class Evaluator(Protocol):
 
 
 EvaluatorFactory = Callable[[Any], Evaluator]  # takes the spec of the type it is registered under
-_FACTORIES: dict[str, EvaluatorFactory] = {}
+EVALUATOR_RUNTIMES: Plugins[EvaluatorFactory] = Plugins("evaluator runtime", EvaluatorError)
 
 
 def register(type_name: str) -> Callable[[EvaluatorFactory], EvaluatorFactory]:
     """Decorator: register the runtime class (or factory) for spec type ``type_name``."""
-
-    def decorate(factory: EvaluatorFactory) -> EvaluatorFactory:
-        if type_name in _FACTORIES and _FACTORIES[type_name] is not factory:
-            raise EvaluatorError(f"evaluator {type_name!r} is already registered")
-        _FACTORIES[type_name] = factory
-        return factory
-
-    return decorate
+    return EVALUATOR_RUNTIMES.register(type_name)
 
 
 def make_evaluator(spec: EvaluatorSpec) -> Evaluator:
@@ -129,16 +123,13 @@ def make_evaluator(spec: EvaluatorSpec) -> Evaluator:
         EvaluatorError: no runtime is registered for ``spec.type`` (never a silent success).
     """
     _load_builtins()
-    factory = _FACTORIES.get(spec.type)
-    if factory is None:
-        raise EvaluatorError(f"no evaluator runtime for type {spec.type!r}; {suggest(spec.type, _FACTORIES)}")
-    return factory(spec)
+    return EVALUATOR_RUNTIMES.get(spec.type)(spec)
 
 
 def registered_types() -> list[str]:
     """Names of every evaluator type that has a runtime, built-in families included."""
     _load_builtins()
-    return sorted(_FACTORIES)
+    return EVALUATOR_RUNTIMES.names()
 
 
 def _load_builtins() -> None:

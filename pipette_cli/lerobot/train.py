@@ -304,7 +304,7 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
     with job.log_file.open("a", encoding="utf-8") as log:
         log.write(f"# pipette train {job.task_id}: {' '.join(job.argv)}\n")
         log.flush()
-        proc = subprocess.Popen(  # noqa: S603 - argv list, no shell
+        proc = subprocess.Popen(
             list(job.argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True, bufsize=1,
         )
         try:

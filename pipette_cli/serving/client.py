@@ -58,7 +58,7 @@ class PolicyRequestError(ServingError):
         field: The request field at fault, if any.
     """
 
-    def __init__(self, type: str, message: str, field: str | None = None) -> None:  # noqa: A002
+    def __init__(self, type: str, message: str, field: str | None = None) -> None:
         self.type = type
         self.field = field
         super().__init__(f"policy server: {type}: {message}")

@@ -49,7 +49,7 @@ class ErrorType(StrEnum):
 class ProtocolError(ServingError):
     """A request the server rejects; becomes an error reply of type :attr:`type`."""
 
-    def __init__(self, type: ErrorType, message: str, field: str | None = None) -> None:  # noqa: A002
+    def __init__(self, type: ErrorType, message: str, field: str | None = None) -> None:
         self.type = ErrorType(type)
         self.field = field
         super().__init__(f"{field}: {message}" if field else message)

@@ -20,7 +20,6 @@ from gymnasium import spaces
 from pipette_cli.sim.env import Observation, PipetteEnv
 from pipette_cli.sim.render import Profile
 
-
 STATE_MARGIN = 0.05
 """Radians (metres for slides) by which observed joints may pass their limits."""
 

@@ -18,8 +18,9 @@ from typing import TYPE_CHECKING, ClassVar, Protocol
 import mujoco
 import numpy as np
 
-from pipette_cli.errors import SimError, suggest
+from pipette_cli.errors import SimError
 from pipette_cli.evaluators.base import MechanismState
+from pipette_cli.plugins import Plugins
 from pipette_cli.specs.mechanisms import ButtonReleaseSpec, MechanismSpec
 
 if TYPE_CHECKING:
@@ -161,23 +162,21 @@ class ButtonRelease:
 
 
 MechanismFactory = Callable[[MechanismSpec, "World"], Mechanism]
-_FACTORIES: dict[str, MechanismFactory] = {"button_release": ButtonRelease}  # type: ignore[dict-item]
+MECHANISM_RUNTIMES: Plugins[MechanismFactory] = Plugins("mechanism runtime", SimError)
+MECHANISM_RUNTIMES.add("button_release", ButtonRelease)  # type: ignore[arg-type]  # a class is its factory
 
 
 def register_mechanism_runtime(type_name: str, factory: MechanismFactory) -> None:
     """Register the runtime for a mechanism spec type (third-party mechanisms). A factory that keeps
     state declares its slots as ``MEMORY`` (names) or ``memory_size(spec)`` and asks the world for
     them with ``world.mechanism_memory(spec.name, names)``."""
-    _FACTORIES[type_name] = factory
+    MECHANISM_RUNTIMES.add(type_name, factory)
 
 
 def _factory(spec: MechanismSpec) -> MechanismFactory:
     import pipette_cli.sim.instruments  # noqa: F401  (registers the instrument runtime)
 
-    factory = _FACTORIES.get(spec.type)
-    if factory is None:
-        raise SimError(f"no runtime for mechanism type {spec.type!r}; {suggest(spec.type, _FACTORIES)}")
-    return factory
+    return MECHANISM_RUNTIMES.get(spec.type)
 
 
 def memory_size(spec: MechanismSpec) -> int:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "augment"))
-from raw_demo import raw_demo  # noqa: E402
+from raw_demo import raw_demo
 
 pytestmark = pytest.mark.render
 HOLD_REGISTRY = Path(__file__).resolve().parents[1] / "fixtures" / "demos" / "registry"

@@ -49,7 +49,7 @@ def captured(monkeypatch: pytest.MonkeyPatch) -> dict:
     """Replace loading and running the policy: record the decoding config eval chose."""
     seen: dict = {}
 
-    def fake_evaluate_runs(runs, source, settings, **kwargs):  # noqa: ANN001, ANN003, ANN202
+    def fake_evaluate_runs(runs, source, settings, **kwargs):
         seen["policy_type"] = settings.config.policy_type
         task = runs[0].task.id
         return lerobot_runner.EvalResult({task: {"task": task, "policy_type": settings.config.policy_type, "episodes": 1,

@@ -13,7 +13,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "policy"))
 
-from tiny_policy import make_tiny_act, observation  # noqa: E402
+from tiny_policy import make_tiny_act, observation
 
 pytestmark = pytest.mark.timeout(60)
 

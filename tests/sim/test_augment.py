@@ -180,7 +180,7 @@ def test_views_shared_by_variants_of_the_same_physics_are_rendered_once(task, tm
     rendered: list[str] = []
     real_render = CameraRig.render
 
-    def counting(self, data, camera):  # noqa: ANN001, ANN202
+    def counting(self, data, camera):
         rendered.append(camera)
         return real_render(self, data, camera)
 

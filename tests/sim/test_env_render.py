@@ -68,7 +68,7 @@ def test_gymnasium_make_and_env_checker(task_id: str) -> None:
         assert set(obs["pixels"]) == {"top", "main", "wrist"}
         obs2, _ = env.reset(seed=3)
         np.testing.assert_array_equal(obs["pixels"]["main"], obs2["pixels"]["main"])
-        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        obs, reward, _terminated, truncated, info = env.step(env.action_space.sample())
         assert reward == 0.0 and not truncated and "is_success" in info
     finally:
         env.close()

@@ -21,9 +21,9 @@ from tiny_policy import FeedbackSource, FixedRunner  # noqa: E402
 
 from pipette_cli.evaluation.evaluate import DecodeConfig, ServerLost  # noqa: E402
 from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
-from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: E402
-from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.evaluation.suites import episode_plan, load_suites  # noqa: E402
+from pipette_cli.registry import load_registry  # noqa: E402
+from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: E402
 
 pytestmark = [pytest.mark.render, pytest.mark.timeout(300)]
 DIRS = [FIXTURES / "demos" / "registry", FIXTURES / "eval" / "registry"]

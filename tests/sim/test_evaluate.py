@@ -44,7 +44,7 @@ class Scripted:
     def __init__(self, action: np.ndarray, *, chunk: int = 0, fail_after: int | None = None) -> None:
         self.action, self.chunk, self.fail_after, self.calls = action, chunk, fail_after, 0
 
-    def act(self, observation, *, task, reset, chunk):  # noqa: ANN001, ANN201
+    def act(self, observation, *, task, reset, chunk):
         self.calls += 1
         assert observation["observation.images.top"].shape == (3, 24, 24) and task == TASK.instruction
         if self.fail_after is not None and self.calls > self.fail_after:

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from pipette_cli.demos.check import EXPERT_FAILED, check_expert, run_expert_episode
-from pipette_cli.demos.experts.base import expert_program, find_expert, register_expert
 from pipette_cli.demos.experts import base as experts
+from pipette_cli.demos.experts.base import expert_program, find_expert, register_expert
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.world import World

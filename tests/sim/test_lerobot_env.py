@@ -30,7 +30,7 @@ def test_lerobot_discovers_the_plugin_and_builds_the_env() -> None:
         }
         assert vec.call("task_description")[0].startswith("Put the Erlenmeyer flask")
         assert vec.call("_max_episode_steps")[0] == 20 * 30 + 1
-        _, reward, terminated, truncated, info = vec.step(np.asarray(obs["agent_pos"], dtype=np.float32))
+        _, reward, terminated, _truncated, _info = vec.step(np.asarray(obs["agent_pos"], dtype=np.float32))
         assert reward[0] == 0.0 and not terminated[0]
     finally:
         vec.close()

@@ -17,11 +17,11 @@ import zmq
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "policy"))
 
-from tiny_policy import ConstantRunner, make_tiny_act, observation  # noqa: E402
+from tiny_policy import ConstantRunner, make_tiny_act, observation
 
-from pipette_cli.serving.client import PolicyClient, PolicyRequestError, PolicyTimeout  # noqa: E402
-from pipette_cli.serving.protocol import ErrorType, pack, unpack  # noqa: E402
-from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread  # noqa: E402
+from pipette_cli.serving.client import PolicyClient, PolicyRequestError, PolicyTimeout
+from pipette_cli.serving.protocol import ErrorType, pack, unpack
+from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread
 
 pytestmark = pytest.mark.timeout(60)
 

@@ -16,8 +16,16 @@ from pipette_cli.registry import load_registry
 from pipette_cli.sim.world import World
 from pipette_cli.skills.program import ProgramExpert
 from pipette_cli.specs.expert import (
-    CloseHingeSpec, InsertIntoSpec, MoveSpec, PickSpec, PlaceOnSpec, PositionOverSpec, PressSpec, RemoveFromSpec,
-    RetreatSpec, SlideSpec, StepSpec, TiltSpec, WaitSpec,
+    CloseHingeSpec,
+    MoveSpec,
+    PickSpec,
+    PositionOverSpec,
+    PressSpec,
+    RemoveFromSpec,
+    RetreatSpec,
+    StepSpec,
+    TiltSpec,
+    WaitSpec,
 )
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "skills"

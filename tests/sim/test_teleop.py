@@ -51,7 +51,7 @@ def test_translation_key_moves_target_and_tcp_by_8_mm(env: PipetteEnv) -> None:
     action = _press(teleop, env, "W")
     np.testing.assert_allclose(teleop.target_pos - p0, [0.008, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(teleop.target_quat, q0, atol=1e-12)
-    fk_pos, fk_rot = teleop.ik.tcp_pose(action[:-1])  # the joint targets put the tcp on the target
+    fk_pos, _fk_rot = teleop.ik.tcp_pose(action[:-1])  # the joint targets put the tcp on the target
     np.testing.assert_allclose(fk_pos - p0, [0.008, 0.0, 0.0], atol=2e-5)
     for _ in range(30):
         env.step(action)

@@ -18,13 +18,13 @@ import typer
 
 from pipette_cli.agent.answers import answer
 from pipette_cli.agent.catalog import AgentError, Unsupported, read_catalog
-from pipette_cli.cli.main import load_catalog
 from pipette_cli.agent.devset import canonical, load_dev_set, run_case, step_lines
 from pipette_cli.agent.llm import LLMAgent, plan_schema
 from pipette_cli.agent.offline import OfflineAgent
 from pipette_cli.agent.plan import Context, PlanSpec, StepRef
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import load_vocabulary
+from pipette_cli.cli.main import load_catalog
 from pipette_cli.errors import BackendError
 from pipette_cli.llm import forget_formats
 from pipette_cli.registry import load_registry

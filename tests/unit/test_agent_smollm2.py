@@ -19,9 +19,9 @@ import pytest
 from pydantic import BaseModel, ConfigDict
 
 from pipette_cli.agent.catalog import Unsupported
-from pipette_cli.cli.main import load_catalog
 from pipette_cli.agent.llm import LLMAgent
 from pipette_cli.agent.plan import CheckedPlan
+from pipette_cli.cli.main import load_catalog
 from pipette_cli.errors import BackendError, PipetteError
 from pipette_cli.llm import ask_structured, forget_formats, make_client
 from pipette_cli.llm.local import local_llama_server

@@ -59,7 +59,7 @@ def test_specs_dispatch_on_type_and_scale_down() -> None:
 
 
 def test_yield_report_counts_attempts_kept_and_reasons() -> None:
-    outcome = lambda v, m, kept, reason="": {"variant": v, "magnitude": m, "kept": kept, "reason": reason}  # noqa: E731
+    outcome = lambda v, m, kept, reason="": {"variant": v, "magnitude": m, "kept": kept, "reason": reason}
     demos = {
         "a": {"status": "ok", "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", False, "dropped")]},
         "b": {"status": "ok", "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", True)]},
@@ -74,7 +74,7 @@ def test_yield_report_counts_attempts_kept_and_reasons() -> None:
 
 
 def test_yield_report_says_at_which_stage_rejected_variants_of_a_protocol_failed() -> None:
-    outcome = lambda kept, stage, reason="": {"variant": "object", "magnitude": "xy=0.02", "kept": kept,  # noqa: E731
+    outcome = lambda kept, stage, reason="": {"variant": "object", "magnitude": "xy=0.02", "kept": kept,
                                               "reason": reason, "stage": stage}
     demos = {
         "a": {"status": "ok", "outcomes": [outcome(False, 0, "rotor_loaded.tube_unmet"), outcome(True, 4)]},

@@ -14,8 +14,8 @@ from pipette_cli.evaluation.evaluate import DecodeConfig, EpisodeLog, stage_prog
 from pipette_cli.evaluation.report import _label_lines, bar_chart, build_report, load_runs, markdown, to_json
 from pipette_cli.evaluation.results import make_manifest, prepare_folder, summarize, write_episode, write_summary
 from pipette_cli.evaluation.significance import compare, fisher_exact, holm, mcnemar_exact, wilson_interval
-from pipette_cli.registry import load_registry
 from pipette_cli.evaluation.suites import adhoc_plan
+from pipette_cli.registry import load_registry
 
 TASK = load_registry().get("PickUpTestTube")
 
@@ -74,7 +74,7 @@ def test_a_run_folder_resumes_only_the_same_plan(tmp_path) -> None:
     folder = run_folder(tmp_path / "r", [True, False, True])
     plan = adhoc_plan(TASK, 3, 100)
 
-    def manifest(**change):  # noqa: ANN003, ANN202
+    def manifest(**change):
         base = dict(suite=None, image_size=64, render_profile="fast", policy={"kind": "server", "endpoints": ["tcp://b:2"]},
                     config=DecodeConfig.for_policy("act"), dataset_version="raw")
         return make_manifest(TASK, change.pop("plan", plan), **{**base, **change})

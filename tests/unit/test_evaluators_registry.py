@@ -27,7 +27,7 @@ BUILTIN_SPECS = [
     for _, cls in inspect.getmembers(spec_module, inspect.isclass)
     if issubclass(cls, EvaluatorSpec)
     and cls.__module__ == spec_module.__name__
-    and "type" in cls.__dict__.get("__annotations__", {})
+    and "type" in inspect.get_annotations(cls)
 ]
 
 
@@ -75,7 +75,7 @@ def _minimal(spec_cls: type[EvaluatorSpec]) -> EvaluatorSpec:
 
 def test_unknown_type_is_an_error_with_a_suggestion() -> None:
     with pytest.raises(
-        EvaluatorError, match="no evaluator runtime for type 'lift_and_hol'; did you mean 'lift_and_hold'"
+        EvaluatorError, match="unknown evaluator runtime 'lift_and_hol'; did you mean 'lift_and_hold'"
     ):
         make_evaluator(EvaluatorSpec(type="lift_and_hol"))
 
@@ -90,7 +90,7 @@ def test_a_spec_without_runtime_inside_a_composite_is_an_error() -> None:
 
 
 def test_registering_another_runtime_under_a_taken_name_is_an_error() -> None:
-    with pytest.raises(EvaluatorError, match="already registered"):
+    with pytest.raises(EvaluatorError, match="defined twice"):
         register("lift_and_hold")(lambda spec: LiftAndHold(spec))
     assert register("lift_and_hold")(LiftAndHold) is LiftAndHold  # the same one again is fine
 

@@ -89,7 +89,6 @@ def test_programs_derived_from_criteria() -> None:
 
 def test_a_sequence_criterion_chains_its_stages_programs() -> None:
     from pipette_cli.registry import load_registry
-
     from pipette_cli.specs.evaluators import SequenceSpec
 
     task = load_registry().get("PlaceTubeOnBalance")

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from pipette_cli.errors import SpecError, SuiteNotFound
+from pipette_cli.evaluation.suites import episode_plan, load_suite_file, load_suites
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.suite import DEFAULT_EPISODES
-from pipette_cli.evaluation.suites import episode_plan, load_suite_file, load_suites
 
 FIXTURES = Path(__file__).parents[1] / "fixtures"
 REGISTRY = load_registry()

@@ -13,7 +13,15 @@ import pytest
 
 from pipette_cli.lerobot.convert import DatasetVersion
 from pipette_cli.lerobot.train import (
-    LAST_CHECKPOINT, IfExists, Policy, TrainError, TrainOptions, parse_train_config, plan, run_job, train_argv,
+    LAST_CHECKPOINT,
+    IfExists,
+    Policy,
+    TrainError,
+    TrainOptions,
+    parse_train_config,
+    plan,
+    run_job,
+    train_argv,
 )
 
 TASK = "pipette/PickUpTestTube-v1"

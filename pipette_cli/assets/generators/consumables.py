@@ -7,8 +7,8 @@ from common catalogue values (empty vessels unless a fill is named).
 from __future__ import annotations
 
 import math
-from typing import Any
 from functools import partial
+from typing import Any
 
 from pipette_cli.assets import geometry as g
 from pipette_cli.assets import parts as p

@@ -242,7 +242,7 @@ def drying_rack() -> AssetDef:
     p.solid_box(base, "board", (0.03, 0.45, 0.50), (0.0, 0, 0.25), p.WHITE_PLASTIC, 0.005)
     p.solid_box(base, "drip_tray", (0.12, 0.45, 0.02), (-0.045, 0, 0.01), p.WHITE_PLASTIC)
     k = 0
-    for row, z in enumerate((0.12, 0.22, 0.32, 0.42)):
+    for _row, z in enumerate((0.12, 0.22, 0.32, 0.42)):
         for col in range(6):
             y = -0.19 + col * 0.076
             mesh = g.cylinder(0.004, 0.08, (0, 0, 0), 10).moved((-0.05, y, z + 0.02), g.rotation("y", -70))

@@ -12,22 +12,16 @@ import pkgutil
 from collections.abc import Callable
 
 from pipette_cli.authoring.backends.base import AuthoringBackend
-from pipette_cli.errors import BackendError, suggest
+from pipette_cli.errors import BackendError
+from pipette_cli.plugins import Plugins
 
 BackendFactory = Callable[..., AuthoringBackend]
-_BACKENDS: dict[str, BackendFactory] = {}
+BACKENDS: Plugins[BackendFactory] = Plugins("backend", BackendError)
 
 
 def register_backend(name: str) -> Callable[[BackendFactory], BackendFactory]:
     """Register a factory ``(**options) -> AuthoringBackend`` under ``name``."""
-
-    def decorate(factory: BackendFactory) -> BackendFactory:
-        if name in _BACKENDS and _BACKENDS[name] is not factory:
-            raise ValueError(f"authoring backend {name!r} is already registered")
-        _BACKENDS[name] = factory
-        return factory
-
-    return decorate
+    return BACKENDS.register(name)
 
 
 def _load() -> None:
@@ -38,7 +32,7 @@ def _load() -> None:
 
 def backend_names() -> list[str]:
     _load()
-    return sorted(_BACKENDS)
+    return BACKENDS.names()
 
 
 def make_backend(name: str, **options: object) -> AuthoringBackend:
@@ -48,9 +42,7 @@ def make_backend(name: str, **options: object) -> AuthoringBackend:
         BackendError: unknown backend, with the known ones.
     """
     _load()
-    if name not in _BACKENDS:
-        raise BackendError(f"unknown backend {name!r}; {suggest(name, _BACKENDS)}")
-    return _BACKENDS[name](**{k: v for k, v in options.items() if v is not None})
+    return BACKENDS.get(name)(**{k: v for k, v in options.items() if v is not None})
 
 
 __all__ = ["AuthoringBackend", "backend_names", "make_backend", "register_backend"]

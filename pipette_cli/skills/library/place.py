@@ -106,7 +106,7 @@ def _reachable_spot(ctx: SkillContext, name: str, surface_point: np.ndarray, lif
         toward = ctx.base - surface_point
         toward[2] = 0.0
         toward /= np.linalg.norm(toward) + 1e-12
-    for k in range(0, SHIFTS + 1):
+    for k in range(SHIFTS + 1):
         point = surface_point + k * SHIFT_STEP * toward
         if k and not _same_surface(ctx, point, surface_point[2], half, skip):
             break
@@ -250,4 +250,4 @@ def move(ctx: SkillContext, step: MoveSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-__all__ = ["put_down", "resolve_target", "CLOSED", "tool_frame", "unit"]
+__all__ = ["CLOSED", "put_down", "resolve_target", "tool_frame", "unit"]
