@@ -22,7 +22,7 @@ from pipette_cli.specs.expert import CloseHingeSpec, PressSpec, WaitSpec
 from pipette_cli.specs.task import stage_specs
 
 REGISTRY = load_registry()
-RUN = "protocols/CentrifugeRun-v1"  # tube loaded, lid open: close, start, wait for the run, open
+RUN = "protocols/SpinLoadedMicrocentrifuge-v1"  # tube loaded, lid open: close, start, wait for the run, open
 
 
 def test_start_pressed_before_the_lid_is_closed_does_not_count() -> None:
@@ -47,7 +47,7 @@ def test_start_pressed_before_the_lid_is_closed_does_not_count() -> None:
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One scripted CentrifugeRun episode written by the real recorder (physics only)."""
+    """One scripted SpinLoadedMicrocentrifuge episode written by the real recorder (physics only)."""
     task = REGISTRY.get(RUN)
     env = PipetteEnv(task, render=False)
     path = tmp_path_factory.mktemp("protocol") / "episode_000000.h5"
