@@ -48,22 +48,28 @@ def score(name: str, planner, cases: list[DevCaseSpec], *, verbose: bool) -> dic
         if chosen:
             by_kind[kind] = {"right": sum(r.right for r in chosen), "total": len(chosen)}
     return {
-        "backend": name, "requests": len(results), "right": sum(r.right for r in results),
+        "backend": name,
+        "requests": len(results),
+        "right": sum(r.right for r in results),
         "share_right": sum(r.right for r in results) / max(len(results), 1),
         "tracebacks": sum(r.crashed for r in results),
         "refused": sum(r.error is not None and not r.crashed for r in results),
         "seconds_per_request": sum(r.seconds for r in results) / max(len(results), 1),
         "by_kind": by_kind,
-        "wrong": [{"request": r.case.request, "got": r.got, "missing": r.missing, "error": (r.error or "")[:300]}
-                  for r in results if not r.right],
+        "wrong": [
+            {"request": r.case.request, "got": r.got, "missing": r.missing, "error": (r.error or "")[:300]}
+            for r in results
+            if not r.right
+        ],
     }
 
 
 def llm_rows(url: str, model: str, attempts: int, cases: list[DevCaseSpec], verbose: bool) -> dict:
     from pipette_cli.agent.llm import LLMAgent
 
-    agent = LLMAgent("openai", load_catalog(), load_registry(), base_url=url, model=model, max_attempts=attempts,
-                     timeout_s=300)
+    agent = LLMAgent(
+        "openai", load_catalog(), load_registry(), base_url=url, model=model, max_attempts=attempts, timeout_s=300
+    )
     traces: list[list[str]] = []
 
     class Traced:
@@ -76,10 +82,17 @@ def llm_rows(url: str, model: str, attempts: int, cases: list[DevCaseSpec], verb
                 traces.append(list(agent.trace))
 
     row = score(f"llm ({model})", Traced(), cases, verbose=verbose)
-    outcomes = Counter("valid plan" if t and "accepted" in t[-1] else "no valid plan" if t else "no request"
-                       for t in traces)
-    row.update({"response_format": agent.client.form_used, "max_attempts": attempts,
-                "attempts_used": sum(len(t) for t in traces), "outcomes": dict(outcomes)})
+    outcomes = Counter(
+        "valid plan" if t and "accepted" in t[-1] else "no valid plan" if t else "no request" for t in traces
+    )
+    row.update(
+        {
+            "response_format": agent.client.form_used,
+            "max_attempts": attempts,
+            "attempts_used": sum(len(t) for t in traces),
+            "outcomes": dict(outcomes),
+        }
+    )
     return row
 
 
@@ -87,7 +100,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dev-set", type=Path, default=ROOT / "tests" / "fixtures" / "agent" / "dev_set.yaml")
     parser.add_argument("--smollm2", action="store_true", help="also score a local SmolLM2-135M server (slow)")
-    parser.add_argument("--llm-url", help="also score this OpenAI-compatible server (base URL, e.g. http://127.0.0.1:8080/v1)")
+    parser.add_argument(
+        "--llm-url", help="also score this OpenAI-compatible server (base URL, e.g. http://127.0.0.1:8080/v1)"
+    )
     parser.add_argument("--llm-model", default="local", help="model name sent to --llm-url")
     parser.add_argument("--llm-limit", type=int, default=20, help="LLM requests: an evenly spaced subset of this size")
     parser.add_argument("--attempts", type=int, default=2, help="LLM attempts per request (validation re-asks)")
@@ -108,16 +123,31 @@ def main() -> None:
         with local_llama_server() as url:
             rows.append(llm_rows(url, "SmolLM2-135M-Instruct", args.attempts, subset, args.verbose))
 
-    print(f"{'backend':<34}{'requests':>9}{'right':>7}{'share':>8}{'tracebacks':>11}{'s/request':>11}   by kind (right/total)")
+    print(
+        f"{'backend':<34}{'requests':>9}{'right':>7}{'share':>8}{'tracebacks':>11}{'s/request':>11}   by kind (right/total)"
+    )
     for row in rows:
         kinds = " ".join(f"{k} {v['right']}/{v['total']}" for k, v in row["by_kind"].items())
-        print(f"{row['backend']:<34}{row['requests']:>9}{row['right']:>7}{100 * row['share_right']:>7.1f}%"
-              f"{row['tracebacks']:>11}{row['seconds_per_request']:>11.3f}   {kinds}")
+        print(
+            f"{row['backend']:<34}{row['requests']:>9}{row['right']:>7}{100 * row['share_right']:>7.1f}%"
+            f"{row['tracebacks']:>11}{row['seconds_per_request']:>11.3f}   {kinds}"
+        )
         if "response_format" in row:
-            print(f"{'':<34}response format {row['response_format']}, {row['attempts_used']} attempts, "
-                  f"outcomes: {row['outcomes']}")
-    args.out.write_text(json.dumps({"git_sha": git_state()[0], "dev_set": str(args.dev_set), "rows": rows,
-                                    "wall_s": round(time.perf_counter() - started, 1)}, indent=2))
+            print(
+                f"{'':<34}response format {row['response_format']}, {row['attempts_used']} attempts, "
+                f"outcomes: {row['outcomes']}"
+            )
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": git_state()[0],
+                "dev_set": str(args.dev_set),
+                "rows": rows,
+                "wall_s": round(time.perf_counter() - started, 1),
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -82,10 +82,25 @@ def rate(kept: int, seconds: float) -> float:
 
 
 def machine() -> dict[str, Any]:
-    model = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                  if line.startswith("model name")), platform.processor()) if Path("/proc/cpuinfo").exists() else ""
-    return {"cpu": model, "cpus": len(os.sched_getaffinity(0)), "platform": platform.platform(),
-            "python": platform.python_version(), "mujoco_gl": os.environ.get("MUJOCO_GL", "")}
+    model = (
+        next(
+            (
+                line.split(":", 1)[1].strip()
+                for line in Path("/proc/cpuinfo").read_text().splitlines()
+                if line.startswith("model name")
+            ),
+            platform.processor(),
+        )
+        if Path("/proc/cpuinfo").exists()
+        else ""
+    )
+    return {
+        "cpu": model,
+        "cpus": len(os.sched_getaffinity(0)),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+        "mujoco_gl": os.environ.get("MUJOCO_GL", ""),
+    }
 
 
 def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
@@ -98,7 +113,9 @@ def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
     for ref in scan(raw).episodes:
         original = Rollout.from_record(read_episode(ref))
         for variant in spec.variants:
-            plan = plan_variant(variant, original.actions, seed=spec.seed, demo_seed=ref.summary.seed, default_object=task.targets[0])
+            plan = plan_variant(
+                variant, original.actions, seed=spec.seed, demo_seed=ref.summary.seed, default_object=task.targets[0]
+            )
             actions = plan.actions if plan.actions is not None else original.actions
             attempts += 1
             with visual_perturbation(world.model, plan, env.rig.ids):  # type: ignore[union-attr]
@@ -113,14 +130,26 @@ def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
             if not verdict.success:
                 continue
             rollout = Rollout(
-                actions=np.stack([r[0] for r in rows]), states=np.stack([r[1] for r in rows]),
-                obs_state=np.stack([r[2].state for r in rows]), sim_time=np.array([r[2].sim_time for r in rows]),
-                wall_time=np.array([r[2].wall_time for r in rows]), final_state=world.state(),
-                final_sim_state=sim_state(world.model, world.data), verdict=verdict,
+                actions=np.stack([r[0] for r in rows]),
+                states=np.stack([r[1] for r in rows]),
+                obs_state=np.stack([r[2].state for r in rows]),
+                sim_time=np.array([r[2].sim_time for r in rows]),
+                wall_time=np.array([r[2].wall_time for r in rows]),
+                final_state=world.state(),
+                final_sim_state=sim_state(world.model, world.data),
+                verdict=verdict,
             )
             out_info = dataclasses.replace(info, image_height=env.rig.height, image_width=env.rig.width)  # type: ignore[union-attr]
-            tmp = write_rollout(part_path(out, kept), out_info, rollout, [r[2].images for r in rows], index=kept,
-                                seed=ref.summary.seed, vision_every=task.timing.vision_every, attrs={"augment_variant": plan.variant})
+            tmp = write_rollout(
+                part_path(out, kept),
+                out_info,
+                rollout,
+                [r[2].images for r in rows],
+                index=kept,
+                seed=ref.summary.seed,
+                vision_every=task.timing.vision_every,
+                attrs={"augment_variant": plan.variant},
+            )
             tmp.replace(part_path(out, kept))
             kept += 1
     env.close()
@@ -128,19 +157,38 @@ def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
     return {"attempts": attempts, "kept": kept, "seconds": seconds, "kept_per_hour": rate(kept, seconds)}
 
 
-def ours(task, raw: Path, out: Path, spec: AugmentSpec, *, workers: int = 1, executor: str = "local",
-         address: str | None = None) -> dict[str, Any]:
+def ours(
+    task,
+    raw: Path,
+    out: Path,
+    spec: AugmentSpec,
+    *,
+    workers: int = 1,
+    executor: str = "local",
+    address: str | None = None,
+) -> dict[str, Any]:
     started = time.perf_counter()
     result = augment(task, raw, out, spec, workers=workers, executor=executor, address=address)  # type: ignore[arg-type]
     seconds = time.perf_counter() - started
-    return {"attempts": result.report["attempts"], "kept": result.report["kept"], "seconds": seconds,
-            "kept_per_hour": rate(result.report["kept"], seconds), "timings": result.timings}
+    return {
+        "attempts": result.report["attempts"],
+        "kept": result.report["kept"],
+        "seconds": seconds,
+        "kept_per_hour": rate(result.report["kept"], seconds),
+        "timings": result.timings,
+    }
 
 
 def reference(tree: Path, task, raw: Path, variants: str, size: int) -> dict[str, Any]:
     env = {**os.environ, "PYTHONPATH": str(tree)}
-    done = subprocess.run([sys.executable, "-c", REFERENCE_SCRIPT, task.id, str(raw), variants, str(size)],
-                          capture_output=True, text=True, env=env, check=False, cwd=tree)  # `-c` imports from cwd first
+    done = subprocess.run(
+        [sys.executable, "-c", REFERENCE_SCRIPT, task.id, str(raw), variants, str(size)],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=False,
+        cwd=tree,
+    )  # `-c` imports from cwd first
     if done.returncode != 0:
         raise SystemExit(f"reference run in {tree} failed:\n{done.stderr[-2000:]}")
     row = json.loads(done.stdout.strip().splitlines()[-1])
@@ -174,11 +222,15 @@ def floor(task, raw: Path, spec: AugmentSpec) -> dict[str, Any]:
         assert replay_check(world, seed, original) is None
         physics += time.perf_counter() - t0
         for variant in spec.variants:
-            plan = plan_variant(variant, original.actions, seed=spec.seed, demo_seed=seed, default_object=task.targets[0])
+            plan = plan_variant(
+                variant, original.actions, seed=spec.seed, demo_seed=seed, default_object=task.targets[0]
+            )
             rollout = original
             if plan.physics:
                 t0 = time.perf_counter()
-                rollout = simulate(world, seed, original.states[0], plan.actions, settle_steps=worker.settle, offset=plan.offset)
+                rollout = simulate(
+                    world, seed, original.states[0], plan.actions, settle_steps=worker.settle, offset=plan.offset
+                )
                 physics += time.perf_counter() - t0
             if rollout.verdict.success:
                 kept += 1
@@ -231,16 +283,24 @@ def main() -> None:
     try:
         raw = args.input or make_input(task, args.demos, work)
         demos = len(scan(raw).episodes)
-        print(f"{task.id}: {demos} demos x {len(spec.variants)} variants, 3 x {args.image_size} px, {args.repeats} rounds")
+        print(
+            f"{task.id}: {demos} demos x {len(spec.variants)} variants, 3 x {args.image_size} px, {args.repeats} rounds"
+        )
         for r in range(args.repeats):
             runs["baseline"].append(measure("baseline", baseline, task, raw, work / f"baseline{r}.h5", spec))
             runs["ours"].append(measure("ours", ours, task, raw, work / f"ours{r}.h5", spec))
             if args.reference:
-                runs["reference"].append(measure("reference", reference, args.reference, task, raw, args.variants, args.image_size))
+                runs["reference"].append(
+                    measure("reference", reference, args.reference, task, raw, args.variants, args.image_size)
+                )
             runs["floor"].append(measure("floor", floor, task, raw, spec))
         counts = [int(n) for n in args.workers.split(",")]
         for n in counts:
-            rows = runs["ours"] if n == 1 else [measure(f"ours, {n} workers", ours, task, raw, work / f"local{n}.h5", spec, workers=n)]
+            rows = (
+                runs["ours"]
+                if n == 1
+                else [measure(f"ours, {n} workers", ours, task, raw, work / f"local{n}.h5", spec, workers=n)]
+            )
             scaling.append({"executor": "local", "workers": n, "kept_per_hour": median_rate(rows), "runs": rows})
         if args.ray:
             import ray
@@ -249,13 +309,32 @@ def main() -> None:
             if args.ray_address:
                 ray.init(address=args.ray_address, include_dashboard=False, log_to_driver=False)
             else:
-                ray.init(num_cpus=max(counts), include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1")
+                ray.init(
+                    num_cpus=max(counts), include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1"
+                )
             start_s = time.perf_counter() - t0
             n = max(counts)
-            row = measure(f"ours, Ray x {n}", ours, task, raw, work / "ray.h5", spec, workers=n, executor="ray",
-                          address=args.ray_address)
-            scaling.append({"executor": "ray", "workers": n, "kept_per_hour": row["kept_per_hour"], "runs": [row],
-                            "cluster_start_s": start_s, "address": args.ray_address or "local"})
+            row = measure(
+                f"ours, Ray x {n}",
+                ours,
+                task,
+                raw,
+                work / "ray.h5",
+                spec,
+                workers=n,
+                executor="ray",
+                address=args.ray_address,
+            )
+            scaling.append(
+                {
+                    "executor": "ray",
+                    "workers": n,
+                    "kept_per_hour": row["kept_per_hour"],
+                    "runs": [row],
+                    "cluster_start_s": start_s,
+                    "address": args.ray_address or "local",
+                }
+            )
             ray.shutdown()
     finally:
         shutil.rmtree(work, ignore_errors=True)
@@ -265,28 +344,49 @@ def main() -> None:
     summary = {
         "ours_kept_per_hour": one,
         "baseline_kept_per_hour": median_rate(runs["baseline"]),
-        "ours_over_baseline": statistics.median(o["kept_per_hour"] / b["kept_per_hour"] for o, b in zip(runs["ours"], runs["baseline"])),
+        "ours_over_baseline": statistics.median(
+            o["kept_per_hour"] / b["kept_per_hour"] for o, b in zip(runs["ours"], runs["baseline"])
+        ),
         "ours_over_floor": statistics.median(o["seconds"] / f["seconds"] for o, f in zip(runs["ours"], runs["floor"])),
     }
     if runs["reference"]:
         summary["reference_kept_per_hour"] = median_rate(runs["reference"])
         summary["ours_over_reference"] = statistics.median(
-            o["kept_per_hour"] / r["kept_per_hour"] for o, r in zip(runs["ours"], runs["reference"]))
+            o["kept_per_hour"] / r["kept_per_hour"] for o, r in zip(runs["ours"], runs["reference"])
+        )
     print(f"\n{'pipeline':<12}{'kept/hour':>11}   (median of {args.repeats} interleaved rounds)")
     for name in ("baseline", "ours", "reference"):
         if runs[name]:
             print(f"{name:<12}{median_rate(runs[name]):>11.0f}")
-    print(f"ours / baseline: {summary['ours_over_baseline']:.2f}x; ours wall / floor: {summary['ours_over_floor']:.2f}x"
-          + (f"; ours / reference: {summary['ours_over_reference']:.2f}x" if runs["reference"] else ""))
+    print(
+        f"ours / baseline: {summary['ours_over_baseline']:.2f}x; ours wall / floor: {summary['ours_over_floor']:.2f}x"
+        + (f"; ours / reference: {summary['ours_over_reference']:.2f}x" if runs["reference"] else "")
+    )
     print(f"\n{'executor':<10}{'workers':>8}{'kept/hour':>11}{'efficiency':>12}")
     for row in scaling:
         print(f"{row['executor']:<10}{row['workers']:>8}{row['kept_per_hour']:>11.0f}{row['efficiency']:>12.2f}")
     commit, dirty = git_state()
-    args.out.write_text(json.dumps({
-        "git_sha": commit, "git_dirty": dirty, "machine": machine(), "task": task.id, "demos": demos,
-        "variants": args.variants, "image_size": args.image_size, "repeats": args.repeats, "summary": summary,
-        "runs": runs, "scaling": scaling, "loadavg_after": [round(x, 2) for x in os.getloadavg()],
-    }, indent=2, default=str) + "\n")
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": commit,
+                "git_dirty": dirty,
+                "machine": machine(),
+                "task": task.id,
+                "demos": demos,
+                "variants": args.variants,
+                "image_size": args.image_size,
+                "repeats": args.repeats,
+                "summary": summary,
+                "runs": runs,
+                "scaling": scaling,
+                "loadavg_after": [round(x, 2) for x in os.getloadavg()],
+            },
+            indent=2,
+            default=str,
+        )
+        + "\n"
+    )
     print(f"wrote {args.out}")
 
 

@@ -44,24 +44,56 @@ def main() -> None:
         src = Path(tmp) / "rec.h5"
         task = load_registry([ROOT / "tests" / "fixtures" / "demos" / "registry"]).get("testlab/HoldTube-v1")
         started = time.perf_counter()
-        collect(task, src, episodes=args.episodes, seed=0, image_size=args.image_size, expert_factory=demo_experts.Wiggle)
+        collect(
+            task, src, episodes=args.episodes, seed=0, image_size=args.image_size, expert_factory=demo_experts.Wiggle
+        )
         record_s = time.perf_counter() - started
         with h5py.File(src, "r+") as f:
             for group in f["episodes"].values():
                 group.attrs["success"] = True
         convert([src], ConvertOptions(repo_id="local/warm", root=Path(tmp) / "warm", video=False))  # imports, caches
         rows = []
-        for name, video, vcodec in (("images (png)", False, "libsvtav1"), ("video libsvtav1", True, "libsvtav1"), ("video h264", True, "h264")):
-            result = convert([src], ConvertOptions(repo_id="local/bench", root=Path(tmp) / name.replace(" ", "_"), video=video, vcodec=vcodec))
+        for name, video, vcodec in (
+            ("images (png)", False, "libsvtav1"),
+            ("video libsvtav1", True, "libsvtav1"),
+            ("video h264", True, "h264"),
+        ):
+            result = convert(
+                [src],
+                ConvertOptions(
+                    repo_id="local/bench", root=Path(tmp) / name.replace(" ", "_"), video=video, vcodec=vcodec
+                ),
+            )
             size = sum(p.stat().st_size for p in result.root.rglob("*") if p.is_file())
-            rows.append({"mode": name, "episodes": result.episodes, "frames": result.frames, "seconds": round(result.seconds, 3),
-                         "frames_per_s": round(result.frames_per_s, 1), "dataset_mb": round(size / 1e6, 3)})
-    print(f"{args.episodes} episodes at {args.image_size}x{args.image_size} x 3 cameras (recording took {record_s:.1f} s), {os.cpu_count()} CPUs")
+            rows.append(
+                {
+                    "mode": name,
+                    "episodes": result.episodes,
+                    "frames": result.frames,
+                    "seconds": round(result.seconds, 3),
+                    "frames_per_s": round(result.frames_per_s, 1),
+                    "dataset_mb": round(size / 1e6, 3),
+                }
+            )
+    print(
+        f"{args.episodes} episodes at {args.image_size}x{args.image_size} x 3 cameras (recording took {record_s:.1f} s), {os.cpu_count()} CPUs"
+    )
     print(f"{'mode':<18}{'frames':>8}{'seconds':>10}{'frames/s':>10}{'MB':>9}")
     for r in rows:
         print(f"{r['mode']:<18}{r['frames']:>8}{r['seconds']:>10.2f}{r['frames_per_s']:>10.1f}{r['dataset_mb']:>9.2f}")
-    args.out.write_text(json.dumps({"git_sha": git_state()[0], "episodes": args.episodes, "image_size": args.image_size,
-                                    "cpus": os.cpu_count(), "results": rows}, indent=2) + "\n")
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": git_state()[0],
+                "episodes": args.episodes,
+                "image_size": args.image_size,
+                "cpus": os.cpu_count(),
+                "results": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
 
 
 if __name__ == "__main__":

@@ -55,17 +55,31 @@ def throughput(task, policy: Path, image_size: int, episodes: int, workers: int,
         result = evaluate_runs([run], PolicySource(checkpoint=policy, device=device), settings, workers=workers)
         wall = time.perf_counter() - started
     summary = result.summaries[task.id]
-    return {"workers": workers, "episodes": episodes, "wall_s": round(wall, 2),
-            "episodes_per_hour": round(3600 * episodes / wall, 1), "mean_episode_s": round(summary["mean_runtime_s"], 2),
-            "successes": summary["successes"]}
+    return {
+        "workers": workers,
+        "episodes": episodes,
+        "wall_s": round(wall, 2),
+        "episodes_per_hour": round(3600 * episodes / wall, 1),
+        "mean_episode_s": round(summary["mean_runtime_s"], 2),
+        "successes": summary["successes"],
+    }
 
 
 def dead_server(task, image_size: int, how: str, after_s: float) -> dict:
     """Seconds from killing/stopping the server to the safe hold, and from the hold to the end."""
     hold = [*task.embodiment.initial_joints, 1.0]
-    server = subprocess.Popen([sys.executable, str(ROOT / "tests" / "fixtures" / "policy" / "serve_fixed.py"),
-                               "--action", ",".join(map(str, hold)), "--image-size", str(image_size)],
-                              stdout=subprocess.PIPE, text=True)
+    server = subprocess.Popen(
+        [
+            sys.executable,
+            str(ROOT / "tests" / "fixtures" / "policy" / "serve_fixed.py"),
+            "--action",
+            ",".join(map(str, hold)),
+            "--image-size",
+            str(image_size),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     endpoint = server.stdout.readline().strip()
     struck: list[float] = []
 
@@ -97,10 +111,14 @@ def main() -> None:
     parser.add_argument("--image-size", type=int, default=64)
     parser.add_argument("--episodes", type=int, default=8, help="episodes per worker count")
     parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
-    parser.add_argument("--policy", type=Path, default=None, help="an ACT policy folder (default: a tiny untrained ACT)")
+    parser.add_argument(
+        "--policy", type=Path, default=None, help="an ACT policy folder (default: a tiny untrained ACT)"
+    )
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--no-dead-server", action="store_true", help="skip the dead-server timings")
-    parser.add_argument("--strike-after", type=float, default=3.0, help="seconds into the run the server is killed/stopped")
+    parser.add_argument(
+        "--strike-after", type=float, default=3.0, help="seconds into the run the server is killed/stopped"
+    )
     parser.add_argument("--out", type=Path, default=Path("bench_eval.json"))
     args = parser.parse_args()
     task = load_registry().get(args.task)
@@ -111,16 +129,34 @@ def main() -> None:
             rows.append(throughput(task, policy, args.image_size, args.episodes, workers, args.device))
     if not args.no_dead_server:
         dead = [dead_server(task, args.image_size, how, after_s=args.strike_after) for how in ("killed", "stopped")]
-    print(f"{task.id}, {args.image_size} px, {args.episodes} episodes per run, "
-          f"{'tiny untrained ACT' if args.policy is None else args.policy}, {os.cpu_count()} CPUs")
+    print(
+        f"{task.id}, {args.image_size} px, {args.episodes} episodes per run, "
+        f"{'tiny untrained ACT' if args.policy is None else args.policy}, {os.cpu_count()} CPUs"
+    )
     print(f"{'workers':>8}{'wall s':>9}{'episodes/h':>12}{'s/episode':>11}{'successes':>11}")
     for r in rows:
-        print(f"{r['workers']:>8}{r['wall_s']:>9.1f}{r['episodes_per_hour']:>12.1f}{r['mean_episode_s']:>11.2f}{r['successes']:>11}")
+        print(
+            f"{r['workers']:>8}{r['wall_s']:>9.1f}{r['episodes_per_hour']:>12.1f}{r['mean_episode_s']:>11.2f}{r['successes']:>11}"
+        )
     for d in dead:
-        print(f"server {d['server']}: safe hold after {d['to_safe_hold_s']:.1f} s, run ended {d['hold_to_end_s']:.1f} s later")
-    args.out.write_text(json.dumps({"git_sha": git_state()[0], "task": task.id, "image_size": args.image_size,
-                                    "policy": str(args.policy or "tiny untrained ACT"), "cpus": os.cpu_count(),
-                                    "results": rows, "dead_server": dead}, indent=2) + "\n")
+        print(
+            f"server {d['server']}: safe hold after {d['to_safe_hold_s']:.1f} s, run ended {d['hold_to_end_s']:.1f} s later"
+        )
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": git_state()[0],
+                "task": task.id,
+                "image_size": args.image_size,
+                "policy": str(args.policy or "tiny untrained ACT"),
+                "cpus": os.cpu_count(),
+                "results": rows,
+                "dead_server": dead,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
 
 
 if __name__ == "__main__":

@@ -29,7 +29,9 @@ from pipette_cli.registry import load_registry
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--tasks", default="all", help="Comma-separated task ids, 'benchmark' (tag paper-benchmark) or 'all'.")
+    parser.add_argument(
+        "--tasks", default="all", help="Comma-separated task ids, 'benchmark' (tag paper-benchmark) or 'all'."
+    )
     parser.add_argument("--episodes", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--registry-dir", action="append", default=[], help="Extra task folders.")
@@ -53,40 +55,75 @@ def main() -> None:
         for skill in {s.skill for s in steps}:
             ran[skill] += report.episodes
             stopped[skill] += failed_at.get(skill, 0)
-        rows.append({
-            "task": task_id, "program": [s.describe() for s in steps], "episodes": report.episodes,
-            "successes": report.successes, "success_rate": report.success_rate,
-            "failures": dict(report.failures), "failed_steps": dict(failed_at), "failed_seeds": report.failed_seeds,
-            "expert_failures": {str(k): v for k, v in report.expert_failures.items()},
-            "median_episode_s": report.median_seconds, "seconds": report.seconds,
-            "stage_count": report.stage_count, "stages": report.stages, "mean_progress": report.mean_progress,
-        })
-        staged = f"  progress {100 * report.mean_progress:3.0f} % of {report.stage_count} stages" if report.stage_count else ""
-        print(f"{task_id:60s} {report.successes:3d}/{report.episodes:<3d} {100 * report.success_rate:5.0f} %  "
-              f"median {report.median_seconds:4.1f} s/episode{staged}  {dict(report.failures) or ''}", flush=True)
-    skills = {k: {"episodes": ran[k], "stopped": stopped[k], "success_rate": 1 - stopped[k] / ran[k]} for k in sorted(ran)}
+        rows.append(
+            {
+                "task": task_id,
+                "program": [s.describe() for s in steps],
+                "episodes": report.episodes,
+                "successes": report.successes,
+                "success_rate": report.success_rate,
+                "failures": dict(report.failures),
+                "failed_steps": dict(failed_at),
+                "failed_seeds": report.failed_seeds,
+                "expert_failures": {str(k): v for k, v in report.expert_failures.items()},
+                "median_episode_s": report.median_seconds,
+                "seconds": report.seconds,
+                "stage_count": report.stage_count,
+                "stages": report.stages,
+                "mean_progress": report.mean_progress,
+            }
+        )
+        staged = (
+            f"  progress {100 * report.mean_progress:3.0f} % of {report.stage_count} stages"
+            if report.stage_count
+            else ""
+        )
+        print(
+            f"{task_id:60s} {report.successes:3d}/{report.episodes:<3d} {100 * report.success_rate:5.0f} %  "
+            f"median {report.median_seconds:4.1f} s/episode{staged}  {dict(report.failures) or ''}",
+            flush=True,
+        )
+    skills = {
+        k: {"episodes": ran[k], "stopped": stopped[k], "success_rate": 1 - stopped[k] / ran[k]} for k in sorted(ran)
+    }
     print("\nper skill (episodes in which a step of the skill ran; success: the expert got past it)")
     for name, row in skills.items():
-        print(f"  {name:14s} {row['episodes'] - row['stopped']:4d}/{row['episodes']:<4d} {100 * row['success_rate']:5.1f} %")
+        print(
+            f"  {name:14s} {row['episodes'] - row['stopped']:4d}/{row['episodes']:<4d} {100 * row['success_rate']:5.1f} %"
+        )
     total = sum(r["successes"] for r in rows), sum(r["episodes"] for r in rows)
     commit, dirty = git_state()
-    result = {"commit": commit, "dirty": dirty, "episodes_per_task": args.episodes, "first_seed": args.seed, "tasks": rows,
-              "skills": skills, "successes": total[0], "episodes": total[1], "wall_s": time.perf_counter() - started,
-              "cpu_count": os.cpu_count()}
+    result = {
+        "commit": commit,
+        "dirty": dirty,
+        "episodes_per_task": args.episodes,
+        "first_seed": args.seed,
+        "tasks": rows,
+        "skills": skills,
+        "successes": total[0],
+        "episodes": total[1],
+        "wall_s": time.perf_counter() - started,
+        "cpu_count": os.cpu_count(),
+    }
     print(f"\n{total[0]}/{total[1]} episodes solved over {len(rows)} tasks in {result['wall_s']:.0f} s")
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
     if args.markdown:
-        lines = [f"Scripted success of every task's skill program, {args.episodes} seeds from {args.seed} per task "
-                 f"(`python benchmarks/bench_experts.py --episodes {args.episodes}`, commit {commit[:10]}{' + local changes' if dirty else ''}).", "",
-                 "| task | program | success | stages (mean progress) | failures (reason: count) | median s/episode |",
-                 "| --- | --- | ---: | ---: | --- | ---: |"]
+        lines = [
+            f"Scripted success of every task's skill program, {args.episodes} seeds from {args.seed} per task "
+            f"(`python benchmarks/bench_experts.py --episodes {args.episodes}`, commit {commit[:10]}{' + local changes' if dirty else ''}).",
+            "",
+            "| task | program | success | stages (mean progress) | failures (reason: count) | median s/episode |",
+            "| --- | --- | ---: | ---: | --- | ---: |",
+        ]
         for r in rows:
             failures = ", ".join(f"{k}: {v}" for k, v in r["failures"].items()) or "-"
             stages = f"{r['stage_count']} ({100 * r['mean_progress']:.0f} %)" if r["stage_count"] else "-"
-            lines.append(f"| {r['task']} | {'; '.join(r['program'])} | {r['successes']}/{r['episodes']} | {stages} | {failures} | "
-                         f"{r['median_episode_s']:.1f} |")
+            lines.append(
+                f"| {r['task']} | {'; '.join(r['program'])} | {r['successes']}/{r['episodes']} | {stages} | {failures} | "
+                f"{r['median_episode_s']:.1f} |"
+            )
         lines += ["", "| skill | episodes | the expert got past it |", "| --- | ---: | ---: |"]
         lines += [f"| {k} | {v['episodes']} | {100 * v['success_rate']:.1f} % |" for k, v in skills.items()]
         args.markdown.parent.mkdir(parents=True, exist_ok=True)

@@ -49,16 +49,26 @@ def judge(case: dict, backend, solve: bool, episodes: int) -> dict:
         drafted = draft_task(case["text"], backend, namespace="bench")
     except PipetteError as exc:
         message = " ".join(getattr(exc, "problems", None) or [str(exc)])
-        row.update(outcome="refused", message=message,
-                   right="refuse" in case and case["refuse"].lower() in message.lower())
+        row.update(
+            outcome="refused", message=message, right="refuse" in case and case["refuse"].lower() in message.lower()
+        )
     except Exception as exc:
-        row.update(outcome="traceback", message=f"{type(exc).__name__}: {exc}", right=False,
-                   traceback=traceback.format_exc()[-2000:])
+        row.update(
+            outcome="traceback",
+            message=f"{type(exc).__name__}: {exc}",
+            right=False,
+            traceback=traceback.format_exc()[-2000:],
+        )
     else:
         steps = plan_summary(drafted.composed.checked)
         robot = drafted.spec.embodiment.robot
-        row.update(outcome="task", task=drafted.spec.id, steps=steps, robot=robot,
-                   right="steps" in case and steps == case["steps"] and robot == case.get("robot", "franka_panda"))
+        row.update(
+            outcome="task",
+            task=drafted.spec.id,
+            steps=steps,
+            robot=robot,
+            right="steps" in case and steps == case["steps"] and robot == case.get("robot", "franka_panda"),
+        )
         if solve and "steps" in case:
             report = check_task(drafted.spec, episodes)
             row["check"] = report.as_dict()
@@ -73,7 +83,9 @@ def main() -> None:
     parser.add_argument("--backend", default="offline")
     parser.add_argument("--base-url", default=None)
     parser.add_argument("--model", default=None)
-    parser.add_argument("--local-llm", action="store_true", help="Serve SmolLM2-135M with llama-cpp-python for the run.")
+    parser.add_argument(
+        "--local-llm", action="store_true", help="Serve SmolLM2-135M with llama-cpp-python for the run."
+    )
     parser.add_argument("--no-solve", action="store_true", help="Skip running the experts (plans and builds only).")
     parser.add_argument("--episodes", type=int, default=5)
     parser.add_argument("--limit", type=int, default=0, help="Only the first N sentences of each set.")
@@ -87,13 +99,19 @@ def main() -> None:
             from pipette_cli.llm.local import local_llama_server
 
             base_url, backend_name = stack.enter_context(local_llama_server(n_ctx=4096)), "openai"
-        backend = make_backend(backend_name, base_url=base_url, model=args.model or ("smollm2" if args.local_llm else None))
+        backend = make_backend(
+            backend_name, base_url=base_url, model=args.model or ("smollm2" if args.local_llm else None)
+        )
         rows = []
         for case in cases:
             row = judge(case, backend, solve=not args.no_solve, episodes=args.episodes)
             rows.append(row)
             mark = "ok " if row["right"] else ("TB " if row["outcome"] == "traceback" else "-- ")
-            extra = "" if "solvable" not in row else ("  solved" if row["solvable"] else f"  UNSOLVED {row['check']['solve']['detail']}")
+            extra = (
+                ""
+                if "solvable" not in row
+                else ("  solved" if row["solvable"] else f"  UNSOLVED {row['check']['solve']['detail']}")
+            )
             got = row.get("steps") or row.get("message", "")[:140]
             print(f"{mark}{row['seconds']:6.1f}s  {case['text'][:70]:70s} -> {got}{extra}", flush=True)
     n = len(rows)
@@ -101,16 +119,27 @@ def main() -> None:
     expected_tasks = [r for r in rows if isinstance(r["expected"], list)]
     solvable = sum(bool(r.get("solvable")) for r in expected_tasks)
     tracebacks = [r["text"] for r in rows if r["outcome"] == "traceback"]
-    result = {"commit": git_state(), "sets": [str(p) for p in args.set], "backend": backend_name, "sentences": n,
-              "handled_right": right, "handled_right_share": right / max(1, n), "expected_tasks": len(expected_tasks),
-              "solvable": solvable if not args.no_solve else None,
-              "solvable_share": solvable / max(1, len(expected_tasks)) if not args.no_solve else None,
-              "tracebacks": tracebacks, "episodes": args.episodes, "wall_s": round(time.perf_counter() - started, 1),
-              "rows": rows}
+    result = {
+        "commit": git_state(),
+        "sets": [str(p) for p in args.set],
+        "backend": backend_name,
+        "sentences": n,
+        "handled_right": right,
+        "handled_right_share": right / max(1, n),
+        "expected_tasks": len(expected_tasks),
+        "solvable": solvable if not args.no_solve else None,
+        "solvable_share": solvable / max(1, len(expected_tasks)) if not args.no_solve else None,
+        "tracebacks": tracebacks,
+        "episodes": args.episodes,
+        "wall_s": round(time.perf_counter() - started, 1),
+        "rows": rows,
+    }
     print(f"\nhandled right: {right}/{n} ({100 * right / max(1, n):.0f} %)")
     if not args.no_solve:
-        print(f"solvable tasks (expert >= 4/5 seeds): {solvable}/{len(expected_tasks)} "
-              f"({100 * solvable / max(1, len(expected_tasks)):.0f} %)")
+        print(
+            f"solvable tasks (expert >= 4/5 seeds): {solvable}/{len(expected_tasks)} "
+            f"({100 * solvable / max(1, len(expected_tasks)):.0f} %)"
+        )
     print(f"tracebacks: {len(tracebacks)}; {result['wall_s']:.0f} s")
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)

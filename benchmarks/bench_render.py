@@ -40,8 +40,11 @@ from pipette_cli.sim.render import PROFILES, CameraRig  # noqa: E402
 
 def triangles(model) -> int:
     """Triangles of the mesh geoms the cameras can see (geom groups 0-2)."""
-    meshes = [model.geom_dataid[g] for g in range(model.ngeom)
-              if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH and model.geom_group[g] <= 2]
+    meshes = [
+        model.geom_dataid[g]
+        for g in range(model.ngeom)
+        if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH and model.geom_group[g] <= 2
+    ]
     return int(sum(model.mesh_facenum[m] for m in meshes))
 
 
@@ -75,9 +78,18 @@ def bench_task(task, profiles: list[str], sizes: list[int], frames: int, rounds:
         for (profile, size), env in envs.items():
             assert all(image.shape == (size, size, 3) for image in views[profile, size].values())
             seconds = best[profile, size]
-            rows.append({"task": task.id, "profile": profile, "size": size, "frames": frames, "seconds": round(seconds, 3),
-                         "captures_per_s": round(frames / seconds, 2), "ms_per_capture": round(1000 * seconds / frames, 2),
-                         "triangles": triangles(env.world.model)})
+            rows.append(
+                {
+                    "task": task.id,
+                    "profile": profile,
+                    "size": size,
+                    "frames": frames,
+                    "seconds": round(seconds, 3),
+                    "captures_per_s": round(frames / seconds, 2),
+                    "ms_per_capture": round(1000 * seconds / frames, 2),
+                    "triangles": triangles(env.world.model),
+                }
+            )
     finally:
         for env in envs.values():
             env.close()
@@ -99,8 +111,11 @@ def picture(views: dict[str, dict[str, np.ndarray]], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tasks", default="PickUpTestTube", help="Comma-separated task ids.")
-    parser.add_argument("--profiles", default=",".join([*PROFILES, ORIGINAL_MESHES]),
-                        help=f"Render profiles; {ORIGINAL_MESHES}: fast settings with the original meshes.")
+    parser.add_argument(
+        "--profiles",
+        default=",".join([*PROFILES, ORIGINAL_MESHES]),
+        help=f"Render profiles; {ORIGINAL_MESHES}: fast settings with the original meshes.",
+    )
     parser.add_argument("--sizes", default="64,128,224,400", help="Square image sides in pixels.")
     parser.add_argument("--frames", type=int, default=10, help="Timed 3-view captures per setting and round.")
     parser.add_argument("--rounds", type=int, default=3, help="Interleaved rounds; the best is reported.")
@@ -111,23 +126,47 @@ def main() -> None:
     load = os.getloadavg()
     rows, pictures = [], {}
     for name in args.tasks.split(","):
-        task_rows, pictures = bench_task(registry.get(name), args.profiles.split(","), [int(s) for s in args.sizes.split(",")],
-                                         args.frames, args.rounds)
+        task_rows, pictures = bench_task(
+            registry.get(name),
+            args.profiles.split(","),
+            [int(s) for s in args.sizes.split(",")],
+            args.frames,
+            args.rounds,
+        )
         rows += task_rows
     backend = os.environ.get("MUJOCO_GL", "")
-    print(f"MUJOCO_GL={backend}, mujoco {mujoco.__version__}, {os.cpu_count()} CPUs, {args.frames} captures per row and round, "
-          f"best of {args.rounds} rounds, load average {load[0]:.2f}")
-    print(f"{'task':<34}{'profile':<22}{'size':>6}{'triangles':>11}{'captures/s':>12}{'ms/capture':>12}{'>= 10 Hz':>10}")
+    print(
+        f"MUJOCO_GL={backend}, mujoco {mujoco.__version__}, {os.cpu_count()} CPUs, {args.frames} captures per row and round, "
+        f"best of {args.rounds} rounds, load average {load[0]:.2f}"
+    )
+    print(
+        f"{'task':<34}{'profile':<22}{'size':>6}{'triangles':>11}{'captures/s':>12}{'ms/capture':>12}{'>= 10 Hz':>10}"
+    )
     for r in rows:
-        print(f"{r['task']:<34}{r['profile']:<22}{r['size']:>6}{r['triangles']:>11}{r['captures_per_s']:>12.1f}"
-              f"{r['ms_per_capture']:>12.1f}{'yes' if r['captures_per_s'] >= 10 else 'no':>10}")
+        print(
+            f"{r['task']:<34}{r['profile']:<22}{r['size']:>6}{r['triangles']:>11}{r['captures_per_s']:>12.1f}"
+            f"{r['ms_per_capture']:>12.1f}{'yes' if r['captures_per_s'] >= 10 else 'no':>10}"
+        )
     if args.picture:
         picture(pictures, args.picture)
         print(f"wrote {args.picture}")
     commit, dirty = git_state()
-    args.out.write_text(json.dumps({"git_sha": commit, "git_dirty": dirty, "mujoco_gl": backend, "mujoco": mujoco.__version__,
-                                    "cpus": os.cpu_count(), "loadavg_before": [round(x, 2) for x in load],
-                                    "loadavg_after": [round(x, 2) for x in os.getloadavg()], "results": rows}, indent=2) + "\n")
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": commit,
+                "git_dirty": dirty,
+                "mujoco_gl": backend,
+                "mujoco": mujoco.__version__,
+                "cpus": os.cpu_count(),
+                "loadavg_before": [round(x, 2) for x in load],
+                "loadavg_after": [round(x, 2) for x in os.getloadavg()],
+                "results": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     print(f"wrote {args.out}")
 
 

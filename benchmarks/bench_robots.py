@@ -40,10 +40,16 @@ def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
         return {"task": task.id, "robot": robot, "refused": str(exc)}
     report = check_expert(placed, episodes, seed)
     return {
-        "task": task.id, "robot": robot, "base": list(placed.embodiment.base.pos), "episodes": report.episodes,
-        "successes": report.successes, "success_rate": report.success_rate, "failures": dict(report.failures),
+        "task": task.id,
+        "robot": robot,
+        "base": list(placed.embodiment.base.pos),
+        "episodes": report.episodes,
+        "successes": report.successes,
+        "success_rate": report.success_rate,
+        "failures": dict(report.failures),
         "expert_failures": {str(k): v for k, v in report.expert_failures.items()},
-        "median_episode_s": report.median_seconds, "seconds": report.seconds,
+        "median_episode_s": report.median_seconds,
+        "seconds": report.seconds,
     }
 
 
@@ -56,14 +62,19 @@ def cell_text(row: dict) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--tasks", default="benchmark", help="Comma-separated task ids, 'benchmark' (tag paper-benchmark) or 'all'.")
+    parser.add_argument(
+        "--tasks", default="benchmark", help="Comma-separated task ids, 'benchmark' (tag paper-benchmark) or 'all'."
+    )
     parser.add_argument("--robots", default="all", help="Comma-separated robots (ids or aliases) or 'all'.")
     parser.add_argument("--episodes", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=None, help="Write the results as JSON here.")
     parser.add_argument("--markdown", type=Path, default=None, help="Write the table as markdown here.")
-    parser.add_argument("--merge", action="store_true",
-                        help="Keep the cells of --out that this run does not redo (a new robot's column, say).")
+    parser.add_argument(
+        "--merge",
+        action="store_true",
+        help="Keep the cells of --out that this run does not redo (a new robot's column, say).",
+    )
     args = parser.parse_args()
     registry = load_registry()
     if args.tasks in ("all", "benchmark"):
@@ -78,8 +89,9 @@ def main() -> None:
         for robot in robots:
             row = run_cell(task, robot, args.episodes, args.seed)
             rows.append(row)
-            detail = row.get("refused") or (f"{100 * row['success_rate']:5.0f} %  base {row['base'][:2]}  "
-                                            f"{row['failures'] or ''}")
+            detail = row.get("refused") or (
+                f"{100 * row['success_rate']:5.0f} %  base {row['base'][:2]}  {row['failures'] or ''}"
+            )
             print(f"{task_id:45s} {robot:14s} {cell_text(row):>8s}  {detail}", flush=True)
     sha, dirty = git_state()
     for row in rows:
@@ -87,11 +99,23 @@ def main() -> None:
     wall = time.perf_counter() - started
     if args.merge and args.out is not None and args.out.is_file():
         rows, ids, robots, wall = merged(json.loads(args.out.read_text()), rows, ids, robots, wall)
-    result = {"git_sha": sha, "git_dirty": dirty, "episodes_per_cell": args.episodes, "first_seed": args.seed, "robots": robots,
-              "tasks": ids, "cells": rows, "wall_s": wall, "cpu_count": os.cpu_count()}
+    result = {
+        "git_sha": sha,
+        "git_dirty": dirty,
+        "episodes_per_cell": args.episodes,
+        "first_seed": args.seed,
+        "robots": robots,
+        "tasks": ids,
+        "cells": rows,
+        "wall_s": wall,
+        "cpu_count": os.cpu_count(),
+    }
     commits = {(r["git_sha"][:10], r["git_dirty"]) for r in rows}
-    commit = (f"{sha[:10]}{' + local changes' if dirty else ''}" if len(commits) == 1
-              else "per cell in docs/benchmarks/bench_robots.json")
+    commit = (
+        f"{sha[:10]}{' + local changes' if dirty else ''}"
+        if len(commits) == 1
+        else "per cell in docs/benchmarks/bench_robots.json"
+    )
     table = markdown(rows, ids, robots, args.episodes, args.seed, commit)
     print("\n" + table)
     if args.out:
@@ -102,12 +126,13 @@ def main() -> None:
         args.markdown.write_text(table, encoding="utf-8")
 
 
-def merged(old: dict, rows: list[dict], ids: list[str], robots: list[str], wall: float) -> tuple[list[dict], list[str], list[str], float]:
+def merged(
+    old: dict, rows: list[dict], ids: list[str], robots: list[str], wall: float
+) -> tuple[list[dict], list[str], list[str], float]:
     """The cells of an earlier run (``old``, its JSON) that this run did not redo, plus this run's."""
     done = {(r["task"], r["robot"]) for r in rows}
     sha, dirty = (old["git_sha"], old.get("git_dirty", False)) if "git_sha" in old else old["commit"]
-    kept = [{"git_sha": sha, "git_dirty": dirty, **r}
-            for r in old["cells"] if (r["task"], r["robot"]) not in done]
+    kept = [{"git_sha": sha, "git_dirty": dirty, **r} for r in old["cells"] if (r["task"], r["robot"]) not in done]
     all_ids = list(dict.fromkeys([*old.get("tasks", [r["task"] for r in old["cells"]]), *ids]))
     all_robots = sorted({*old["robots"], *robots})
     return kept + rows, all_ids, all_robots, old.get("wall_s", 0.0) + wall
@@ -116,9 +141,15 @@ def merged(old: dict, rows: list[dict], ids: list[str], robots: list[str], wall:
 def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int, seed: int, commit: str) -> str:
     """The task x robot table (successes/episodes per cell), then every refusal and failure reason."""
     by = {(r["task"], r["robot"]): r for r in rows}
-    lines = [(f"Scripted success per task and robot, {episodes} seeds from {seed} per cell "
-              f"(`python benchmarks/bench_robots.py --episodes {episodes}`, commit {commit})."), "",
-             "| task | " + " | ".join(robots) + " |", "| --- |" + " ---: |" * len(robots)]
+    lines = [
+        (
+            f"Scripted success per task and robot, {episodes} seeds from {seed} per cell "
+            f"(`python benchmarks/bench_robots.py --episodes {episodes}`, commit {commit})."
+        ),
+        "",
+        "| task | " + " | ".join(robots) + " |",
+        "| --- |" + " ---: |" * len(robots),
+    ]
     for task_id in ids:
         lines.append(f"| {task_id} | " + " | ".join(cell_text(by[task_id, r]) for r in robots) + " |")
     notes = []
@@ -127,7 +158,9 @@ def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int,
             notes.append(f"- {row['refused']}")
         elif row["failures"]:
             reasons = ", ".join(f"{k}: {v}" for k, v in row["failures"].items())
-            why = Counter(re.sub(r"-?[0-9.]+(?= ?(?:mm|m|deg|kg)\b)", "N", v) for v in row.get("expert_failures", {}).values())
+            why = Counter(
+                re.sub(r"-?[0-9.]+(?= ?(?:mm|m|deg|kg)\b)", "N", v) for v in row.get("expert_failures", {}).values()
+            )
             example = f" (most often: {why.most_common(1)[0][0]})" if why else ""
             notes.append(f"- {row['task']} on the {row['robot']}: {reasons}{example}")
     if notes:

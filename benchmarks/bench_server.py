@@ -36,16 +36,20 @@ from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: 
 
 def _ms(samples: list[float]) -> dict[str, float]:
     ordered = sorted(samples)
-    return {"median_ms": round(1000 * statistics.median(ordered), 3),
-            "p95_ms": round(1000 * ordered[min(len(ordered) - 1, int(0.95 * len(ordered)))], 3)}
+    return {
+        "median_ms": round(1000 * statistics.median(ordered), 3),
+        "p95_ms": round(1000 * ordered[min(len(ordered) - 1, int(0.95 * len(ordered)))], 3),
+    }
 
 
 def measure(name: str, runner, obs: dict[str, np.ndarray], steps: int, warmup: int) -> dict:
     """Round trip through the server vs the same runner called directly, interleaved step by step."""
     checked = check_observation(parse_request(unpack(pack(obs))), runner.spec)
     direct, round_trip = [], []
-    with serving_in_thread(PolicyServer(runner, "tcp://127.0.0.1:0"), join_s=10) as server, \
-            PolicyClient(server.endpoint, timeout_ms=120_000) as client:
+    with (
+        serving_in_thread(PolicyServer(runner, "tcp://127.0.0.1:0"), join_s=10) as server,
+        PolicyClient(server.endpoint, timeout_ms=120_000) as client,
+    ):
         for i in range(warmup + steps):
             t0 = time.perf_counter()
             runner.act(checked, "", chunk=False)
@@ -57,10 +61,16 @@ def measure(name: str, runner, obs: dict[str, np.ndarray], steps: int, warmup: i
                 round_trip.append(t2 - t1)
     overhead = [r - d for r, d in zip(round_trip, direct, strict=True)]
     image = obs["observation.images.top"]
-    return {"policy": name, "image_dtype": str(image.dtype), "request_bytes": len(pack(obs)), "steps": steps,
-            "inference": _ms(direct), "round_trip": _ms(round_trip),
-            "overhead_median_ms": round(1000 * (statistics.median(round_trip) - statistics.median(direct)), 3),
-            "overhead_of_pairs": _ms(overhead)}
+    return {
+        "policy": name,
+        "image_dtype": str(image.dtype),
+        "request_bytes": len(pack(obs)),
+        "steps": steps,
+        "inference": _ms(direct),
+        "round_trip": _ms(round_trip),
+        "overhead_median_ms": round(1000 * (statistics.median(round_trip) - statistics.median(direct)), 3),
+        "overhead_of_pairs": _ms(overhead),
+    }
 
 
 def codec(obs: dict[str, np.ndarray], n: int = 50) -> dict[str, float]:
@@ -94,17 +104,43 @@ def main() -> None:
         with tempfile.TemporaryDirectory() as tmp:
             runner = LeRobotRunner(make_tiny_act(Path(tmp) / "act", image_size=args.size, chunk_size=1), device="auto")
             for dtype in ("uint8", "float32"):  # chunk_size 1: every step runs the network
-                rows.append(measure(f"tiny ACT ({runner.device})", runner, observation(args.size, dtype=dtype), args.act_steps, warmup=3))
-    print(f"3 cameras x 3x{args.size}x{args.size} + state(8), loopback tcp, server thread in the same process, "
-          f"{os.cpu_count()} CPUs")
-    print("codec: " + "; ".join(f"{k} pack {v['pack_ms']:.2f} ms, unpack {v['unpack_ms']:.2f} ms" for k, v in codecs.items()))
+                rows.append(
+                    measure(
+                        f"tiny ACT ({runner.device})",
+                        runner,
+                        observation(args.size, dtype=dtype),
+                        args.act_steps,
+                        warmup=3,
+                    )
+                )
+    print(
+        f"3 cameras x 3x{args.size}x{args.size} + state(8), loopback tcp, server thread in the same process, "
+        f"{os.cpu_count()} CPUs"
+    )
+    print(
+        "codec: "
+        + "; ".join(f"{k} pack {v['pack_ms']:.2f} ms, unpack {v['unpack_ms']:.2f} ms" for k, v in codecs.items())
+    )
     header = f"{'policy':<18}{'images':>8}{'MB':>7}{'inference':>11}{'round trip':>12}{'overhead':>10}{'p95 ovh':>9}"
     print(header + "   (ms, medians)")
     for r in rows:
-        print(f"{r['policy']:<18}{r['image_dtype']:>8}{r['request_bytes'] / 1e6:>7.2f}{r['inference']['median_ms']:>11.2f}"
-              f"{r['round_trip']['median_ms']:>12.2f}{r['overhead_median_ms']:>10.2f}{r['overhead_of_pairs']['p95_ms']:>9.2f}")
-    args.out.write_text(json.dumps({"git_sha": git_state()[0], "image_size": args.size, "cpus": os.cpu_count(),
-                                    "codec": codecs, "results": rows}, indent=2) + "\n")
+        print(
+            f"{r['policy']:<18}{r['image_dtype']:>8}{r['request_bytes'] / 1e6:>7.2f}{r['inference']['median_ms']:>11.2f}"
+            f"{r['round_trip']['median_ms']:>12.2f}{r['overhead_median_ms']:>10.2f}{r['overhead_of_pairs']['p95_ms']:>9.2f}"
+        )
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": git_state()[0],
+                "image_size": args.size,
+                "cpus": os.cpu_count(),
+                "codec": codecs,
+                "results": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
 
 
 if __name__ == "__main__":

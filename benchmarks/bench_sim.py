@@ -57,17 +57,31 @@ def bench_task(task, episodes: int) -> dict:
     model = world.model
     simulated = steps * world.control_dt
     return {
-        "task": task.id, "robot": task.embodiment.robot, "nbody": model.nbody, "ngeom": model.ngeom, "nv": model.nv,
-        "build_s": round(build_s, 3), "episodes": episodes, "successes": successes, "control_steps": steps,
-        "simulated_s": round(simulated, 2), "step_wall_s": round(step_s, 3), "expert_wall_s": round(act_s, 3),
-        "real_time_factor": round(simulated / step_s, 2), "control_steps_per_s": round(steps / step_s, 1),
+        "task": task.id,
+        "robot": task.embodiment.robot,
+        "nbody": model.nbody,
+        "ngeom": model.ngeom,
+        "nv": model.nv,
+        "build_s": round(build_s, 3),
+        "episodes": episodes,
+        "successes": successes,
+        "control_steps": steps,
+        "simulated_s": round(simulated, 2),
+        "step_wall_s": round(step_s, 3),
+        "expert_wall_s": round(act_s, 3),
+        "real_time_factor": round(simulated / step_s, 2),
+        "control_steps_per_s": round(steps / step_s, 1),
         "real_time_factor_with_expert": round(simulated / (step_s + act_s), 2),
     }
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--tasks", default="benchmark", help="Comma-separated task ids, or 'benchmark' for the 12 paper tasks (tag paper-benchmark).")
+    parser.add_argument(
+        "--tasks",
+        default="benchmark",
+        help="Comma-separated task ids, or 'benchmark' for the 12 paper tasks (tag paper-benchmark).",
+    )
     parser.add_argument("--episodes", type=int, default=2, help="Expert episodes per task.")
     parser.add_argument("--out", type=Path, default=Path("bench_sim.json"))
     args = parser.parse_args()
@@ -78,17 +92,32 @@ def main() -> None:
         names = args.tasks.split(",")
     tasks = [registry.get(name) for name in names]
     rows = [bench_task(task, args.episodes) for task in tasks]
-    print(f"mujoco {mujoco.__version__}, {os.cpu_count()} CPUs ({platform.processor() or platform.machine()}), "
-          f"{args.episodes} expert episodes per task, physics 600 Hz / control 30 Hz")
+    print(
+        f"mujoco {mujoco.__version__}, {os.cpu_count()} CPUs ({platform.processor() or platform.machine()}), "
+        f"{args.episodes} expert episodes per task, physics 600 Hz / control 30 Hz"
+    )
     header = f"{'task':<42}{'robot':<14}{'ngeom':>6}{'nv':>4}{'build s':>9}{'steps':>7}{'ok':>4}{'RTF':>7}{'steps/s':>9}{'RTF+expert':>12}"
     print(header)
     for r in rows:
-        print(f"{r['task']:<42}{r['robot']:<14}{r['ngeom']:>6}{r['nv']:>4}{r['build_s']:>9.2f}{r['control_steps']:>7}"
-              f"{r['successes']:>3}/{r['episodes']}{r['real_time_factor']:>6.1f}{r['control_steps_per_s']:>9.0f}"
-              f"{r['real_time_factor_with_expert']:>12.1f}")
+        print(
+            f"{r['task']:<42}{r['robot']:<14}{r['ngeom']:>6}{r['nv']:>4}{r['build_s']:>9.2f}{r['control_steps']:>7}"
+            f"{r['successes']:>3}/{r['episodes']}{r['real_time_factor']:>6.1f}{r['control_steps_per_s']:>9.0f}"
+            f"{r['real_time_factor_with_expert']:>12.1f}"
+        )
     commit, dirty = git_state()
-    args.out.write_text(json.dumps({"git_sha": commit, "git_dirty": dirty, "mujoco": mujoco.__version__,
-                                    "cpus": os.cpu_count(), "results": rows}, indent=2) + "\n")
+    args.out.write_text(
+        json.dumps(
+            {
+                "git_sha": commit,
+                "git_dirty": dirty,
+                "mujoco": mujoco.__version__,
+                "cpus": os.cpu_count(),
+                "results": rows,
+            },
+            indent=2,
+        )
+        + "\n"
+    )
     print(f"wrote {args.out}")
 
 

@@ -70,19 +70,39 @@ class Preset:
 
 
 PRESETS = {
-    "cpu": Preset(suite="pipette/CpuReproduction-v1", demos=30, variants="original,light,speed,light+speed", steps=300,
-                  batch_size=8, device="cpu", act_flags=SMALL_ACT),
-    "paper": Preset(suite="pipette/PaperBenchmark-v1", demos=30, variants="original,paper", steps=15000, batch_size=32,
-                    device="cuda", act_flags=("--num_workers=4",)),
+    "cpu": Preset(
+        suite="pipette/CpuReproduction-v1",
+        demos=30,
+        variants="original,light,speed,light+speed",
+        steps=300,
+        batch_size=8,
+        device="cpu",
+        act_flags=SMALL_ACT,
+    ),
+    "paper": Preset(
+        suite="pipette/PaperBenchmark-v1",
+        demos=30,
+        variants="original,paper",
+        steps=15000,
+        batch_size=32,
+        device="cuda",
+        act_flags=("--num_workers=4",),
+    ),
 }
 # The paper's ACT success rates (table 2), raw ("Unenh.") and augmented ("Enh."), in percent.
 PAPER_ACT = {
-    "pipette/PickUpTestTube-v1": (100, 100), "pipette/PipetteToPetriDish-v1": (81, 78),
-    "pipette/RemovePetriDishFromIncubator-v1": (0, 9), "pipette/PlacePetriDishInIncubator-v1": (57, 90),
-    "pipette/CloseCentrifugeLid-v1": (76, 84), "pipette/OpenCentrifugeLid-v1": (88, 100),
-    "pipette/OpenWaterBathLid-v1": (70, 98), "pipette/CloseSpectrophotometerLid-v1": (83, 52),
-    "pipette/PlaceTubeOnBalance-v1": (58, 3), "pipette/RemoveTubeFromBalance-v1": (40, 71),
-    "pipette/PlacePipetteInRack-v1": (67, 5), "pipette/PlaceFlaskOnShaker-v1": (4, 18),
+    "pipette/PickUpTestTube-v1": (100, 100),
+    "pipette/PipetteToPetriDish-v1": (81, 78),
+    "pipette/RemovePetriDishFromIncubator-v1": (0, 9),
+    "pipette/PlacePetriDishInIncubator-v1": (57, 90),
+    "pipette/CloseCentrifugeLid-v1": (76, 84),
+    "pipette/OpenCentrifugeLid-v1": (88, 100),
+    "pipette/OpenWaterBathLid-v1": (70, 98),
+    "pipette/CloseSpectrophotometerLid-v1": (83, 52),
+    "pipette/PlaceTubeOnBalance-v1": (58, 3),
+    "pipette/RemoveTubeFromBalance-v1": (40, 71),
+    "pipette/PlacePipetteInRack-v1": (67, 5),
+    "pipette/PlaceFlaskOnShaker-v1": (4, 18),
 }
 VERSIONS = (DatasetVersion.raw, DatasetVersion.augmented)
 
@@ -119,33 +139,70 @@ def run_task(task: TaskSpec, suite: RegisteredSuite, preset: Preset, work: Path,
         t = time.perf_counter()
         root = datasets / slug / name
         if not (root / "meta" / "info.json").is_file():
-            convert([inputs[version]], ConvertOptions(repo_id=f"local/{slug}_{name}", root=root, video=False,
-                                                      dataset_version=version, overwrite=True))
+            convert(
+                [inputs[version]],
+                ConvertOptions(
+                    repo_id=f"local/{slug}_{name}", root=root, video=False, dataset_version=version, overwrite=True
+                ),
+            )
         seconds[f"convert_{name}"] = time.perf_counter() - t
         frames = json.loads((root / "meta" / "info.json").read_text())
         t = time.perf_counter()
-        options = TrainOptions(policy=Policy.act, dataset_version=version, steps=preset.steps, batch_size=preset.batch_size,
-                               device=preset.device, datasets_root=datasets, output_root=folder / "train",
-                               if_exists=IfExists.skip, offline=True, extra=preset.act_flags)
-        checkpoint = train_checkpoint(task.id, options, on_train=lambda job: say(
-            f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)"))  # noqa: B023  (called at once, in this iteration)
+        options = TrainOptions(
+            policy=Policy.act,
+            dataset_version=version,
+            steps=preset.steps,
+            batch_size=preset.batch_size,
+            device=preset.device,
+            datasets_root=datasets,
+            output_root=folder / "train",
+            if_exists=IfExists.skip,
+            offline=True,
+            extra=preset.act_flags,
+        )
+        checkpoint = train_checkpoint(
+            task.id,
+            options,
+            on_train=lambda job, name=name, frames=frames: say(
+                f"{task.id}: training ACT on {name} ({frames['total_episodes']} episodes, {frames['total_frames']} frames)"
+            ),
+        )
         seconds[f"train_{name}"] = time.perf_counter() - t
         t = time.perf_counter()
         run = TaskRun(task, folder / "eval" / name, tuple(episode_plan(suite.spec, [task.id])[task.id]))
-        settings = EvalSettings(DecodeConfig.for_policy("act"), image_size, suite.spec.render_profile, name, suite.record())
-        evaluated = evaluate_runs([run], PolicySource(checkpoint=checkpoint, device=preset.device), settings, workers=workers,
-                                  on_start=lambda done, todo: say(f"{task.id}: evaluating ACT on {name}: "  # noqa: B023  (called at once, in this iteration)
-                                                                  f"{done} episodes logged, {todo} to go"))
+        settings = EvalSettings(
+            DecodeConfig.for_policy("act"), image_size, suite.spec.render_profile, name, suite.record()
+        )
+        evaluated = evaluate_runs(
+            [run],
+            PolicySource(checkpoint=checkpoint, device=preset.device),
+            settings,
+            workers=workers,
+            on_start=lambda done, todo, name=name: say(
+                f"{task.id}: evaluating ACT on {name}: {done} episodes logged, {todo} to go"
+            ),
+        )
         summary = evaluated.summaries[task.id]
         seconds[f"eval_{name}"] = time.perf_counter() - t
         say(f"{task.id}: ACT on {name}: {summary['successes']}/{summary['episodes']} successes")
-        versions[name] = {"episodes": frames["total_episodes"], "frames": frames["total_frames"], "eval": str(run.folder)}
+        versions[name] = {
+            "episodes": frames["total_episodes"],
+            "frames": frames["total_frames"],
+            "eval": str(run.folder),
+        }
     timings = folder / "seconds.json"  # a resumed run skips finished stages: keep the time they took
     previous = json.loads(timings.read_text()) if timings.is_file() else {}
     seconds = {k: round(max(v, previous.get(k, 0.0)), 1) for k, v in seconds.items()}
     timings.write_text(json.dumps(seconds, indent=2))
-    return {"task": task.id, "demos": len(demos), "demo_successes": sum(r.summary.success for r in demos),
-            "augment_kept": kept, "augment_tried": tried, "versions": versions, "seconds": seconds}
+    return {
+        "task": task.id,
+        "demos": len(demos),
+        "demo_successes": sum(r.summary.success for r in demos),
+        "augment_kept": kept,
+        "augment_tried": tried,
+        "versions": versions,
+        "seconds": seconds,
+    }
 
 
 def verdict(comparison: Comparison | None, holm_p: float | None) -> str:
@@ -155,14 +212,17 @@ def verdict(comparison: Comparison | None, holm_p: float | None) -> str:
     return f"{direction}, significant" if holm_p is not None and holm_p < ALPHA else f"{direction}, not significant"
 
 
-def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command: str, docs: Path,
-               pending: list[str]) -> str:
+def write_docs(
+    results: list[dict[str, Any]], settings: dict[str, Any], command: str, docs: Path, pending: list[str]
+) -> str:
     """``table.md``, ``results.json`` and ``success.png`` in ``docs``; returns the markdown table.
 
     ``pending`` are the suite's tasks without results yet: the table says that it leaves them out.
     """
     docs.mkdir(parents=True, exist_ok=True)
-    table_report = report.build_report(report.load_runs([Path(v["eval"]) for r in results for v in r["versions"].values()]))
+    table_report = report.build_report(
+        report.load_runs([Path(v["eval"]) for r in results for v in r["versions"].values()])
+    )
     report.bar_chart(table_report, docs / "success.png")
     lines = [
         "| task | demos (ok) | augmented kept / tried | raw episodes / frames | augmented episodes / frames "
@@ -176,8 +236,11 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
         holm_p = table_report.holm_p.get((r["task"], "act"))
         change = verdict(comparison, holm_p)
         tally.setdefault(change, []).append(r["task"].split("/")[-1])
-        test = (f"{comparison.p_value:.3g} ({holm_p:.3g}); {comparison.only_a} vs {comparison.only_b} discordant"
-                if comparison is not None and comparison.only_a is not None else "-")
+        test = (
+            f"{comparison.p_value:.3g} ({holm_p:.3g}); {comparison.only_a} vs {comparison.only_b} discordant"
+            if comparison is not None and comparison.only_a is not None
+            else "-"
+        )
         paper = PAPER_ACT.get(r["task"])
         raw, aug = r["versions"]["raw"], r["versions"]["augmented"]
         lines.append(
@@ -190,7 +253,9 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
         r["versions"]["raw"].update(_cell(cells["raw"]))
         r["versions"]["augmented"].update(_cell(cells["augmented"]))
         r["comparison"] = None if comparison is None else {**comparison.as_dict(), "p_holm": holm_p, "verdict": change}
-    mean = {name: sum(r["versions"][name]["success_rate"] for r in results) / len(results) for name in ("raw", "augmented")}
+    mean = {
+        name: sum(r["versions"][name]["success_rate"] for r in results) / len(results) for name in ("raw", "augmented")
+    }
     lines += [
         "",
         f"Mean success: raw {100 * mean['raw']:.1f} %, augmented {100 * mean['augmented']:.1f} %.",
@@ -201,8 +266,10 @@ def write_docs(results: list[dict[str, Any]], settings: dict[str, Any], command:
         f"Holm-adjusted over the {len(results)} tasks; significant means adjusted p < {ALPHA}.",
     ]
     if pending:
-        lines.append(f"Not in this table: {', '.join(pending)} (of suite {settings['suite']['id']}); "
-                     "rerunning the command continues with them.")
+        lines.append(
+            f"Not in this table: {', '.join(pending)} (of suite {settings['suite']['id']}); "
+            "rerunning the command continues with them."
+        )
     table = "\n".join(lines) + "\n"
     (docs / "table.md").write_text(table)
     data = {"settings": settings, "command": command, "results": results, "pending": pending}
@@ -221,18 +288,29 @@ def main() -> None:
     parser.add_argument("--suite", default=None, help="Evaluation suite (default: the preset's); sets the image size.")
     parser.add_argument("--tasks", default=None, help="Comma-separated task ids of the suite (default: all of them).")
     parser.add_argument("--registry-dir", type=Path, action="append", default=[], help="Extra task/suite folder.")
-    parser.add_argument("--work", type=Path, default=Path("runs/reproduce"), help="Datasets, checkpoints, logs (resumable).")
-    parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction", help="Where the table, JSON and plot go.")
-    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
-                        help="Processes for collection, augmentation and evaluation.")
+    parser.add_argument(
+        "--work", type=Path, default=Path("runs/reproduce"), help="Datasets, checkpoints, logs (resumable)."
+    )
+    parser.add_argument(
+        "--docs", type=Path, default=ROOT / "docs" / "reproduction", help="Where the table, JSON and plot go."
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        help="Processes for collection, augmentation and evaluation.",
+    )
     for field in ("demos", "steps", "batch_size"):
         parser.add_argument(f"--{field.replace('_', '-')}", type=int, default=None)
     parser.add_argument("--variants", default=None, help="Augmentation variants, as `pipette augment --variants`.")
     parser.add_argument("--device", default=None)
     args = parser.parse_args()
     preset = PRESETS[args.preset]
-    overrides = {k: getattr(args, k) for k in ("suite", "demos", "steps", "batch_size", "variants", "device")
-                 if getattr(args, k) is not None}
+    overrides = {
+        k: getattr(args, k)
+        for k in ("suite", "demos", "steps", "batch_size", "variants", "device")
+        if getattr(args, k) is not None
+    }
     preset = replace(preset, **overrides)
     registry = load_registry(args.registry_dir)
     suite = load_suites(registry, args.registry_dir).get(preset.suite)
@@ -244,12 +322,22 @@ def main() -> None:
     for task in tasks:
         results.append(run_task(task, suite, preset, args.work, args.workers))
         commit, dirty = git_state()
-        settings = {"preset": args.preset, **asdict(preset), "suite": suite.record(), "image_size": suite.spec.image_size,
-                    "workers": args.workers, "git_commit": commit, "git_dirty": dirty, "cpus": os.cpu_count(),
-                    "wall_minutes_this_run": round((time.perf_counter() - started) / 60, 1),
-                    "stage_minutes": round(sum(sum(r["seconds"].values()) for r in results) / 60, 1)}
+        settings = {
+            "preset": args.preset,
+            **asdict(preset),
+            "suite": suite.record(),
+            "image_size": suite.spec.image_size,
+            "workers": args.workers,
+            "git_commit": commit,
+            "git_dirty": dirty,
+            "cpus": os.cpu_count(),
+            "wall_minutes_this_run": round((time.perf_counter() - started) / 60, 1),
+            "stage_minutes": round(sum(sum(r["seconds"].values()) for r in results) / 60, 1),
+        }
         pending = [entry.task for entry in suite.spec.tasks if entry.task not in {r["task"] for r in results}]
-        table = write_docs(results, settings, command, args.docs, pending)  # after every task: a partial run still reports
+        table = write_docs(
+            results, settings, command, args.docs, pending
+        )  # after every task: a partial run still reports
     print(table)
     print(f"wrote {args.docs}/table.md, results.json and success.png")
 

@@ -33,17 +33,36 @@ log = logging.getLogger(__name__)
 
 DEFAULT_TASK = "CloseSpectrophotometerLid"
 SMALL_ACT = (
-    "--policy.dim_model=128", "--policy.dim_feedforward=512", "--policy.n_heads=4", "--policy.n_encoder_layers=2",
-    "--policy.n_decoder_layers=1", "--policy.n_vae_encoder_layers=2", "--policy.latent_dim=16",
-    "--policy.chunk_size=20", "--policy.n_action_steps=20", "--policy.optimizer_lr=1e-4",
-    "--policy.optimizer_lr_backbone=1e-4", "--num_workers=0", "--log_freq=20", "--seed=1000",
+    "--policy.dim_model=128",
+    "--policy.dim_feedforward=512",
+    "--policy.n_heads=4",
+    "--policy.n_encoder_layers=2",
+    "--policy.n_decoder_layers=1",
+    "--policy.n_vae_encoder_layers=2",
+    "--policy.latent_dim=16",
+    "--policy.chunk_size=20",
+    "--policy.n_action_steps=20",
+    "--policy.optimizer_lr=1e-4",
+    "--policy.optimizer_lr_backbone=1e-4",
+    "--num_workers=0",
+    "--log_freq=20",
+    "--seed=1000",
 )
 """The ACT of the CPU reproduction (``docs/reproduction``): dim 128, 2 encoder / 1 decoder layers,
 chunk 20, ResNet-18 from scratch; it learns the lid tasks from a few dozen demonstrations."""
 TINY_ACT = (
-    "--policy.dim_model=64", "--policy.dim_feedforward=128", "--policy.n_heads=2", "--policy.n_encoder_layers=1",
-    "--policy.n_decoder_layers=1", "--policy.n_vae_encoder_layers=1", "--policy.latent_dim=8",
-    "--policy.chunk_size=10", "--policy.n_action_steps=10", "--num_workers=0", "--log_freq=1", "--seed=1000",
+    "--policy.dim_model=64",
+    "--policy.dim_feedforward=128",
+    "--policy.n_heads=2",
+    "--policy.n_encoder_layers=1",
+    "--policy.n_decoder_layers=1",
+    "--policy.n_vae_encoder_layers=1",
+    "--policy.latent_dim=8",
+    "--policy.chunk_size=10",
+    "--policy.n_action_steps=10",
+    "--num_workers=0",
+    "--log_freq=1",
+    "--seed=1000",
 )
 MIN_SUCCESS = 0.5
 """Evaluation success rate below which the demo reports that the policy did not learn the task."""
@@ -62,10 +81,26 @@ class DemoSize:
     """Whether the policy is expected to learn (False: a smoke run of every stage)."""
 
 
-FULL = DemoSize(demos=20, image_size=64, train_steps=300, batch_size=8, eval_episodes=10,
-                variants="original,light,speed", act=SMALL_ACT, judged=True)
-FAST = DemoSize(demos=2, image_size=32, train_steps=2, batch_size=4, eval_episodes=2, variants="light,speed",
-                act=TINY_ACT, judged=False)
+FULL = DemoSize(
+    demos=20,
+    image_size=64,
+    train_steps=300,
+    batch_size=8,
+    eval_episodes=10,
+    variants="original,light,speed",
+    act=SMALL_ACT,
+    judged=True,
+)
+FAST = DemoSize(
+    demos=2,
+    image_size=32,
+    train_steps=2,
+    batch_size=4,
+    eval_episodes=2,
+    variants="light,speed",
+    act=TINY_ACT,
+    judged=False,
+)
 
 
 def folder_size(path: Path) -> int:
@@ -118,7 +153,11 @@ class RecordingSource:
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:
         if reset or not self.episodes:
             self.episodes.append([])
-        views = [observation[f"observation.images.{c}"] for c in ("top", "main", "wrist") if f"observation.images.{c}" in observation]
+        views = [
+            observation[f"observation.images.{c}"]
+            for c in ("top", "main", "wrist")
+            if f"observation.images.{c}" in observation
+        ]
         if views:
             strip = np.concatenate([np.asarray(v).transpose(1, 2, 0) for v in views], axis=1)
             self.episodes[-1].append(strip if strip.dtype == np.uint8 else (strip * 255).astype(np.uint8))
@@ -131,7 +170,10 @@ class RecordingSource:
         for i, frames in enumerate(self.episodes):
             if not frames:
                 continue
-            images = [Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.Resampling.NEAREST) for f in frames]
+            images = [
+                Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.Resampling.NEAREST)
+                for f in frames
+            ]
             path = folder / f"episode_{i:04d}.gif"
             images[0].save(path, save_all=True, append_images=images[1:], duration=100, loop=0)
             paths.append(path)
@@ -216,14 +258,27 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     datasets = out / "datasets"
     slug = task.id.replace("/", "_")
     root = datasets / slug / "augmented"
-    convert([aug], ConvertOptions(repo_id=f"local/{slug}_augmented", root=root, video=False,
-                                  dataset_version=DatasetVersion.augmented))
+    convert(
+        [aug],
+        ConvertOptions(
+            repo_id=f"local/{slug}_augmented", root=root, video=False, dataset_version=DatasetVersion.augmented
+        ),
+    )
     timings["convert"] = time.perf_counter() - t
     say(f"convert: LeRobot dataset at {root} ({folder_size(root) / 1e6:.1f} MB)")
     t = time.perf_counter()
-    options = TrainOptions(policy=Policy.act, dataset_version=DatasetVersion.augmented, steps=size.train_steps,
-                           batch_size=size.batch_size, device="cpu", datasets_root=datasets, output_root=out / "train",
-                           if_exists=IfExists.overwrite, offline=True, extra=size.act)
+    options = TrainOptions(
+        policy=Policy.act,
+        dataset_version=DatasetVersion.augmented,
+        steps=size.train_steps,
+        batch_size=size.batch_size,
+        device="cpu",
+        datasets_root=datasets,
+        output_root=out / "train",
+        if_exists=IfExists.overwrite,
+        offline=True,
+        extra=size.act,
+    )
     checkpoint = train_checkpoint(task.id, options)
     timings["train"] = time.perf_counter() - t
     say(f"train: ACT, {size.train_steps} steps of batch {size.batch_size} -> {checkpoint}")
@@ -234,27 +289,51 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         recorded.append(RecordingSource(policy(worker, config)))
         return recorded[-1]
 
-    summary = evaluate_task(task, recording, DecodeConfig.for_policy("act"), episodes=size.eval_episodes, seed=1000,
-                            out=out / "eval", image_size=size.image_size,
-                            dataset_version="augmented")  # the label `pipette eval report` groups by
+    summary = evaluate_task(
+        task,
+        recording,
+        DecodeConfig.for_policy("act"),
+        episodes=size.eval_episodes,
+        seed=1000,
+        out=out / "eval",
+        image_size=size.image_size,
+        dataset_version="augmented",
+    )  # the label `pipette eval report` groups by
     timings["eval"] = time.perf_counter() - t
     videos = [path for source in recorded for path in source.write_gifs(out / "eval")]
     contact_sheet(aug, out / "augmented_sheet.png", out / "augmented.gif")
     episodes = [json.loads(p.read_text()) for p in sorted((out / "eval").glob("episode_*.json"))]
     log_file = next(iter(sorted((out / "train").glob("*/*.log"))), out / "train" / "missing.log")
-    plot_run(out / "summary.png", training_losses(log_file), episodes,
-             f"{task.id}: {summary['successes']}/{summary['episodes']} evaluation episodes succeeded")
+    plot_run(
+        out / "summary.png",
+        training_losses(log_file),
+        episodes,
+        f"{task.id}: {summary['successes']}/{summary['episodes']} evaluation episodes succeeded",
+    )
     learned = summary["success_rate"] >= MIN_SUCCESS if size.judged else None
     report = {
-        "task": task.id, "robot": task.embodiment.robot, "demos": len(collected.added), "demo_successes": sum(e.success for e in collected.added),
-        "augmented_attempts": tried, "augmented_kept": kept, "yield": kept / tried if tried else 0.0,
-        "dataset_mb": folder_size(root) / 1e6, "dataset": str(root), "checkpoint": str(checkpoint),
-        "train_steps": size.train_steps, "batch_size": size.batch_size, "eval_episodes": summary["episodes"],
-        "eval_successes": summary["successes"], "success_rate": summary["success_rate"],
-        "failures": summary["failures"], "learned": learned, "min_success_rate": MIN_SUCCESS if size.judged else None,
+        "task": task.id,
+        "robot": task.embodiment.robot,
+        "demos": len(collected.added),
+        "demo_successes": sum(e.success for e in collected.added),
+        "augmented_attempts": tried,
+        "augmented_kept": kept,
+        "yield": kept / tried if tried else 0.0,
+        "dataset_mb": folder_size(root) / 1e6,
+        "dataset": str(root),
+        "checkpoint": str(checkpoint),
+        "train_steps": size.train_steps,
+        "batch_size": size.batch_size,
+        "eval_episodes": summary["episodes"],
+        "eval_successes": summary["successes"],
+        "success_rate": summary["success_rate"],
+        "failures": summary["failures"],
+        "learned": learned,
+        "min_success_rate": MIN_SUCCESS if size.judged else None,
         "videos": [str(p) for p in videos] + [str(out / "augmented.gif")],
         "plots": [str(out / "summary.png"), str(out / "augmented_sheet.png")],
-        "seconds": {k: round(v, 1) for k, v in timings.items()}, "total_seconds": round(sum(timings.values()), 1),
+        "seconds": {k: round(v, 1) for k, v in timings.items()},
+        "total_seconds": round(sum(timings.values()), 1),
     }
     (out / "demo_summary.json").write_text(json.dumps(report, indent=2))
     return report
@@ -264,12 +343,16 @@ def verdict_line(report: dict[str, Any]) -> str:
     """One plain sentence: did the policy learn the task?"""
     n, k = report["eval_episodes"], report["eval_successes"]
     if report["learned"] is None:
-        return (f"smoke run: {report['train_steps']} training steps do not train a policy, so its {k}/{n} "
-                "evaluation successes mean nothing; run `pipette demo` without --fast for a policy that works")
+        return (
+            f"smoke run: {report['train_steps']} training steps do not train a policy, so its {k}/{n} "
+            "evaluation successes mean nothing; run `pipette demo` without --fast for a policy that works"
+        )
     if report["learned"]:
         return f"the learned policy works: {k}/{n} evaluation episodes succeeded"
-    return (f"the learned policy FAILED: only {k}/{n} evaluation episodes succeeded (this demo expects at least "
-            f"{100 * report['min_success_rate']:.0f} %); failures: {report['failures']}")
+    return (
+        f"the learned policy FAILED: only {k}/{n} evaluation episodes succeeded (this demo expects at least "
+        f"{100 * report['min_success_rate']:.0f} %); failures: {report['failures']}"
+    )
 
 
 def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
@@ -277,12 +360,26 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ("task", report["task"]),
         ("robot", report["robot"]),
         ("scripted demos (succeeded)", f"{report['demos']} ({report['demo_successes']})"),
-        ("augmented variants kept", f"{report['augmented_kept']}/{report['augmented_attempts']} (yield {100 * report['yield']:.0f} %)"),
+        (
+            "augmented variants kept",
+            f"{report['augmented_kept']}/{report['augmented_attempts']} (yield {100 * report['yield']:.0f} %)",
+        ),
         ("LeRobot dataset", f"{report['dataset_mb']:.1f} MB: {report['dataset']}"),
         ("ACT training", f"{report['train_steps']} steps of batch {report['batch_size']}"),
-        ("evaluation success rate", f"{100 * report['success_rate']:.0f} % ({report['eval_successes']} of {report['eval_episodes']})"),
-        ("time (s)", ", ".join(f"{k} {v}" for k, v in report["seconds"].items()) + f"; total {report['total_seconds']}"),
-        ("videos", ", ".join(report["videos"][:1] + ([f"... ({len(report['videos'])} GIFs)"] if len(report["videos"]) > 1 else []))),
+        (
+            "evaluation success rate",
+            f"{100 * report['success_rate']:.0f} % ({report['eval_successes']} of {report['eval_episodes']})",
+        ),
+        (
+            "time (s)",
+            ", ".join(f"{k} {v}" for k, v in report["seconds"].items()) + f"; total {report['total_seconds']}",
+        ),
+        (
+            "videos",
+            ", ".join(
+                report["videos"][:1] + ([f"... ({len(report['videos'])} GIFs)"] if len(report["videos"]) > 1 else [])
+            ),
+        ),
         ("plots", ", ".join(report["plots"])),
     ]
 

@@ -72,7 +72,9 @@ def validate_task_document(doc: Any, source: str, assets: AssetLibrary | None = 
     asset_fields += [(("scene", "objects", i, "asset"), o.asset) for i, o in enumerate(spec.scene.objects)]
     for loc, asset_id in asset_fields:
         if asset_id not in library:
-            problems.append(format_problem(source, doc, loc, f"unknown asset {asset_id!r}; {suggest(asset_id, library.ids())}"))
+            problems.append(
+                format_problem(source, doc, loc, f"unknown asset {asset_id!r}; {suggest(asset_id, library.ids())}")
+            )
     if not problems:
         problems = [format_problem(source, doc, loc, msg) for loc, msg in part_problems(spec, library)]
     if problems:
@@ -97,8 +99,12 @@ def part_problems(spec: TaskSpec, library: AssetLibrary) -> list[tuple[tuple[Any
             names = [str(n) for key in PART_KEYS[kind] for n in semantics.get(key, [])]
             if part not in names:
                 what = "site" if kind == "site" else "joint" if kind == "joint" else "site, joint or body"
-                out.append((("expert", i, *loc), f"asset {assets[obj]!r} of {obj!r} has no {what} {part!r}; "
-                                                 f"{suggest(part, names)}"))
+                out.append(
+                    (
+                        ("expert", i, *loc),
+                        f"asset {assets[obj]!r} of {obj!r} has no {what} {part!r}; {suggest(part, names)}",
+                    )
+                )
     return out
 
 
@@ -123,8 +129,11 @@ def task_files(dirs: Iterable[Path]) -> list[Path]:
     for folder in dirs:
         if not folder.is_dir():
             raise SpecError(f"{folder}: registry folder does not exist")
-        for path in sorted(p for p in folder.rglob("*") if p.suffix in YAML_SUFFIXES and p.is_file()
-                           and p.relative_to(folder).parts[0] not in RESERVED_FOLDERS):
+        for path in sorted(
+            p
+            for p in folder.rglob("*")
+            if p.suffix in YAML_SUFFIXES and p.is_file() and p.relative_to(folder).parts[0] not in RESERVED_FOLDERS
+        ):
             resolved = path.resolve()
             if resolved not in seen:
                 seen.add(resolved)
@@ -170,8 +179,11 @@ def resolve_versioned(name: str, ids: Iterable[str], what: str, error: type[Pipe
         return name
     candidates = [tid for tid in ids if tid.split("/", 1)[1] == name]
     if not candidates and not re.search(r"-v\d+$", name):
-        same = [tid for tid in ids if re.sub(r"-v\d+$", "", tid) == name
-                or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == name]
+        same = [
+            tid
+            for tid in ids
+            if re.sub(r"-v\d+$", "", tid) == name or re.sub(r"-v\d+$", "", tid.split("/", 1)[1]) == name
+        ]
         latest: dict[str, str] = {}
         for tid in sorted(same, key=lambda t: int(t.rsplit("-v", 1)[1])):
             latest[tid.split("/", 1)[0]] = tid
@@ -214,7 +226,11 @@ def load_documents[SpecT: Identified](
             problems.extend(exc.problems)
             continue
         if spec.id in found:
-            problems.append(format_problem(str(path), doc, ("id",), f"duplicate {what} id {spec.id!r}, already defined in {found[spec.id][1]}"))
+            problems.append(
+                format_problem(
+                    str(path), doc, ("id",), f"duplicate {what} id {spec.id!r}, already defined in {found[spec.id][1]}"
+                )
+            )
             continue
         found[spec.id] = (spec, path)
     if problems:
@@ -230,6 +246,7 @@ def load_registry(extra_dirs: Iterable[Path] = (), assets: AssetLibrary | None =
         SpecError: every problem in every file, and every duplicate id.
     """
     library = assets if assets is not None else load_asset_library()
-    found = load_documents(task_files(registry_dirs(extra_dirs)),
-                           lambda doc, source: validate_task_document(doc, source, library), "task")
+    found = load_documents(
+        task_files(registry_dirs(extra_dirs)), lambda doc, source: validate_task_document(doc, source, library), "task"
+    )
     return Registry({task_id: RegisteredTask(spec, path) for task_id, (spec, path) in found.items()})

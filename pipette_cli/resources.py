@@ -29,7 +29,9 @@ def data_dir(name: str) -> Path:
     source = Path(__file__).resolve().parent.parent / name
     if source.is_dir():
         return source
-    raise PipetteError(f"built-in folder {name!r} is missing from this installation (looked in {packaged} and {source})")
+    raise PipetteError(
+        f"built-in folder {name!r} is missing from this installation (looked in {packaged} and {source})"
+    )
 
 
 def env_paths(variable: str) -> list[Path]:

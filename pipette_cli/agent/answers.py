@@ -36,7 +36,9 @@ class Answer:
 
 @app.command("tasks")
 def tasks(
-    about: Annotated[str | None, typer.Option("--about", help="Words the tasks must match (objects, actions, tags, robots).")] = None,
+    about: Annotated[
+        str | None, typer.Option("--about", help="Words the tasks must match (objects, actions, tags, robots).")
+    ] = None,
 ) -> Answer:
     """Which registered tasks there are (optionally about something).
 
@@ -58,8 +60,7 @@ def tasks_in(registry: Registry, about: str | None = None) -> Answer:
     rows = [[tid, registry.get(tid).embodiment.robot, registry.get(tid).instruction] for tid in ids]
     what = f" about {', '.join(terms)}" if terms else ""
     text = f"{len(ids)} task{'s' if len(ids) != 1 else ''}{what}" if ids else f"no registered task is{what or ' known'}"
-    return Answer(text, ["task", "robot", "instruction"], rows,
-                  {"count": len(ids), "tasks": ids, "about": terms})
+    return Answer(text, ["task", "robot", "instruction"], rows, {"count": len(ids), "tasks": ids, "about": terms})
 
 
 def _demo_files(file: Path | None, task: str | None) -> list[Path]:
@@ -69,13 +70,17 @@ def _demo_files(file: Path | None, task: str | None) -> list[Path]:
         return [file]
     found = sorted(DEMOS_ROOT.rglob("*.h5")) if DEMOS_ROOT.is_dir() else []
     if not found:
-        raise DatasetError(f"no demo files under {DEMOS_ROOT}/; name the file (`pipette collect --out FILE` writes one)")
+        raise DatasetError(
+            f"no demo files under {DEMOS_ROOT}/; name the file (`pipette collect --out FILE` writes one)"
+        )
     return found
 
 
 @app.command("demos")
 def demos(
-    file: Annotated[Path | None, typer.Option("--file", help="HDF5 demo file (default: every file under data/).")] = None,
+    file: Annotated[
+        Path | None, typer.Option("--file", help="HDF5 demo file (default: every file under data/).")
+    ] = None,
     task_id: Annotated[str | None, typer.Option("--task", help="Only files of this task.")] = None,
 ) -> Answer:
     """How many demos a file holds (successful, failed, pending).
@@ -97,23 +102,42 @@ def demos(
             continue
         episodes = status.episodes
         ok = sum(ref.summary.success for ref in episodes)
-        files.append({"file": str(path), "task_id": status.info.task_id, "episodes": len(episodes), "successful": ok,
-                      "failed": len(episodes) - ok, "pending": len(status.pending),
-                      "image_size": status.info.image_height})
-        rows.append([str(path), status.info.task_id, str(len(episodes)), str(ok), str(len(episodes) - ok),
-                     str(len(status.pending))])
+        files.append(
+            {
+                "file": str(path),
+                "task_id": status.info.task_id,
+                "episodes": len(episodes),
+                "successful": ok,
+                "failed": len(episodes) - ok,
+                "pending": len(status.pending),
+                "image_size": status.info.image_height,
+            }
+        )
+        rows.append(
+            [
+                str(path),
+                status.info.task_id,
+                str(len(episodes)),
+                str(ok),
+                str(len(episodes) - ok),
+                str(len(status.pending)),
+            ]
+        )
     if not files:
         raise DatasetError(f"no demo files of {task_id} under {DEMOS_ROOT}/" if task_id else "no demo files found")
     total = sum(f["episodes"] for f in files)
     if len(files) == 1:
         f = files[0]
         pending = f", {f['pending']} of them pending" if f["pending"] else ""
-        text = (f"{f['file']} holds {f['episodes']} demos of {f['task_id']}: {f['successful']} successful, "
-                f"{f['failed']} failed{pending}")
+        text = (
+            f"{f['file']} holds {f['episodes']} demos of {f['task_id']}: {f['successful']} successful, "
+            f"{f['failed']} failed{pending}"
+        )
     else:
         text = f"{total} demos in {len(files)} files"
-    return Answer(text, ["file", "task", "demos", "successful", "failed", "pending"], rows,
-                  {"total": total, "files": files})
+    return Answer(
+        text, ["file", "task", "demos", "successful", "failed", "pending"], rows, {"total": total, "files": files}
+    )
 
 
 def _summaries(folder: Path) -> list[dict[str, Any]]:
@@ -123,26 +147,46 @@ def _summaries(folder: Path) -> list[dict[str, Any]]:
     for summary in folder.rglob("summary.json"):
         try:
             data = json.loads(summary.read_text())
-            results.append({"folder": str(summary.parent), "task": data["task"], "policy": data.get("policy_type", "?"),
-                            "version": data.get("dataset_version", "raw"), "episodes": int(data["episodes"]),
-                            "successes": int(data.get("successes", round(data["success_rate"] * data["episodes"]))),
-                            "success_rate": float(data["success_rate"]), "complete": True,
-                            "mtime": summary.stat().st_mtime})
+            results.append(
+                {
+                    "folder": str(summary.parent),
+                    "task": data["task"],
+                    "policy": data.get("policy_type", "?"),
+                    "version": data.get("dataset_version", "raw"),
+                    "episodes": int(data["episodes"]),
+                    "successes": int(data.get("successes", round(data["success_rate"] * data["episodes"]))),
+                    "success_rate": float(data["success_rate"]),
+                    "complete": True,
+                    "mtime": summary.stat().st_mtime,
+                }
+            )
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"{summary}: not an evaluation summary ({exc})") from None
     summarized = {r["folder"] for r in results}
     for parent in {p.parent for p in folder.rglob("episode_*.json")} - {Path(f) for f in summarized}:
         logs = [json.loads(p.read_text()) for p in sorted(parent.glob("episode_*.json"))]
         ok = sum(bool(log.get("success")) for log in logs)
-        results.append({"folder": str(parent), "task": logs[0].get("task", "?"), "policy": logs[0].get("policy_type", "?"),
-                        "version": "?", "episodes": len(logs), "successes": ok, "success_rate": ok / len(logs),
-                        "complete": False, "mtime": max(p.stat().st_mtime for p in parent.glob("episode_*.json"))})
+        results.append(
+            {
+                "folder": str(parent),
+                "task": logs[0].get("task", "?"),
+                "policy": logs[0].get("policy_type", "?"),
+                "version": "?",
+                "episodes": len(logs),
+                "successes": ok,
+                "success_rate": ok / len(logs),
+                "complete": False,
+                "mtime": max(p.stat().st_mtime for p in parent.glob("episode_*.json")),
+            }
+        )
     return sorted(results, key=lambda r: -r["mtime"])
 
 
 @app.command("score")
 def score(
-    folder: Annotated[Path | None, typer.Option("--folder", help="Evaluation output folder (default: the newest under evals/).")] = None,
+    folder: Annotated[
+        Path | None, typer.Option("--folder", help="Evaluation output folder (default: the newest under evals/).")
+    ] = None,
     task_id: Annotated[str | None, typer.Option("--task", help="Only evaluations of this task.")] = None,
 ) -> Answer:
     """What the last evaluation scored (success rate, from `pipette eval --out` files).
@@ -155,16 +199,33 @@ def score(
     results = [r for r in _summaries(root) if not task_id or r["task"] == task_id]
     if not results:
         which = f" of {task_id}" if task_id else ""
-        raise DatasetError(f"no evaluation results{which} under {root}/ (write them with `pipette eval TASK ... --out DIR`)")
+        raise DatasetError(
+            f"no evaluation results{which} under {root}/ (write them with `pipette eval TASK ... --out DIR`)"
+        )
     last = results[0]
     partial = "" if last["complete"] else " (interrupted: episode files only)"
-    text = (f"{last['folder']}: {last['task']} with {last['policy']} ({last['version']}) scored "
-            f"{last['successes']}/{last['episodes']} = {100 * last['success_rate']:.0f} %{partial}")
-    rows = [[r["folder"], r["task"], r["policy"], r["version"], f"{r['successes']}/{r['episodes']}",
-             f"{100 * r['success_rate']:.0f} %"] for r in results[:10]]
+    text = (
+        f"{last['folder']}: {last['task']} with {last['policy']} ({last['version']}) scored "
+        f"{last['successes']}/{last['episodes']} = {100 * last['success_rate']:.0f} %{partial}"
+    )
+    rows = [
+        [
+            r["folder"],
+            r["task"],
+            r["policy"],
+            r["version"],
+            f"{r['successes']}/{r['episodes']}",
+            f"{100 * r['success_rate']:.0f} %",
+        ]
+        for r in results[:10]
+    ]
     data = {k: v for k, v in last.items() if k != "mtime"}
-    return Answer(text, ["folder", "task", "policy", "data", "successes", "success rate"], rows,
-                  {"last": data, "count": len(results)})
+    return Answer(
+        text,
+        ["folder", "task", "policy", "data", "successes", "success rate"],
+        rows,
+        {"last": data, "count": len(results)},
+    )
 
 
 ANSWERS = {"answer tasks": tasks, "answer demos": demos, "answer score": score}

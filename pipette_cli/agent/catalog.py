@@ -145,8 +145,11 @@ class CommandCatalog:
         :attr:`one_of` is one entry, its names joined by ``|``."""
         stand_ins = self.stands_in.get(name, {})
         required = set(self.get(name).required()) | set(stand_ins)
-        missing = [p for p in self.get(name).params if p in required and is_empty(args.get(p))
-                   and is_empty(args.get(stand_ins.get(p, "")))]
+        missing = [
+            p
+            for p in self.get(name).params
+            if p in required and is_empty(args.get(p)) and is_empty(args.get(stand_ins.get(p, "")))
+        ]
         choice = self.one_of.get(name, ())
         if choice and all(is_empty(args.get(p)) for p in choice):
             missing.append("|".join(choice))
@@ -249,8 +252,14 @@ def _kind_and_choices(param: Any, hint: Any) -> tuple[str, tuple[str, ...]]:
     click_type = getattr(param, "type", None)  # older typer: click types
     choices = tuple(str(c) for c in getattr(click_type, "choices", None) or ())
     name = getattr(click_type, "name", "")
-    return {"integer": "int", "integer range": "int", "float": "float", "float range": "float", "boolean": "bool",
-            "path": "path"}.get(name, "str"), choices
+    return {
+        "integer": "int",
+        "integer range": "int",
+        "float": "float",
+        "float range": "float",
+        "boolean": "bool",
+        "path": "path",
+    }.get(name, "str"), choices
 
 
 def _param(p: Any, hint: Any) -> ParamInfo:
@@ -262,14 +271,18 @@ def _param(p: Any, hint: Any) -> ParamInfo:
     name = p.name or ""
     long_flags = [o for o in p.opts if o.startswith("--")]
     secondary = [o for o in getattr(p, "secondary_opts", []) if o.startswith("--")]
-    writes = kind == "path" and (name in ("out", "output", "output_root", "markdown", "report")
-                                 or bool(re.search(r"\b(?:to write|to create|write)\b", help_text, re.I)))
+    writes = kind == "path" and (
+        name in ("out", "output", "output_root", "markdown", "report")
+        or bool(re.search(r"\b(?:to write|to create|write)\b", help_text, re.I))
+    )
     default = p.default if not callable(p.default) else None
     if isinstance(default, enum.Enum):
         default = default.value
     address = kind == "str" and bool(re.search(r"tcp://|\bendpoint\b", f"{help_text} {default}", re.I))
-    limits = [getattr(p, attr, None) if getattr(p, attr, None) is not None else getattr(getattr(p, "type", None), attr, None)
-              for attr in ("min", "max")]
+    limits = [
+        getattr(p, attr, None) if getattr(p, attr, None) is not None else getattr(getattr(p, "type", None), attr, None)
+        for attr in ("min", "max")
+    ]
     return ParamInfo(
         name=name,
         flag=(long_flags[0] if long_flags else p.opts[0]) if option else None,

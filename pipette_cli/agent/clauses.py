@@ -22,9 +22,16 @@ from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, p
 ANSWER_PREFIX = "answer "
 
 
-_CONTRACTIONS = [(re.compile(r"\b(what|how|it|that|there|where|who|here)'s\b"), r"\1 is"), (re.compile(r"\blet's\b"), "let us"),
-                 (re.compile(r"n't\b"), " not"), (re.compile(r"'ll\b"), " will"), (re.compile(r"'re\b"), " are"),
-                 (re.compile(r"'ve\b"), " have"), (re.compile(r"\bi'm\b"), "i am"), (re.compile(r"\b(i|we|you)'d\b"), r"\1 would")]
+_CONTRACTIONS = [
+    (re.compile(r"\b(what|how|it|that|there|where|who|here)'s\b"), r"\1 is"),
+    (re.compile(r"\blet's\b"), "let us"),
+    (re.compile(r"n't\b"), " not"),
+    (re.compile(r"'ll\b"), " will"),
+    (re.compile(r"'re\b"), " are"),
+    (re.compile(r"'ve\b"), " have"),
+    (re.compile(r"\bi'm\b"), "i am"),
+    (re.compile(r"\b(i|we|you)'d\b"), r"\1 would"),
+]
 
 
 def words_of(text: str) -> str:
@@ -51,17 +58,24 @@ class Intents:
         self.vocab = vocab
         self.names = task_names
         commands = set(catalog.commands)
-        self.option_words = {name: {w for p in info.params for w in p.split("_")} for name, info in catalog.commands.items()}
-        self.cues = [(command, WEIGHTS[kind], phrase)
-                     for command, cues in vocab.intents.items() if command in commands
-                     for kind in ("phrases", "verbs", "nouns") for phrase in getattr(cues, kind)]
+        self.option_words = {
+            name: {w for p in info.params for w in p.split("_")} for name, info in catalog.commands.items()
+        }
+        self.cues = [
+            (command, WEIGHTS[kind], phrase)
+            for command, cues in vocab.intents.items()
+            if command in commands
+            for kind in ("phrases", "verbs", "nouns")
+            for phrase in getattr(cues, kind)
+        ]
         self.order = [c for c in vocab.intents if c in commands]
 
     def scores(self, text: str) -> dict[str, int]:
         """Command -> cue weight for ``text`` (paths and addresses do not count)."""
         words = words_of(find_mentions(text, self.names).words)
         question = bool(find_phrase(self.vocab.questions, words)) and (
-            phrase_pattern(self.vocab.questions[0]).match(words) is not None or text.rstrip().endswith("?"))
+            phrase_pattern(self.vocab.questions[0]).match(words) is not None or text.rstrip().endswith("?")
+        )
         out: dict[str, int] = {}
         for command, weight, phrase in self.cues:
             if phrase_pattern(phrase).search(words):
@@ -75,15 +89,26 @@ class Intents:
     def cue_words(self, text: str, command: str) -> set[str]:
         """The words of ``text`` that ask for ``command``."""
         words = words_of(find_mentions(text, self.names).words)
-        spans = [m.group(0) for c, _, phrase in self.cues if c == command for m in [phrase_pattern(phrase).search(words)] if m]
+        spans = [
+            m.group(0)
+            for c, _, phrase in self.cues
+            if c == command
+            for m in [phrase_pattern(phrase).search(words)]
+            if m
+        ]
         return {w for span in spans for w in span.split()}
 
     def cue_tokens(self, text: str, command: str) -> set[str]:
         """The first and last word of each cue of ``command`` in ``text`` ("record", "grab ...
         demonstrations"): words that ask for the command, not for a task."""
         words = words_of(find_mentions(text, self.names).words)
-        spans = [m.group(0).split() for c, _, phrase in self.cues if c == command
-                 for m in [phrase_pattern(phrase).search(words)] if m]
+        spans = [
+            m.group(0).split()
+            for c, _, phrase in self.cues
+            if c == command
+            for m in [phrase_pattern(phrase).search(words)]
+            if m
+        ]
         return {w for span in spans for w in (span[0], span[-1])}
 
     def best(self, text: str) -> tuple[str | None, int]:
@@ -100,12 +125,15 @@ _SENTENCE = r"[;!?]\s*(?=\S)|\.\s+(?=[A-Za-z])"
 def split_clauses(text: str, intents: Intents) -> list[Clause]:
     """The clauses of ``text``, each with its command (None if it names none)."""
     strong = "|".join(phrase_pattern(p).pattern for p in intents.vocab.chain.strong)
-    pattern = re.compile(rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*)|(?P<sentence>{_SENTENCE})"
-                         rf"|(?P<weak>,\s+|\s+and\s+)", re.IGNORECASE)
+    pattern = re.compile(
+        rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*)|(?P<sentence>{_SENTENCE})"
+        rf"|(?P<weak>,\s+|\s+and\s+)",
+        re.IGNORECASE,
+    )
     pieces: list[tuple[str, str, str]] = []  # (kind of the separator before, the separator, text)
     position, kind, separator = 0, "strong", ""
     for m in pattern.finditer(text):
-        pieces.append((kind, separator, text[position:m.start()]))
+        pieces.append((kind, separator, text[position : m.start()]))
         kind, separator, position = m.lastgroup or "weak", m.group(0), m.end()
     pieces.append((kind, separator, text[position:]))
     merged: list[list] = []  # [text, command]
@@ -117,9 +145,15 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         # "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step), and not
         # when it names an option of the command before ("augment ... and write the yield report to x")
         previous = merged[-1][1] if merged else None
-        starts = command is not None and (kind == "strong" or previous is None or (
-            score >= WEIGHTS["verbs"] and (kind == "sentence" or command != previous)
-            and not intents.cue_words(piece, command) & intents.option_words.get(previous, set())))
+        starts = command is not None and (
+            kind == "strong"
+            or previous is None
+            or (
+                score >= WEIGHTS["verbs"]
+                and (kind == "sentence" or command != previous)
+                and not intents.cue_words(piece, command) & intents.option_words.get(previous, set())
+            )
+        )
         if merged and not (starts and merged[-1][1] is not None):
             merged[-1][0] += separator + piece
             merged[-1][1] = merged[-1][1] or command

@@ -57,6 +57,7 @@ def load_dev_set(path: Path) -> list[DevCaseSpec]:
 
 def step_lines(plan: CheckedPlan, catalog: CommandCatalog) -> list[str]:
     """Each step as ``command args`` with ``@N`` for earlier steps' outputs."""
+
     def show(value: Any) -> Any:
         if isinstance(value, StepRef):
             return f"@{value.from_step}"
@@ -90,7 +91,7 @@ def canonical(line: str, catalog: CommandCatalog) -> str:
             i += 1
         elif param is not None and i + 1 < len(words):
             if words[i + 1] != str(param.default):
-                options.append((order[param.name], words[i:i + 2]))
+                options.append((order[param.name], words[i : i + 2]))
             i += 2
         else:
             positional.append(words[i])

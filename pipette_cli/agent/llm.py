@@ -72,24 +72,45 @@ def plan_schema(catalog: CommandCatalog, relevant: set[str], task_ids: list[str]
     shapes = []
     for name in sorted(relevant):
         params = catalog.get(name).params
-        shapes.append({"type": "object", "additionalProperties": False, "required": ["command", "args"],
-                       "properties": {"command": {"type": "string", "enum": [name]},
-                                      "args": {"type": "object", "additionalProperties": False,
-                                               "properties": {p: _value_schema(info, task_ids)
-                                                              for p, info in params.items()}}}})
+        shapes.append(
+            {
+                "type": "object",
+                "additionalProperties": False,
+                "required": ["command", "args"],
+                "properties": {
+                    "command": {"type": "string", "enum": [name]},
+                    "args": {
+                        "type": "object",
+                        "additionalProperties": False,
+                        "properties": {p: _value_schema(info, task_ids) for p, info in params.items()},
+                    },
+                },
+            }
+        )
     other = copy.deepcopy(generic["$defs"]["StepSpec"])
     other["properties"]["command"]["enum"] = sorted(set(catalog.commands) - relevant)
     shapes.append(other)
-    return {"type": "object", "additionalProperties": False, "required": ["steps"],
-            "properties": {"steps": {"type": "array", "minItems": 1, "maxItems": 12, "items": {"anyOf": shapes}}},
-            "$defs": {"StepRef": generic["$defs"]["StepRef"]}}
+    return {
+        "type": "object",
+        "additionalProperties": False,
+        "required": ["steps"],
+        "properties": {"steps": {"type": "array", "minItems": 1, "maxItems": 12, "items": {"anyOf": shapes}}},
+        "$defs": {"StepRef": generic["$defs"]["StepRef"]},
+    }
 
 
 class LLMAgent:
     """Requests -> checked plans through an OpenAI-compatible or Ollama server."""
 
-    def __init__(self, kind: str, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec | None = None,
-                 client: ChatClient | None = None, **options: Any) -> None:
+    def __init__(
+        self,
+        kind: str,
+        catalog: CommandCatalog,
+        registry: Registry,
+        vocab: VocabularySpec | None = None,
+        client: ChatClient | None = None,
+        **options: Any,
+    ) -> None:
         self.name = kind
         self.catalog = catalog
         self.registry = registry
@@ -103,7 +124,11 @@ class LLMAgent:
     def relevant(self, text: str) -> set[str]:
         """Commands the request's words point to (their parameters go into the prompt)."""
         scores = self.intents.scores(text)
-        return {c for c, s in scores.items() if s >= max(scores.values(), default=0) - 1} or {"collect", "train", "eval"}
+        return {c for c, s in scores.items() if s >= max(scores.values(), default=0) - 1} or {
+            "collect",
+            "train",
+            "eval",
+        }
 
     def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
         """The checked plan for ``text``.
@@ -112,13 +137,19 @@ class LLMAgent:
             BackendError: no valid plan within the attempts (each attempt's problem listed).
             Unsupported: the request asks for something Pipette does not do.
         """
+
         def accept(spec: PlanSpec) -> CheckedPlan:
             return self.validator.check(spec, request=text, context=context)
 
         self.trace = []
         relevant = self.relevant(text)
-        return ask_structured(self.client, system=plan_prompt(self.catalog, self.registry, relevant),
-                              user=text, schema=PlanSpec, accept=accept,
-                              json_schema=plan_schema(self.catalog, relevant, self.registry.ids()),
-                              fix_hint="Fix the plan (only commands, parameters and task ids from the lists)",
-                              trace=self.trace)
+        return ask_structured(
+            self.client,
+            system=plan_prompt(self.catalog, self.registry, relevant),
+            user=text,
+            schema=PlanSpec,
+            accept=accept,
+            json_schema=plan_schema(self.catalog, relevant, self.registry.ids()),
+            fix_hint="Fix the plan (only commands, parameters and task ids from the lists)",
+            trace=self.trace,
+        )

@@ -22,15 +22,34 @@ from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, is_empty
 
-FILE_SUFFIXES = ("h5", "hdf5", "png", "jpg", "gif", "mp4", "yaml", "yml", "json", "csv", "md", "usd", "usda", "usdc",
-                 "safetensors", "pt", "log")
+FILE_SUFFIXES = (
+    "h5",
+    "hdf5",
+    "png",
+    "jpg",
+    "gif",
+    "mp4",
+    "yaml",
+    "yml",
+    "json",
+    "csv",
+    "md",
+    "usd",
+    "usda",
+    "usdc",
+    "safetensors",
+    "pt",
+    "log",
+)
 _SUFFIX = re.compile(rf"\.(?:{'|'.join(FILE_SUFFIXES)})$", re.IGNORECASE)
 _URL = re.compile(r"^[a-z][a-z0-9+.-]*://\S+$", re.IGNORECASE)
 _HOST_PORT = re.compile(r"^(?:localhost|[a-z0-9-]*[a-z][a-z0-9.-]*|\d{1,3}(?:\.\d{1,3}){3}):\d{2,5}$", re.IGNORECASE)
 _PORT = re.compile(r"\bport\s*(?:number\s*)?[:=]?\s*(\d{2,5})\b", re.IGNORECASE)
 _STRIP_LEFT, _STRIP_RIGHT = "([{\"'“‘<", ")]}\"'”’.,;:!?>"
-SAVE = re.compile(r"\b(?:save|write|store|put|keep|place)s?\b(?:\s+(?:it|them|this|that|the \w+))?\s+"
-                  r"(?:to|in|into|under|at|as)$")
+SAVE = re.compile(
+    r"\b(?:save|write|store|put|keep|place)s?\b(?:\s+(?:it|them|this|that|the \w+))?\s+"
+    r"(?:to|in|into|under|at|as)$"
+)
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
 _TO = re.compile(r"\b(?:to|into|as)$")
 _FROM = re.compile(r"\b(?:from|of)$")
@@ -127,8 +146,11 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
         if previous is not None and previous.multiple and mention.listed:
             args[previous.name] = [*args.get(previous.name, []), mention.path]  # "a.h5 and b.h5"
             continue
-        string = None if _SUFFIX.search(mention.path) or _named(mention.before, options) else _named(
-            mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
+        string = (
+            None
+            if _SUFFIX.search(mention.path) or _named(mention.before, options)
+            else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
+        )
         if string is not None:  # "repo id me/centrifuge": a name with a slash, not a file
             args[string.name] = mention.path
             continue
@@ -152,8 +174,10 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
         if target is None:
             flags = ", ".join(p.flag or p.name for p in options)
             example = f"{options[0].name.split('_')[0]} in {mention.path}"
-            raise AgentError(f"cannot tell what {mention.path!r} is for in 'pipette {info.name}' (its path options: "
-                             f"{flags}); name it before the path, e.g. '{example}'")
+            raise AgentError(
+                f"cannot tell what {mention.path!r} is for in 'pipette {info.name}' (its path options: "
+                f"{flags}); name it before the path, e.g. '{example}'"
+            )
         if target.multiple:
             args[target.name] = [*args.get(target.name, []), mention.path]
         else:

@@ -92,8 +92,10 @@ class OfflineAgent:
             for value in both[1] if both else [None]:  # "convert both the raw and the augmented data"
                 steps.append(StepSpec(command=command, args={**args, both[0]: value} if both else args))
         if not steps:
-            raise AgentError("cannot tell what to run from this request; say e.g. 'list the tasks', "
-                             "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'")
+            raise AgentError(
+                "cannot tell what to run from this request; say e.g. 'list the tasks', "
+                "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"
+            )
         return PlanSpec(steps=steps), problems
 
     def _policy_only(self, text: str) -> str | None:
@@ -116,8 +118,14 @@ class OfflineAgent:
             problems.append(str(exc))
         for address, raw in mentions.addresses:
             param = next((p for p in info.params.values() if p.address and is_empty(args.get(p.name))), None)
-            plain = next((p for p in info.params.values() if p.kind == "str" and "address" in p.names
-                          and is_empty(args.get(p.name))), None)  # "the ray cluster at host:port"
+            plain = next(
+                (
+                    p
+                    for p in info.params.values()
+                    if p.kind == "str" and "address" in p.names and is_empty(args.get(p.name))
+                ),
+                None,
+            )  # "the ray cluster at host:port"
             if param is None and plain is None:
                 raise AgentError(f"'pipette {info.name}' takes no address like {raw!r}")
             if param is not None:
@@ -163,11 +171,21 @@ class OfflineAgent:
         elif match.candidates:
             raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
         elif param.required or info.is_answer:
-            named = re.search(r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b",
-                              words)
+            named = re.search(
+                r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words
+            )
             stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
-            if named and not {stem(w) for w in named.group(1).split()} <= stop | {"new", "same", "last", "previous",
-                                                                                 "first", "next", "one", "which", "what"}:
+            if named and not {stem(w) for w in named.group(1).split()} <= stop | {
+                "new",
+                "same",
+                "last",
+                "previous",
+                "first",
+                "next",
+                "one",
+                "which",
+                "what",
+            }:
                 raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
 
     def _policy(self, words: str) -> str | None:
@@ -189,14 +207,27 @@ class OfflineAgent:
         bare: list[float] = []
         for m in _NUMBER.finditer(text):
             number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
-            after, before = text[m.end():].lstrip(), text[:m.start()].rstrip()
+            after, before = text[m.end() :].lstrip(), text[: m.start()].rstrip()
             best: tuple[int, ParamInfo] | None = None
             for param in (p for p in numeric if p.name not in taken):
                 names = param.names
-                tests = ((3, param.units, lambda p: phrase_pattern(p).match(after)),  # noqa: B023  (called at once, in this iteration)
-                         (2, param.units, lambda p: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after)),  # noqa: B023  (called at once, in this iteration)
-                         (1, names, lambda p: re.search(rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$",
-                                                        before)))  # noqa: B023  (called at once, in this iteration)
+                tests = (
+                    (3, param.units, lambda p, after=after: phrase_pattern(p).match(after)),
+                    (
+                        2,
+                        param.units,
+                        lambda p, after=after: re.match(
+                            rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after
+                        ),
+                    ),
+                    (
+                        1,
+                        names,
+                        lambda p, before=before: re.search(
+                            rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$", before
+                        ),
+                    ),
+                )
                 for rank, phrases, matcher in tests:
                     if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
                         best = (rank, param)
@@ -232,7 +263,9 @@ class OfflineAgent:
                 if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
                     m = re.search(rf"(?<![\w-]){v}(?![\w-])", words)
                 else:
-                    m = re.search(rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words)
+                    m = re.search(
+                        rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words
+                    )
                 if m:
                     found.append((m.start(), value))
             if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
@@ -244,10 +277,14 @@ class OfflineAgent:
         for param in info.params.values():
             if param.multiple or param.kind != "str":
                 continue
-            found = sorted((m.start(), m.end(), value) for value, phrases in self.vocab.values.get(param.name, {}).items()
-                           for m in [find_phrase(phrases, words)] if m)
+            found = sorted(
+                (m.start(), m.end(), value)
+                for value, phrases in self.vocab.values.get(param.name, {}).items()
+                for m in [find_phrase(phrases, words)]
+                if m
+            )
             values = list(dict.fromkeys(v for _, _, v in found))
-            if len(values) >= 2 and re.search(r"\b(?:and|&)\b", words[found[0][1]:found[1][0]]):
+            if len(values) >= 2 and re.search(r"\b(?:and|&)\b", words[found[0][1] : found[1][0]]):
                 return param.name, values
         return None
 
@@ -270,7 +307,7 @@ class OfflineAgent:
             quoted = _QUOTED.search(said)
             cues = self.vocab.intents.get(info.name, None)
             cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
-            rest = said[cue.end():] if cue else said
+            rest = said[cue.end() :] if cue else said
             rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)
             if quoted or rest.strip(" ."):
                 args["description"] = quoted.group(1) if quoted else rest.strip(" .")
@@ -283,8 +320,12 @@ class OfflineAgent:
             if asset:
                 args["asset_id"] = asset
         for param in info.params.values():
-            if param.kind != "str" or param.values() or not is_empty(args.get(param.name)) or param.name in (
-                    "description", "about", "asset_id", "backend", "model", "base_url"):
+            if (
+                param.kind != "str"
+                or param.values()
+                or not is_empty(args.get(param.name))
+                or param.name in ("description", "about", "asset_id", "backend", "model", "base_url")
+            ):
                 continue
             pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
@@ -303,4 +344,3 @@ class OfflineAgent:
             if re.search(rf"(?<![\w-]){re.escape(alias)}(?![\w-])", words):
                 return assets.kinds[assets.alias_to_kind[alias]].default
         return None
-

@@ -73,6 +73,7 @@ class CheckedPlan:
 
     def resolved_args(self, step: CheckedStep) -> dict[str, Any]:
         """``step.args`` with every :class:`StepRef` replaced by that step's output path."""
+
         def value(v: Any) -> Any:
             if isinstance(v, StepRef):
                 return self.steps[v.from_step - 1].product

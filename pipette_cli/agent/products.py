@@ -51,8 +51,9 @@ RULES: dict[str, Callable[[CommandInfo, dict[str, Any], str | None], Path | None
 }
 
 
-def product_of(info: CommandInfo, args: dict[str, Any], task: str | None,
-               vocab: VocabularySpec) -> tuple[str | None, str | None]:
+def product_of(
+    info: CommandInfo, args: dict[str, Any], task: str | None, vocab: VocabularySpec
+) -> tuple[str | None, str | None]:
     """(path, kind) of what the step makes, or (None, None)."""
     spec = vocab.products.get(info.name)
     if spec is None:

@@ -63,10 +63,18 @@ def _pump(stream: IO[str], sink: queue.Queue[tuple[str, str | None]], name: str)
 class PlanRunner:
     """Runs a plan's steps in order, drawing progress on ``console`` (stderr)."""
 
-    def __init__(self, catalog: CommandCatalog, console: Console, *, global_args: Sequence[str] = (),
-                 show_output: Callable[[str], None] | None = None, show_answer: Callable[[Answer], None] | None = None,
-                 background: dict[str, str] | None = None, registry: Registry | None = None,
-                 python: str = sys.executable) -> None:
+    def __init__(
+        self,
+        catalog: CommandCatalog,
+        console: Console,
+        *,
+        global_args: Sequence[str] = (),
+        show_output: Callable[[str], None] | None = None,
+        show_answer: Callable[[Answer], None] | None = None,
+        background: dict[str, str] | None = None,
+        registry: Registry | None = None,
+        python: str = sys.executable,
+    ) -> None:
         self.catalog = catalog
         self.registry = registry
         self.background = background or {}
@@ -101,8 +109,9 @@ class PlanRunner:
             if self.catalog.get(step.command).is_answer:
                 started = time.perf_counter()
                 found = answer(step.command, plan.resolved_args(step), self.registry)
-                results.append(StepResult(step.index, step.command, [step.command], 0,
-                                          time.perf_counter() - started, answer=found))
+                results.append(
+                    StepResult(step.index, step.command, [step.command], 0, time.perf_counter() - started, answer=found)
+                )
                 if self.show_answer:
                     self.show_answer(found)
                 continue
@@ -114,9 +123,11 @@ class PlanRunner:
                 self.show_output(result.stdout)
             if result.code != 0:
                 why = next((line for line in reversed(result.tail) if line.strip()), "no output")
-                raise StepFailed(f"step {step.index} (pipette {' '.join(argv)}) failed with exit code {result.code}: "
-                                 f"{why.removeprefix('error: ')}"
-                                 + (f"; steps {step.index + 1}-{total} did not run" if step.index < total else ""))
+                raise StepFailed(
+                    f"step {step.index} (pipette {' '.join(argv)}) failed with exit code {result.code}: "
+                    f"{why.removeprefix('error: ')}"
+                    + (f"; steps {step.index + 1}-{total} did not run" if step.index < total else "")
+                )
         return results
 
     def _stop_background(self) -> None:
@@ -141,10 +152,13 @@ class PlanRunner:
         title = f"{label} pipette {' '.join(argv)}"
         with Progress(*columns, console=self.console, transient=False) as progress:
             bar = progress.add_task(_short(title), total=None)
-            process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1,
-                                       env=env, cwd=Path.cwd())
-            readers = [threading.Thread(target=_pump, args=(stream, lines, name), daemon=True)
-                       for stream, name in ((process.stdout, "out"), (process.stderr, "err"))]
+            process = subprocess.Popen(
+                command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, bufsize=1, env=env, cwd=Path.cwd()
+            )
+            readers = [
+                threading.Thread(target=_pump, args=(stream, lines, name), daemon=True)
+                for stream, name in ((process.stdout, "out"), (process.stderr, "err"))
+            ]
             for reader in readers:
                 reader.start()
             open_streams = 2
@@ -176,11 +190,21 @@ class PlanRunner:
                 except subprocess.TimeoutExpired:
                     process.kill()
                 raise
-            mark = ("[green]running[/green]" if process in self._running else "[green]done[/green]") if code == 0 \
+            mark = (
+                ("[green]running[/green]" if process in self._running else "[green]done[/green]")
+                if code == 0
                 else f"[red]failed ({code})[/red]"
+            )
             progress.update(bar, total=1, completed=1, description=f"{_short(title)} {mark}")
-        return StepResult(step.index, step.command, argv, code, time.perf_counter() - started,
-                          "\n".join(out) + ("\n" if out else ""), list(tail))
+        return StepResult(
+            step.index,
+            step.command,
+            argv,
+            code,
+            time.perf_counter() - started,
+            "\n".join(out) + ("\n" if out else ""),
+            list(tail),
+        )
 
 
 def _short(text: str, width: int = 70) -> str:

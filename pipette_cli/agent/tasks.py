@@ -102,8 +102,14 @@ class TaskIndex:
 
             names = camel_words(short_name(tid))
             add(names, "name")
-            add([spec.category.replace("_", " "), *(t.replace("-", " ").replace("_", " ") for t in spec.tags),
-                 spec.embodiment.robot.replace("_", " ")], "tag")
+            add(
+                [
+                    spec.category.replace("_", " "),
+                    *(t.replace("-", " ").replace("_", " ") for t in spec.tags),
+                    spec.embodiment.robot.replace("_", " "),
+                ],
+                "tag",
+            )
             add(re.findall(r"[a-z0-9]+", spec.instruction.lower()), "instruction")
             for obj in spec.scene.objects:
                 info = assets.assets.get(obj.asset)
@@ -183,7 +189,7 @@ class TaskIndex:
         policies = {w for w, _ in self.vocab.policy_words()}
         for m in re.finditer(r"(?<![\w-])(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
             token = m.group(0)
-            word = re.match(r"[\w-]*", text[m.start():]).group(0).lower()  # type: ignore[union-attr]  # [\w-]* always matches
+            word = re.match(r"[\w-]*", text[m.start() :]).group(0).lower()  # type: ignore[union-attr]  # [\w-]* always matches
             if short_name(token).lower() not in known and token.lower() not in policies and word not in policies:
                 return token
         return None
@@ -216,7 +222,7 @@ class TaskIndex:
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
 
     def all_tasks(self, text: str) -> bool:
-        """"all tasks", "every task", "the whole benchmark"."""
+        """ "all tasks", "every task", "the whole benchmark"."""
         return find_phrase(self.vocab.tasks.all, text.lower()) is not None
 
     def _strong(self, term: str) -> set[str]:

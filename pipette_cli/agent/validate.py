@@ -83,8 +83,9 @@ class Validator:
             return by_flag[name]
         raise AgentError(f"{where}: 'pipette {info.name}' has no parameter {key!r}; {suggest(name, info.params)}")
 
-    def _value(self, info: CommandInfo, param: ParamInfo, value: Any, index: int, steps: list[CheckedStep],
-               where: str) -> Any:
+    def _value(
+        self, info: CommandInfo, param: ParamInfo, value: Any, index: int, steps: list[CheckedStep], where: str
+    ) -> Any:
         label = f"{where}: {param.flag or param.name}"
         if isinstance(value, list) and not param.multiple:
             if len(value) != 1 and param.kind != "task":
@@ -93,12 +94,15 @@ class Validator:
         if isinstance(value, StepRef) or (isinstance(value, dict) and "from_step" in value):
             ref = value if isinstance(value, StepRef) else StepRef.model_validate(value)
             if not (param.path or param.address):
-                raise AgentError(f"{label} is not a file, folder or address; it cannot take step {ref.from_step}'s output")
+                raise AgentError(
+                    f"{label} is not a file, folder or address; it cannot take step {ref.from_step}'s output"
+                )
             if ref.from_step >= index:
                 raise AgentError(f"{label}: a step can only use an earlier step's output, not step {ref.from_step}'s")
             if steps[ref.from_step - 1].product is None:
-                raise AgentError(f"{label}: step {ref.from_step} ({steps[ref.from_step - 1].command}) makes no file "
-                                 "or folder to use")
+                raise AgentError(
+                    f"{label}: step {ref.from_step} ({steps[ref.from_step - 1].command}) makes no file or folder to use"
+                )
             return [ref] if param.multiple else ref
         if param.kind == "task":
             return self._task(info, param, value, label)
@@ -125,7 +129,9 @@ class Validator:
             else:
                 value = str(value).strip()
         except (TypeError, ValueError):
-            raise AgentError(f"{label} takes {'an' if param.kind == 'int' else 'a'} {param.kind}, not {value!r}") from None
+            raise AgentError(
+                f"{label} takes {'an' if param.kind == 'int' else 'a'} {param.kind}, not {value!r}"
+            ) from None
         if isinstance(value, int | float) and not isinstance(value, bool):
             if param.minimum is not None and value < param.minimum:
                 raise AgentError(f"{label} must be >= {param.minimum:g}, not {value:g}")
@@ -172,20 +178,34 @@ class Validator:
 
     # -- completing a step --------------------------------------------------------------------
 
-    def _link(self, info: CommandInfo, args: dict[str, Any], steps: list[CheckedStep], context: Context | None,
-              notes: list[str]) -> None:
+    def _link(
+        self,
+        info: CommandInfo,
+        args: dict[str, Any],
+        steps: list[CheckedStep],
+        context: Context | None,
+        notes: list[str],
+    ) -> None:
         """Empty inputs take the latest earlier output of the kind they read."""
         choice = self.catalog.one_of.get(info.name, ())
         chosen = any(not is_empty(args.get(c)) for c in choice)
-        wanted = {p: self.vocab.consumes[f"{info.name}.{p}"] for p in info.params
-                  if f"{info.name}.{p}" in self.vocab.consumes and is_empty(args.get(p))
-                  and (info.params[p].required or (p in choice and not chosen) or info.is_answer)}
+        wanted = {
+            p: self.vocab.consumes[f"{info.name}.{p}"]
+            for p in info.params
+            if f"{info.name}.{p}" in self.vocab.consumes
+            and is_empty(args.get(p))
+            and (info.params[p].required or (p in choice and not chosen) or info.is_answer)
+        }
         for step in reversed(steps):  # what a step made, else the file it read ("inspect x.h5, then augment it")
             offers: list[tuple[str | None, Any]] = [(step.product_kind, StepRef(from_step=step.index))]
-            offers += [(kind, step.args[p]) for key, kind in self.vocab.consumes.items()
-                       for command, _, p in [key.rpartition(".")]
-                       if command == step.command and isinstance(step.args.get(p), str | list)
-                       and not any(isinstance(v, StepRef) for v in (step.args[p] if isinstance(step.args[p], list) else []))]
+            offers += [
+                (kind, step.args[p])
+                for key, kind in self.vocab.consumes.items()
+                for command, _, p in [key.rpartition(".")]
+                if command == step.command
+                and isinstance(step.args.get(p), str | list)
+                and not any(isinstance(v, StepRef) for v in (step.args[p] if isinstance(step.args[p], list) else []))
+            ]
             sets = self.vocab.products[step.command].sets if step.command in self.vocab.products else {}
             if any(not is_empty(args.get(k)) and args[k] != v for k, v in sets.items()):
                 offers = offers[1:]  # "convert the raw data": not what augment made
@@ -194,8 +214,11 @@ class Validator:
                 if param is None or kind is None:
                     continue
                 many = info.params[param].multiple
-                args[param] = (value if isinstance(value, list) else [value]) if many else (
-                    value[0] if isinstance(value, list) else value)
+                args[param] = (
+                    (value if isinstance(value, list) else [value])
+                    if many
+                    else (value[0] if isinstance(value, list) else value)
+                )
                 if isinstance(value, StepRef):
                     args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
                 return
@@ -206,12 +229,23 @@ class Validator:
                 notes.append(f"{param} from the previous request: {path}")
                 return
 
-    def _carry(self, info: CommandInfo, args: dict[str, Any], carried: dict[str, Any], steps: list[CheckedStep],
-               notes: list[str]) -> str | None:
+    def _carry(
+        self,
+        info: CommandInfo,
+        args: dict[str, Any],
+        carried: dict[str, Any],
+        steps: list[CheckedStep],
+        notes: list[str],
+    ) -> str | None:
         """Fill values earlier steps set (task, dataset version...); return the step's task."""
         param = info.task_param()
         inferred = self._task_of_files(info, args)
-        if param is not None and is_empty(args.get(param.name)) and param.required and (inferred or carried.get("task")):
+        if (
+            param is not None
+            and is_empty(args.get(param.name))
+            and param.required
+            and (inferred or carried.get("task"))
+        ):
             task = inferred or carried["task"]
             args[param.name] = [task] if param.multiple else task
             if inferred:
@@ -238,7 +272,7 @@ class Validator:
             if not param.path or param.writes:
                 continue
             value = args.get(param.name)
-            for path in (value if isinstance(value, list) else [value]):
+            for path in value if isinstance(value, list) else [value]:
                 if not isinstance(path, str) or not path.endswith((".h5", ".hdf5")):
                     continue
                 if Path(path).is_file():

@@ -86,7 +86,9 @@ def extrude(polygon: Sequence[tuple[float, float]], z0: float, z1: float) -> Mes
         j = (i + 1) % n
         counts.append(4)
         indices.extend([i, j, n + j, n + i])
-    return Mesh(np.array(bottom + top, dtype=float), np.array(counts, dtype=np.int32), np.array(indices, dtype=np.int32))
+    return Mesh(
+        np.array(bottom + top, dtype=float), np.array(counts, dtype=np.int32), np.array(indices, dtype=np.int32)
+    )
 
 
 def rounded_rect(width: float, depth: float, radius: float, corner_segments: int = 4) -> list[tuple[float, float]]:

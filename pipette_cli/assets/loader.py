@@ -49,7 +49,9 @@ def open_stage(path: Path):
     except Tf.ErrorException as exc:
         text = " ".join(str(exc).split())
         located = re.search(r"[^'\s]+:(\d+):(\d+): ([^']*)", text)
-        reason = f"line {located.group(1)}, column {located.group(2)}: {located.group(3).strip()}" if located else text[:300]
+        reason = (
+            f"line {located.group(1)}, column {located.group(2)}: {located.group(3).strip()}" if located else text[:300]
+        )
         raise AssetError(f"{path.name}: cannot parse USD ({reason})") from None
     if stage is None:
         raise AssetError(f"{path.name}: cannot open USD stage")
@@ -167,7 +169,9 @@ def _copy_opacity(spec, stage) -> None:
             material.rgba = [rgba[0], rgba[1], rgba[2], alpha]
 
 
-def attach_asset(scene, asset: str | Path, *, name: str, pos=(0.0, 0.0, 0.0), quat=(1.0, 0.0, 0.0, 0.0), parent=None, free_joint=True):
+def attach_asset(
+    scene, asset: str | Path, *, name: str, pos=(0.0, 0.0, 0.0), quat=(1.0, 0.0, 0.0, 0.0), parent=None, free_joint=True
+):
     """Attach ``asset`` into ``scene`` (an ``MjSpec``) under a frame, with prefix ``name + "/"``.
 
     Free objects keep their free joint only when ``parent`` is the world body; static assets

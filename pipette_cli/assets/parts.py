@@ -144,10 +144,14 @@ def solid_cylinder_x(
     """A cylinder lying along X (seen and collided)."""
     visual(body, name, g.cylinder(radius, length, (0, 0, 0), segments).moved(center, g.rotation("y", 90)), material)
     half = math.sqrt(0.5)
-    body.colliders.append(Collider(f"{name}_col", "cylinder", (radius, length / 2), _xyz(center), (half, 0.0, half, 0.0)))
+    body.colliders.append(
+        Collider(f"{name}_col", "cylinder", (radius, length / 2), _xyz(center), (half, 0.0, half, 0.0))
+    )
 
 
-def revolved_colliders(body: Body, name: str, outer: Sequence[tuple[float, float]], slices: int, z0: float | None = None) -> None:
+def revolved_colliders(
+    body: Body, name: str, outer: Sequence[tuple[float, float]], slices: int, z0: float | None = None
+) -> None:
     """Approximate a solid of revolution (outer profile, z increasing) by stacked cylinders."""
     rs = [p[0] for p in outer]
     zs = [p[1] for p in outer]
@@ -192,7 +196,9 @@ def open_box(
     solid_box(body, f"{name}_wall_yp", (sx - 2 * wall, wall, h), (cx, cy + sy / 2 - wall / 2, zc), material)
     for k in range(dividers):
         x = cx - sx / 2 + sx * (k + 1) / (dividers + 1)
-        solid_box(body, f"{name}_divider_{k}", (wall * 0.7, sy - 2 * wall, h * 0.9), (x, cy, z0 + floor + h * 0.45), material)
+        solid_box(
+            body, f"{name}_divider_{k}", (wall * 0.7, sy - 2 * wall, h * 0.9), (x, cy, z0 + floor + h * 0.45), material
+        )
 
 
 def site(body: Body, name: str, pos: Sequence[float], radius: float = 0.005) -> None:

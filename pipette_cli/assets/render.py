@@ -31,13 +31,29 @@ def _scene_for(entry: AssetEntry):
     scene.visual.headlight.ambient = [0.45, 0.45, 0.45]
     scene.visual.headlight.diffuse = [0.5, 0.5, 0.5]
     scene.visual.quality.shadowsize = 4096
-    scene.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                      rgb1=[0.98, 0.98, 1.0], rgb2=[0.85, 0.88, 0.92], width=256, height=256)
-    scene.add_texture(name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                      rgb1=[0.90, 0.91, 0.92], rgb2=[0.86, 0.87, 0.89], width=256, height=256)
+    scene.add_texture(
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.98, 0.98, 1.0],
+        rgb2=[0.85, 0.88, 0.92],
+        width=256,
+        height=256,
+    )
+    scene.add_texture(
+        name="grid",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.90, 0.91, 0.92],
+        rgb2=[0.86, 0.87, 0.89],
+        width=256,
+        height=256,
+    )
     scene.add_material(name="floor_mat", textures=["", "grid"], texrepeat=[8, 8], reflectance=0.0)
     scene.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1], material="floor_mat", group=1)
-    scene.worldbody.add_light(pos=[-1.0, -1.5, 4.0], dir=[0.25, 0.35, -1.0], castshadow=True, diffuse=[0.55, 0.55, 0.55])
+    scene.worldbody.add_light(
+        pos=[-1.0, -1.5, 4.0], dir=[0.25, 0.35, -1.0], castshadow=True, diffuse=[0.55, 0.55, 0.55]
+    )
     attach_asset(scene, entry.path, name="asset", free_joint=False)
     return scene
 

@@ -31,7 +31,7 @@ def _read(path: Path, mtime_ns: int, size: int) -> dict[str, Any]:
         name = attr.GetName()
         if not name.startswith(PREFIX):
             continue
-        out[name[len(PREFIX):]] = _plain(attr.Get())
+        out[name[len(PREFIX) :]] = _plain(attr.Get())
     return out
 
 

@@ -122,7 +122,9 @@ def _define_material(stage: Usd.Stage, scope: Sdf.Path, mat: Material) -> UsdSha
 
 def _set_group(prim: Usd.Prim, api: str, group: int) -> None:
     prim.AddAppliedSchema(api)  # MuJoCo's mjcPhysics schemas are not registered in usd-core: no validation
-    prim.CreateAttribute("mjc:group", Sdf.ValueTypeNames.Int, custom=False, variability=Sdf.VariabilityUniform).Set(group)
+    prim.CreateAttribute("mjc:group", Sdf.ValueTypeNames.Int, custom=False, variability=Sdf.VariabilityUniform).Set(
+        group
+    )
 
 
 def _define_body(stage: Usd.Stage, root: Sdf.Path, body: Body, materials: dict[str, UsdShade.Material]) -> None:
@@ -221,7 +223,11 @@ def _define_joint(stage: Usd.Stage, root: Sdf.Path, joint: Joint, bodies: dict[s
     per_unit = math.pi / 180 if joint.kind == "revolute" else 1.0
     prim = prim_joint.GetPrim()
     prim.ApplyAPI("NewtonJointAPI")
-    for name, value in (("damping", joint.damping * per_unit), ("friction", joint.friction), ("armature", joint.armature)):
+    for name, value in (
+        ("damping", joint.damping * per_unit),
+        ("friction", joint.friction),
+        ("armature", joint.armature),
+    ):
         if value:
             prim.CreateAttribute(f"newton:{name}", Sdf.ValueTypeNames.Float, custom=False).Set(_r(value))
 

@@ -61,8 +61,14 @@ class AssetReport:
         return not self.problems
 
     def as_dict(self) -> dict:
-        return {"id": self.asset_id, "path": str(self.path), "ok": self.ok, "problems": self.problems,
-                "metrics": {k: round(v, 6) for k, v in self.metrics.items()}, "seconds": round(self.seconds, 3)}
+        return {
+            "id": self.asset_id,
+            "path": str(self.path),
+            "ok": self.ok,
+            "problems": self.problems,
+            "metrics": {k: round(v, 6) for k, v in self.metrics.items()},
+            "seconds": round(self.seconds, 3),
+        }
 
 
 def usd_problems(stage) -> list[str]:
@@ -76,7 +82,9 @@ def usd_problems(stage) -> list[str]:
     for error in context.Validate(stage):
         if error.GetType() in (UsdValidation.ValidationErrorType.Error, UsdValidation.ValidationErrorType.Warn):
             sites = ", ".join(str(s.GetPrim().GetPath()) for s in error.GetSites() if s.IsPrim()) or "stage"
-            out.append(f"UsdValidation {error.GetValidator().GetMetadata().name if error.GetValidator() else ''}: {sites}: {error.GetMessage()}")
+            out.append(
+                f"UsdValidation {error.GetValidator().GetMetadata().name if error.GetValidator() else ''}: {sites}: {error.GetMessage()}"
+            )
     return out
 
 
@@ -154,7 +162,9 @@ def settle_free(path: Path, rest_quat, upright: bool) -> tuple[list[str], dict[s
     metrics = {"rest_speed": speed, "rest_spin": spin, "penetration": depth, "tilt_deg": tilt, "drift": drift}
     problems = []
     if speed > MAX_REST_SPEED or spin > MAX_REST_SPIN:
-        problems.append(f"physics: not at rest after {SETTLE_SECONDS} s (speed {speed:.3f} m/s, spin {spin:.2f} rad/s): jitter or rolling")
+        problems.append(
+            f"physics: not at rest after {SETTLE_SECONDS} s (speed {speed:.3f} m/s, spin {spin:.2f} rad/s): jitter or rolling"
+        )
     if depth > MAX_PENETRATION:
         problems.append(f"physics: sinks {depth * 1000:.1f} mm into the table (limit {MAX_PENETRATION * 1000:.1f} mm)")
     if upright and tilt > MAX_TILT_DEG:
@@ -182,7 +192,11 @@ def sweep_joints(path: Path) -> tuple[list[str], dict[str, float]]:
         mujoco.mj_step(model, data)
     if not np.all(np.isfinite(data.qpos)):
         return ["physics: simulation diverged (NaN) at rest"], metrics
-    actuated = {int(model.actuator_trnid[a, 0]): a for a in range(model.nu) if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)}
+    actuated = {
+        int(model.actuator_trnid[a, 0]): a
+        for a in range(model.nu)
+        if int(model.actuator_trntype[a]) == int(mujoco.mjtTrn.mjTRN_JOINT)
+    }
     for j in range(model.njnt):
         if int(model.jnt_type[j]) not in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
             continue
@@ -234,7 +248,12 @@ def _push_force(model, data, joint: int) -> float:
         inertia = max(inertia, float(column[dof]))
     span = float(hi - lo)
     # beat gravity and dry friction, then cross the range in about a second
-    return 2.0 * worst + 3.0 * float(model.dof_frictionloss[dof]) + 4.0 * inertia * span + 2.0 * float(model.dof_damping[dof]) * span
+    return (
+        2.0 * worst
+        + 3.0 * float(model.dof_frictionloss[dof])
+        + 4.0 * inertia * span
+        + 2.0 * float(model.dof_damping[dof]) * span
+    )
 
 
 def validate_asset(path: Path, category: str | None = None, *, physics: bool = True) -> AssetReport:
@@ -262,7 +281,9 @@ def validate_asset(path: Path, category: str | None = None, *, physics: bool = T
             if _attr(stage, "static", False):
                 problems, metrics = sweep_joints(path)
             else:
-                problems, metrics = settle_free(path, _attr(stage, "rest_quat", (1, 0, 0, 0)), bool(_attr(stage, "upright", True)))
+                problems, metrics = settle_free(
+                    path, _attr(stage, "rest_quat", (1, 0, 0, 0)), bool(_attr(stage, "upright", True))
+                )
         except Exception as exc:
             problems, metrics = [f"physics: test scene failed: {exc}"], {}
         report.problems += problems

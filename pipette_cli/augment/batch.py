@@ -44,7 +44,12 @@ def controls(world: World, actions: np.ndarray, steps: int) -> np.ndarray:
 
 
 def screen(
-    world: World, seed: int, state0: np.ndarray, action_lists: Sequence[np.ndarray], *, settle_steps: int = 0,
+    world: World,
+    seed: int,
+    state0: np.ndarray,
+    action_lists: Sequence[np.ndarray],
+    *,
+    settle_steps: int = 0,
     nthread: int | None = None,
 ) -> list[Verdict]:
     """The evaluator's verdict on each action sequence, from one multithreaded rollout."""

@@ -30,7 +30,13 @@ def scaled_spec(spec: AugmentSpec, factor: float) -> AugmentSpec:
 
 
 def calibrate(
-    task: TaskSpec, source: Path, spec: AugmentSpec, target: float, *, demos: int = 3, shrink: float = 0.7,
+    task: TaskSpec,
+    source: Path,
+    spec: AugmentSpec,
+    target: float,
+    *,
+    demos: int = 3,
+    shrink: float = 0.7,
     max_rounds: int = 6,
 ) -> Calibration:
     """The largest magnitudes (factor ``shrink ** k``) whose physics-only yield reaches ``target``.

@@ -71,7 +71,9 @@ def in_process(kwargs: dict[str, Any], jobs: list[DemoJob], stop: Callable[[], b
         augmenter.close()
 
 
-def in_pool(kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
+def in_pool(
+    kwargs: dict[str, Any], jobs: list[DemoJob], workers: int, stop: Callable[[], bool]
+) -> Generator[Outcome, None, None]:
     return ordered_pool(_init_worker, (kwargs, min(workers, len(jobs))), _run_job, jobs, workers, stop)
 
 
@@ -132,7 +134,12 @@ class _RayWorker:
 
 
 def run_jobs(
-    kwargs: dict[str, Any], jobs: list[DemoJob], *, executor: Executor, workers: int, stop: Callable[[], bool],
+    kwargs: dict[str, Any],
+    jobs: list[DemoJob],
+    *,
+    executor: Executor,
+    workers: int,
+    stop: Callable[[], bool],
     address: str | None = None,
 ) -> Generator[Outcome, None, None]:
     if executor == "ray":

@@ -94,7 +94,9 @@ def resample_actions(actions: np.ndarray, x: np.ndarray, method: Interpolation =
     return out
 
 
-def joint_noise(rng: np.random.Generator, shape: tuple[int, ...], sigma: float = 0.005, bound: float = 0.02) -> np.ndarray:
+def joint_noise(
+    rng: np.random.Generator, shape: tuple[int, ...], sigma: float = 0.005, bound: float = 0.02
+) -> np.ndarray:
     """``eta ~ N(0, sigma^2)`` clipped to ``[-bound, bound]`` (radians)."""
     return np.clip(rng.normal(0.0, sigma, size=shape), -bound, bound)
 

@@ -87,8 +87,16 @@ class DemoResult:
 
 
 def write_rollout(
-    path: Path, info: DatasetInfo, rollout: Rollout, frames: list[dict[str, np.ndarray]], *, index: int, seed: int,
-    vision_every: int, attrs: dict[str, Any], chunks: dict[int, dict[str, bytes]] | None = None,
+    path: Path,
+    info: DatasetInfo,
+    rollout: Rollout,
+    frames: list[dict[str, np.ndarray]],
+    *,
+    index: int,
+    seed: int,
+    vision_every: int,
+    attrs: dict[str, Any],
+    chunks: dict[int, dict[str, bytes]] | None = None,
 ) -> Path:
     """Write a rendered rollout with :class:`EpisodeWriter`; returns the closed ``.tmp`` file.
     ``chunks[t]``: row ``t``'s frames already compressed (:func:`compress_frame`)."""
@@ -99,9 +107,15 @@ def write_rollout(
         for t in range(rollout.num_steps):
             last = t if fresh[t] else last
             obs = Observation(
-                images=frames[t] if frames else {}, state=rollout.obs_state[t], fresh=bool(fresh[t]),
-                frame_age=t - last, sim_time=float(rollout.sim_time[t]), wall_time=float(rollout.wall_time[t]),
-                step=t + 1, instruction=rollout.instruction[t], stage=int(rollout.stage[t]),
+                images=frames[t] if frames else {},
+                state=rollout.obs_state[t],
+                fresh=bool(fresh[t]),
+                frame_age=t - last,
+                sim_time=float(rollout.sim_time[t]),
+                wall_time=float(rollout.wall_time[t]),
+                step=t + 1,
+                instruction=rollout.instruction[t],
+                stage=int(rollout.stage[t]),
                 instrument=rollout.instrument[t],
             )
             writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t))
@@ -123,8 +137,14 @@ class DemoAugmenter:
     """Augments demos of one task with one spec (one per worker process)."""
 
     def __init__(
-        self, task: TaskSpec, spec: AugmentSpec, info: DatasetInfo, *, render: bool = True,
-        attrs: dict[str, Any] | None = None, profile: Profile = "fast",
+        self,
+        task: TaskSpec,
+        spec: AugmentSpec,
+        info: DatasetInfo,
+        *,
+        render: bool = True,
+        attrs: dict[str, Any] | None = None,
+        profile: Profile = "fast",
     ) -> None:
         self.task, self.spec, self.info = task, spec, info
         self.profile = profile
@@ -166,7 +186,9 @@ class DemoAugmenter:
         for variant in self.spec.variants:
             plan = plan_variant(variant, original.actions, seed=self.spec.seed, demo_seed=s.seed, default_object=target)
             if plan.offset is not None and plan.actions is not None:
-                plan.actions = adapt_actions(self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp)
+                plan.actions = adapt_actions(
+                    self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp
+                )
             plans.append(plan)
         screened = self._screen(s.seed, original.states[0], plans)
         seen: dict[tuple[str, Any], list[np.ndarray]] = {}  # frames of the original physics, by camera and view
@@ -177,8 +199,18 @@ class DemoAugmenter:
             if early is not None and not early.success and job.rejected_dir is None:
                 # rejected by the batch rollout and nobody keeps rejects: no step-by-step re-run
                 result.seconds["physics"] += time.perf_counter() - t0
-                result.outcomes.append(VariantOutcome(plan.variant, plan.magnitude, False, early.reason or "undecided",
-                                                      0, True, plan.params, _stage(early)))
+                result.outcomes.append(
+                    VariantOutcome(
+                        plan.variant,
+                        plan.magnitude,
+                        False,
+                        early.reason or "undecided",
+                        0,
+                        True,
+                        plan.params,
+                        _stage(early),
+                    )
+                )
                 continue
             if plan.physics:
                 assert plan.actions is not None
@@ -191,8 +223,16 @@ class DemoAugmenter:
             kept = bool(rollout.verdict.success)
             reason = "" if kept else (rollout.verdict.reason or "undecided")
             result.outcomes.append(
-                VariantOutcome(plan.variant, plan.magnitude, kept, reason, rollout.num_steps, plan.physics, plan.params,
-                               _stage(rollout.verdict))
+                VariantOutcome(
+                    plan.variant,
+                    plan.magnitude,
+                    kept,
+                    reason,
+                    rollout.num_steps,
+                    plan.physics,
+                    plan.params,
+                    _stage(rollout.verdict),
+                )
             )
             folder = job.kept_dir if kept else job.rejected_dir
             if folder is None:
@@ -207,7 +247,9 @@ class DemoAugmenter:
         object offset, when the task has no scripted mechanism (:mod:`.batch`)."""
         if not self.spec.batch or not can_batch(self.world):
             return {}
-        chosen = [(v, p.actions) for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None]
+        chosen = [
+            (v, p.actions) for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None
+        ]
         if len(chosen) < 2:
             return {}
         index = [v for v, _ in chosen]
@@ -215,8 +257,15 @@ class DemoAugmenter:
         return dict(zip(index, verdicts, strict=True))
 
     def _write(
-        self, path: Path, rollout: Rollout, plan: VariantPlan, seed: int, job: DemoJob, source: dict[str, object],
-        result: DemoResult, seen: dict[tuple[str, Any], list[np.ndarray]] | None,
+        self,
+        path: Path,
+        rollout: Rollout,
+        plan: VariantPlan,
+        seed: int,
+        job: DemoJob,
+        source: dict[str, object],
+        result: DemoResult,
+        seen: dict[tuple[str, Any], list[np.ndarray]] | None,
     ) -> Path:
         """Render (reusing in ``seen`` the views of the same physics, lights and camera pose), write."""
         t0 = time.perf_counter()
@@ -227,7 +276,13 @@ class DemoAugmenter:
             keys = {camera: (camera, view_key(plan, camera)) for camera in rig.ids}
             known = {camera: seen[key] for camera, key in keys.items() if seen is not None and key in seen}
             frames = render_rollout(
-                self.world, rig, seed, rollout, plan, vision_every=self.task.timing.vision_every, known=known,
+                self.world,
+                rig,
+                seed,
+                rollout,
+                plan,
+                vision_every=self.task.timing.vision_every,
+                known=known,
                 on_capture=lambda t, views: pending.__setitem__(t, self.compressor.submit(_compress_views, views)),
             )
             if seen is not None:
@@ -252,8 +307,15 @@ class DemoAugmenter:
         if "expert" in source:
             attrs["expert"] = str(source["expert"])
         tmp = write_rollout(
-            path, self.info, rollout, frames, index=job.position, seed=seed,
-            vision_every=self.task.timing.vision_every, attrs=attrs, chunks={t: f.result() for t, f in pending.items()},
+            path,
+            self.info,
+            rollout,
+            frames,
+            index=job.position,
+            seed=seed,
+            vision_every=self.task.timing.vision_every,
+            attrs=attrs,
+            chunks={t: f.result() for t, f in pending.items()},
         )
         result.seconds["render"] += t1 - t0
         result.seconds["write"] += time.perf_counter() - t1

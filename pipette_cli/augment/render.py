@@ -65,7 +65,13 @@ def view_key(plan: VariantPlan, camera: str) -> tuple[float, bool, tuple[float, 
 
 
 def render_rollout(
-    world: World, rig: CameraRig, seed: int, rollout: Rollout, plan: VariantPlan, *, vision_every: int,
+    world: World,
+    rig: CameraRig,
+    seed: int,
+    rollout: Rollout,
+    plan: VariantPlan,
+    *,
+    vision_every: int,
     on_capture: Callable[[int, dict[str, np.ndarray]], None] | None = None,
     known: dict[str, list[np.ndarray]] | None = None,
 ) -> list[dict[str, np.ndarray]]:

@@ -24,8 +24,11 @@ class YieldRow:
 
     def as_dict(self) -> dict[str, Any]:
         return {
-            "magnitude": self.magnitude, "attempts": self.attempts, "kept": self.kept,
-            "yield": round(self.yield_, 4), "failures": dict(sorted(self.reasons.items())),
+            "magnitude": self.magnitude,
+            "attempts": self.attempts,
+            "kept": self.kept,
+            "yield": round(self.yield_, 4),
+            "failures": dict(sorted(self.reasons.items())),
             **({"failed_at_stage": {str(k): v for k, v in sorted(self.failed_at.items())}} if self.failed_at else {}),
         }
 

@@ -53,10 +53,18 @@ class AugmentResult:
 
 def _load_ledger(out: Path, task: TaskSpec, spec: AugmentSpec, source: Path) -> dict[str, Any]:
     path = ledger_path(out)
-    fresh = {"format": LEDGER_FORMAT, "task_id": task.id, "input": str(source), "spec": spec.model_dump(mode="json"), "demos": {}}
+    fresh = {
+        "format": LEDGER_FORMAT,
+        "task_id": task.id,
+        "input": str(source),
+        "spec": spec.model_dump(mode="json"),
+        "demos": {},
+    }
     if not path.exists():
         if out.exists():
-            raise DatasetError(f"{out} exists but has no {path.name}: it was not made by `pipette augment`; choose another --output")
+            raise DatasetError(
+                f"{out} exists but has no {path.name}: it was not made by `pipette augment`; choose another --output"
+            )
         return fresh
     try:
         ledger = json.loads(path.read_text())
@@ -94,7 +102,9 @@ def _drop_unledgered(path: Path, done: set[str]) -> int:
 def check_inputs(task: TaskSpec, source: Path, out: Path, rejected: Path | None) -> DatasetInfo:
     """Refuse a raw file of another task, or outputs that clash, before any work."""
     source, out = Path(source), Path(out)
-    if source.resolve() == out.resolve() or (rejected is not None and Path(rejected).resolve() in (source.resolve(), out.resolve())):
+    if source.resolve() == out.resolve() or (
+        rejected is not None and Path(rejected).resolve() in (source.resolve(), out.resolve())
+    ):
         raise PipetteError("--input, --output and --rejected must be three different files")
     status = scan(source)
     if status.info is None or not status.episodes:
@@ -107,8 +117,10 @@ def check_inputs(task: TaskSpec, source: Path, out: Path, rejected: Path | None)
 def check_robot(task: TaskSpec, info: DatasetInfo, source: Path) -> None:
     """Refuse to replay demos on a robot other than the one that recorded them."""
     if info.embodiment != task.embodiment.robot:
-        raise DatasetError(f"{source} was recorded on the {info.embodiment}, but the task is set up for the "
-                           f"{task.embodiment.robot}; place the task on the {info.embodiment} (--robot {info.embodiment})")
+        raise DatasetError(
+            f"{source} was recorded on the {info.embodiment}, but the task is set up for the "
+            f"{task.embodiment.robot}; place the task on the {info.embodiment} (--robot {info.embodiment})"
+        )
 
 
 def augment(
@@ -147,13 +159,14 @@ def augment(
     done = set(ledger["demos"])
     for path in outputs:
         clean(scan(path))
-        if (n := _drop_unledgered(path, done)):
+        if n := _drop_unledgered(path, done):
             log.warning("%s: dropped %d parts of an unfinished demo; it is redone", path, n)
     source_eps = scan(source).episodes
     next_index = {path: len(scan(path).episodes) for path in outputs}
     jobs = [
         DemoJob(ref.index, ref, parts_dir(out), parts_dir(Path(rejected)) if rejected is not None else None)
-        for ref in source_eps if ref.summary.uid not in done
+        for ref in source_eps
+        if ref.summary.uid not in done
     ]
     result = AugmentResult(out, {}, skipped_demos=len(source_eps) - len(jobs))
     if on_start is not None:
@@ -163,7 +176,9 @@ def augment(
         if jobs:
             for path in outputs:
                 parts_dir(path).mkdir(parents=True, exist_ok=True)
-            runs = run_jobs(kwargs, jobs, executor=executor, workers=workers or default_workers(), stop=stop, address=address)
+            runs = run_jobs(
+                kwargs, jobs, executor=executor, workers=workers or default_workers(), stop=stop, address=address
+            )
             try:
                 for _job, outcome in runs:
                     if outcome is None:
@@ -176,8 +191,11 @@ def augment(
                             commit_tmp(tmp, part_path(dest, next_index[dest]))
                             next_index[dest] += 1
                     ledger["demos"][outcome.uid] = {
-                        "position": outcome.position, "seed": outcome.seed, "status": outcome.status,
-                        "detail": outcome.detail, "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],
+                        "position": outcome.position,
+                        "seed": outcome.seed,
+                        "status": outcome.status,
+                        "detail": outcome.detail,
+                        "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],
                     }
                     write_json_atomic(ledger_path(out), ledger)
                     for key, value in outcome.seconds.items():

@@ -63,9 +63,16 @@ class Rollout:
         steps = len(a["action"])
         instruction = [t.decode() if isinstance(t, bytes) else str(t) for t in a["instruction"]]
         return cls(
-            actions=a["action"], states=a["sim_state"], obs_state=a["state"], sim_time=a["sim_time"],
-            wall_time=a["wall_time"], final_state=a["final_state"], final_sim_state=a["final_sim_state"], verdict=verdict,
-            instruction=instruction, stage=a.get("stage", np.zeros(steps, dtype=np.int32)),
+            actions=a["action"],
+            states=a["sim_state"],
+            obs_state=a["state"],
+            sim_time=a["sim_time"],
+            wall_time=a["wall_time"],
+            final_state=a["final_state"],
+            final_sim_state=a["final_sim_state"],
+            verdict=verdict,
+            instruction=instruction,
+            stage=a.get("stage", np.zeros(steps, dtype=np.int32)),
             instrument=a.get("instrument_state", np.zeros((steps, 0))),
         )
 
@@ -123,7 +130,12 @@ def start_state(world: World, seed: int, state0: np.ndarray, offset: ObjectOffse
 
 
 def simulate(
-    world: World, seed: int, state0: np.ndarray, actions: np.ndarray, *, settle_steps: int = 0,
+    world: World,
+    seed: int,
+    state0: np.ndarray,
+    actions: np.ndarray,
+    *,
+    settle_steps: int = 0,
     offset: ObjectOffset | None = None,
 ) -> Rollout:
     """Run ``actions`` from a restored start until the evaluator decides; no rendering.
@@ -153,10 +165,17 @@ def simulate(
         if verdict.done:
             break
     return Rollout(
-        actions=np.stack(rows_a), states=np.stack(rows_s), obs_state=np.stack(rows_q),
-        sim_time=np.asarray(rows_t), wall_time=np.asarray(rows_w), final_state=world.state(),
-        final_sim_state=sim_state(m, d), verdict=verdict, instruction=rows_text,
-        stage=np.asarray(rows_stage, dtype=np.int32), instrument=np.stack(rows_inst),
+        actions=np.stack(rows_a),
+        states=np.stack(rows_s),
+        obs_state=np.stack(rows_q),
+        sim_time=np.asarray(rows_t),
+        wall_time=np.asarray(rows_w),
+        final_state=world.state(),
+        final_sim_state=sim_state(m, d),
+        verdict=verdict,
+        instruction=rows_text,
+        stage=np.asarray(rows_stage, dtype=np.int32),
+        instrument=np.stack(rows_inst),
     )
 
 

@@ -97,7 +97,9 @@ class CameraPoseSpec(PerturbationSpec):
 
     type: Literal["camera_pose"] = "camera_pose"
     atom: ClassVar[str] = "cam"
-    camera: Literal["random", "top", "main", "wrist"] = Field("random", description="which camera; random: one per variant")
+    camera: Literal["random", "top", "main", "wrist"] = Field(
+        "random", description="which camera; random: one per variant"
+    )
     radius: float = Field(0.2, ge=0, description="m, for the top and main cameras")
     wrist_radius: float = Field(0.002, ge=0, description="m, for the wrist camera")
 
@@ -164,7 +166,9 @@ class AugmentSpec(Spec):
     settle_s: float = Field(1.0, ge=0, description="s the last target is held when the actions run out undecided")
     image_size: Annotated[int, Field(ge=0)] = 0
     """Square image side; 0: the input file's."""
-    batch: bool = Field(False, description="screen physics variants with one mujoco.rollout first (tasks without mechanisms)")
+    batch: bool = Field(
+        False, description="screen physics variants with one mujoco.rollout first (tasks without mechanisms)"
+    )
 
     @model_validator(mode="after")
     def _names(self) -> AugmentSpec:
@@ -215,7 +219,13 @@ def default_atoms(**overrides: dict[str, object]) -> dict[str, PerturbationSpec]
     Raises:
         SpecError: an impossible parameter, naming the field (``speed.factor: ...``).
     """
-    kinds = {"light": LightingSpec, "speed": SpeedSpec, "noise": JointNoiseSpec, "cam": CameraPoseSpec, "object": ObjectPoseSpec}
+    kinds = {
+        "light": LightingSpec,
+        "speed": SpeedSpec,
+        "noise": JointNoiseSpec,
+        "cam": CameraPoseSpec,
+        "object": ObjectPoseSpec,
+    }
     atoms: dict[str, PerturbationSpec] = {}
     problems = []
     for atom, cls in kinds.items():

@@ -32,15 +32,34 @@ if TYPE_CHECKING:
     from pipette_cli.authoring.backends.base import AuthoringBackend
 
 SizeField = Literal["volume_ml", "diameter_mm", "length_mm"]
-Generator = Literal["beaker", "erlenmeyer_flask", "volumetric_flask", "media_bottle", "graduated_cylinder",
-                    "petri_dish", "test_tube"]
+Generator = Literal[
+    "beaker", "erlenmeyer_flask", "volumetric_flask", "media_bottle", "graduated_cylinder", "petri_dish", "test_tube"
+]
 # generator -> (generator function name, id prefix, size kind, (min, max), alias phrases)
 FAMILIES: dict[str, tuple[str, str, str, tuple[float, float], tuple[str, ...]]] = {
     "beaker": ("beaker", "beaker", "volume_ml", (10, 5000), ("beaker",)),
-    "erlenmeyer_flask": ("erlenmeyer", "erlenmeyer_flask", "volume_ml", (25, 5000), ("erlenmeyer flask", "erlenmeyer", "conical flask", "flask")),
+    "erlenmeyer_flask": (
+        "erlenmeyer",
+        "erlenmeyer_flask",
+        "volume_ml",
+        (25, 5000),
+        ("erlenmeyer flask", "erlenmeyer", "conical flask", "flask"),
+    ),
     "volumetric_flask": ("volumetric_flask", "volumetric_flask", "volume_ml", (10, 2000), ("volumetric flask",)),
-    "media_bottle": ("media_bottle", "media_bottle", "volume_ml", (25, 5000), ("media bottle", "reagent bottle", "bottle")),
-    "graduated_cylinder": ("graduated_cylinder", "graduated_cylinder", "volume_ml", (10, 2000), ("graduated cylinder", "measuring cylinder", "cylinder")),
+    "media_bottle": (
+        "media_bottle",
+        "media_bottle",
+        "volume_ml",
+        (25, 5000),
+        ("media bottle", "reagent bottle", "bottle"),
+    ),
+    "graduated_cylinder": (
+        "graduated_cylinder",
+        "graduated_cylinder",
+        "volume_ml",
+        (10, 2000),
+        ("graduated cylinder", "measuring cylinder", "cylinder"),
+    ),
     "petri_dish": ("petri_dish", "petri_dish", "diameter_mm", (20, 250), ("petri dish", "culture dish", "dish")),
     "test_tube": ("tube", "test_tube", "diameter_mm", (6, 40), ("test tube", "glass tube", "culture tube")),
 }
@@ -66,9 +85,12 @@ class AssetDraftSpec(Spec):
         if value is None:
             raise ValueError(f"{self.generator} needs {kind}")
         if not low <= value <= high:
-            raise ValueError(f"{self.generator}: {kind} = {value:g} is outside what its generator can make ({low:g}-{high:g})")
-        if self.generator == "test_tube" and (self.length_mm is None or not 50 <= self.length_mm <= 250
-                                              or self.length_mm < 3 * (self.diameter_mm or 0)):
+            raise ValueError(
+                f"{self.generator}: {kind} = {value:g} is outside what its generator can make ({low:g}-{high:g})"
+            )
+        if self.generator == "test_tube" and (
+            self.length_mm is None or not 50 <= self.length_mm <= 250 or self.length_mm < 3 * (self.diameter_mm or 0)
+        ):
             raise ValueError("test_tube needs length_mm between 50 and 250 and at least 3 diameters")
         return self
 
@@ -105,8 +127,10 @@ def parse_asset(description: str) -> AssetDraftSpec:
             found = generator
             break
     if found is None:
-        raise DraftError(f"no parametric generator for {description!r}; generators: {', '.join(FAMILIES)} "
-                         "(e.g. 'a 300 mL beaker', 'a 120 mm petri dish', 'a 12 x 75 mm test tube')")
+        raise DraftError(
+            f"no parametric generator for {description!r}; generators: {', '.join(FAMILIES)} "
+            "(e.g. 'a 300 mL beaker', 'a 120 mm petri dish', 'a 12 x 75 mm test tube')"
+        )
     values: dict[str, float] = {}
     if m := re.search(r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+(?:\.\d+)?)\s*mm\b", text):
         values = {"diameter_mm": float(m[1]), "length_mm": float(m[2])}
@@ -121,7 +145,9 @@ def parse_asset(description: str) -> AssetDraftSpec:
     try:
         return AssetDraftSpec(generator=found, **values)
     except ValueError as exc:
-        raise DraftError(f"cannot make {description!r}: {exc.errors()[0]['msg'].removeprefix('Value error, ') if hasattr(exc, 'errors') else exc}") from None
+        raise DraftError(
+            f"cannot make {description!r}: {exc.errors()[0]['msg'].removeprefix('Value error, ') if hasattr(exc, 'errors') else exc}"
+        ) from None
 
 
 def _references(function_name: str) -> list[tuple[str, partial[AssetDef]]]:
@@ -166,7 +192,9 @@ def build_asset(spec: AssetDraftSpec, asset_id: str) -> tuple[AssetDef, str]:
     ref_id, ref = min(refs, key=lambda r: abs(math.log(volume / r[1].args[1])))
     args = list(ref.args)
     s = (volume / args[1]) ** (1 / 3)
-    mass_index = {"beaker": 4, "erlenmeyer": 6, "volumetric_flask": 5, "media_bottle": 6, "graduated_cylinder": 5}[function_name]
+    mass_index = {"beaker": 4, "erlenmeyer": 6, "volumetric_flask": 5, "media_bottle": 6, "graduated_cylinder": 5}[
+        function_name
+    ]
     for i in range(2, mass_index):
         args[i] = args[i] * s
     args[mass_index] = args[mass_index] * s * s
@@ -188,9 +216,15 @@ class DraftedAsset:
     mass: float
 
     def summary(self) -> dict[str, Any]:
-        return {"id": self.asset_id, "category": self.category, "generator": self.spec.generator,
-                "size": self.spec.describe(), "scaled_from": self.reference, "dimensions_m": self.dimensions,
-                "mass_kg": round(self.mass, 4)}
+        return {
+            "id": self.asset_id,
+            "category": self.category,
+            "generator": self.spec.generator,
+            "size": self.spec.describe(),
+            "scaled_from": self.reference,
+            "dimensions_m": self.dimensions,
+            "mass_kg": round(self.mass, 4),
+        }
 
 
 def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsset:
@@ -208,7 +242,9 @@ def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsse
     library = load_asset_library()
     existing = spec.default_id() if spec.default_id() in library else None
     if asset_id and asset_id in library:
-        raise PipetteError(f"asset id {asset_id!r} is already in the library ({library.get(asset_id).path}); choose another --id")
+        raise PipetteError(
+            f"asset id {asset_id!r} is already in the library ({library.get(asset_id).path}); choose another --id"
+        )
     asset, reference = build_asset(spec, name)
     with tempfile.TemporaryDirectory(prefix="pipette_asset_") as tmp:
         path = Path(tmp) / asset.category / f"{name}.usda"
@@ -218,17 +254,31 @@ def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsse
             raise AssetError([f"generated asset {name} fails validation: {p}" for p in report.problems])
         text = path.read_text(encoding="utf-8")
     lo, hi = asset.bounds()
-    return DraftedAsset(spec, name, asset.category, text, reference, existing,
-                        [round(float(v), 4) for v in (hi - lo)], asset.total_mass())
+    return DraftedAsset(
+        spec,
+        name,
+        asset.category,
+        text,
+        reference,
+        existing,
+        [round(float(v), 4) for v in (hi - lo)],
+        asset.total_mass(),
+    )
 
 
 def draft_asset(description: str, backend: AuthoringBackend, *, asset_id: str | None = None) -> DraftedAsset:
     """Description -> validated asset, with the offline parser or an LLM backend."""
     if backend.name == "offline":
         return make_asset(parse_asset(description), asset_id)
-    system = PROMPT.format(generators=", ".join(FAMILIES), volume=", ".join(g for g, f in FAMILIES.items() if f[2] == "volume_ml"))
-    return backend.complete(system=system, user=f"Asset description: {description}", schema=AssetDraftSpec,
-                            accept=lambda spec: make_asset(spec, asset_id))
+    system = PROMPT.format(
+        generators=", ".join(FAMILIES), volume=", ".join(g for g, f in FAMILIES.items() if f[2] == "volume_ml")
+    )
+    return backend.complete(
+        system=system,
+        user=f"Asset description: {description}",
+        schema=AssetDraftSpec,
+        accept=lambda spec: make_asset(spec, asset_id),
+    )
 
 
 def default_asset_root() -> Path:

@@ -59,7 +59,8 @@ class SolveReport:
             seeds.setdefault(why, []).append(seed.removeprefix("seed "))
         failures = [f"seed{'s' if len(s) > 1 else ''} {', '.join(s)}: {why}" for why, s in seeds.items()]
         return f"expert '{self.expert}' solved {self.successes}/{self.episodes} episodes (needs {self.required})" + (
-            f"; {'; '.join(failures)}" if failures else "")
+            f"; {'; '.join(failures)}" if failures else ""
+        )
 
 
 @dataclass
@@ -79,11 +80,22 @@ class CheckReport:
         return not self.problems
 
     def as_dict(self) -> dict[str, Any]:
-        return {"task": self.task_id, "ok": self.ok, "problems": self.problems, "episodes": self.episodes,
-                "idle_steps": self.idle_steps, "max_drift_m": round(self.max_drift_m, 4),
-                "solve": {"status": self.solve.status, "expert": self.solve.expert, "successes": self.solve.successes,
-                          "episodes": self.solve.episodes, "detail": self.solve.summary()},
-                "seconds": round(self.seconds, 2)}
+        return {
+            "task": self.task_id,
+            "ok": self.ok,
+            "problems": self.problems,
+            "episodes": self.episodes,
+            "idle_steps": self.idle_steps,
+            "max_drift_m": round(self.max_drift_m, 4),
+            "solve": {
+                "status": self.solve.status,
+                "expert": self.solve.expert,
+                "successes": self.solve.successes,
+                "episodes": self.solve.episodes,
+                "detail": self.solve.summary(),
+            },
+            "seconds": round(self.seconds, 2),
+        }
 
 
 def _idle_action(world: World) -> np.ndarray:
@@ -96,8 +108,9 @@ def _episode_steps(task: TaskSpec, world: World) -> int:
     return int(np.ceil(min(timeout, 30.0) / world.control_dt)) + 1
 
 
-def check_task(task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool = True,
-               stage_names: list[str] | None = None) -> CheckReport:
+def check_task(
+    task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool = True, stage_names: list[str] | None = None
+) -> CheckReport:
     """Build ``task`` and run the checks above; problems are listed, never raised.
 
     Args:
@@ -130,8 +143,10 @@ def check_task(task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool 
         for _ in range(steps):
             verdict = world.step(action)
             if verdict.success:
-                report.problems.append(f"seed {seed}: the evaluator succeeds while the robot does nothing "
-                                       f"(t = {world.step_count * world.control_dt:.1f} s); the task is trivial")
+                report.problems.append(
+                    f"seed {seed}: the evaluator succeeds while the robot does nothing "
+                    f"(t = {world.step_count * world.control_dt:.1f} s); the task is trivial"
+                )
                 break
             if verdict.done:
                 break
@@ -140,8 +155,10 @@ def check_task(task: TaskSpec, episodes: int = DEFAULT_EPISODES, *, solve: bool 
             drift = float(np.linalg.norm(world.position(name) - start_pos[name]))
             report.max_drift_m = max(report.max_drift_m, drift)
             if drift > MAX_DRIFT_M:
-                report.problems.append(f"seed {seed}: {name} moved {drift * 1000:.0f} mm by itself while the robot "
-                                       "stood still; it does not rest where the layout put it")
+                report.problems.append(
+                    f"seed {seed}: {name} moved {drift * 1000:.0f} mm by itself while the robot "
+                    "stood still; it does not rest where the layout put it"
+                )
     if solve and report.ok:
         report.solve = solve_check(task, episodes, stage_names)
     report.seconds = time.perf_counter() - start

@@ -92,8 +92,10 @@ class ClauseReader:
         self.implied = dict(words.implied_targets)
         self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
         self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
-        self.preps = sorted(((p, role) for role, ps in words.prepositions.model_dump().items() for p in ps),
-                            key=lambda pr: -len(pr[0].split()))
+        self.preps = sorted(
+            ((p, role) for role, ps in words.prepositions.model_dump().items() for p in ps),
+            key=lambda pr: -len(pr[0].split()),
+        )
         self.prep_words = {w for p, _ in self.preps for w in p.split()}
         self.articles = set(words.articles)
         self.fillers = set(words.fillers)
@@ -113,7 +115,9 @@ class ClauseReader:
                 best = (action, phrase, n)
         for table, kind in ((self.implied, "implied"), (self.unsupported_verbs, "unsupported")):
             found = first_match(tokens, i, list(table))
-            if found and (best is None or found[1] > best[2] or (kind == "unsupported" and found[1] == best[2] and i == 0)):
+            if found and (
+                best is None or found[1] > best[2] or (kind == "unsupported" and found[1] == best[2] and i == 0)
+            ):
                 best = (kind, found[0], found[1])
         return best
 
@@ -197,16 +201,24 @@ class ClauseReader:
         if before is not None and not before.is_bench and not before.is_pronoun:
             return True
         k = i + n
-        return k < len(tokens) and tokens[k].text in PART_LINKS and any(
-            first_match(clause.tokens, j, self.aliases) for j in range(k + 1, min(k + 4, len(tokens))))
+        return (
+            k < len(tokens)
+            and tokens[k].text in PART_LINKS
+            and any(first_match(clause.tokens, j, self.aliases) for j in range(k + 1, min(k + 4, len(tokens))))
+        )
 
     def _sizes_and_modifiers(self, clause: Clause, verbs: set[int]) -> None:
         tokens = clause.tokens
         for index, m in enumerate(clause.mentions):
             floor = clause.mentions[index - 1].end if index else 0
             k = m.start - 1
-            while k >= floor and tokens[k].kind != "punct" and k not in verbs and tokens[k].text not in self.articles \
-                    and (tokens[k].kind == "size" or tokens[k].text not in self.prep_words):
+            while (
+                k >= floor
+                and tokens[k].kind != "punct"
+                and k not in verbs
+                and tokens[k].text not in self.articles
+                and (tokens[k].kind == "size" or tokens[k].text not in self.prep_words)
+            ):
                 if tokens[k].kind == "size":
                     m.sizes.append(tokens[k].text)
                     tokens[k].used = True
@@ -238,10 +250,10 @@ class ClauseReader:
             prev = next((m for m in reversed(clause.mentions) if m.end <= i), None)
             nxt = next((m for m in clause.mentions if m.start >= i + n), None)
             owner = None
-            if prev is not None and not prev.is_bench and all(t.text in self.articles for t in tokens[prev.end:i]):
+            if prev is not None and not prev.is_bench and all(t.text in self.articles for t in tokens[prev.end : i]):
                 owner = prev  # "the centrifuge lid", "the incubator's door"
             elif nxt is not None and not nxt.is_bench:
-                between = [t.text for t in tokens[i + n:nxt.window_start]]
+                between = [t.text for t in tokens[i + n : nxt.window_start]]
                 if between and between[0] in PART_LINKS and all(w in self.articles for w in between[1:]):
                     owner = nxt  # "the lid of the centrifuge", "the button on the centrifuge"
                     for k in range(i + n, nxt.window_start):
@@ -255,7 +267,9 @@ class ClauseReader:
 
     def _prepositions(self, clause: Clause, verbs: set[int]) -> None:
         tokens = clause.tokens
-        anchors = sorted({max(verbs) + 1 if verbs else 0, *(m.end for m in clause.mentions), *(p.end for p in clause.parts)})
+        anchors = sorted(
+            {max(verbs) + 1 if verbs else 0, *(m.end for m in clause.mentions), *(p.end for p in clause.parts)}
+        )
         for m in clause.mentions:
             owned = [p for p in clause.parts if p.owner is m and p.start < m.start]
             start = owned[0].start if owned else m.window_start
@@ -275,8 +289,14 @@ class ClauseReader:
     def _unknown(self, clause: Clause) -> None:
         current: list[str] = []
         for token in [*clause.tokens, Token(".", "punct")]:
-            unknown = token.kind == "word" and not token.used and token.text not in self.fillers \
-                and token.text not in self.articles and not token.text.isdigit() and token.text not in self.prep_words
+            unknown = (
+                token.kind == "word"
+                and not token.used
+                and token.text not in self.fillers
+                and token.text not in self.articles
+                and not token.text.isdigit()
+                and token.text not in self.prep_words
+            )
             if unknown:
                 current.append(token.text)
             elif current:

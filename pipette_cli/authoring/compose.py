@@ -24,8 +24,15 @@ from pipette_cli.specs.expert import StepSpec
 from pipette_cli.specs.mechanisms import MechanismSpec
 from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 
-CATEGORY = {"pick": "consumable_handling", "position": "consumable_handling", "place": "placement_relocation",
-            "remove": "placement_relocation", "open": "hatch_control", "close": "hatch_control", "press": "hatch_control"}
+CATEGORY = {
+    "pick": "consumable_handling",
+    "position": "consumable_handling",
+    "place": "placement_relocation",
+    "remove": "placement_relocation",
+    "open": "hatch_control",
+    "close": "hatch_control",
+    "press": "hatch_control",
+}
 
 
 @dataclass
@@ -99,8 +106,9 @@ def step_name(step: PlanStepSpec, checked: CheckedPlan) -> str:
     }[step.action]()
 
 
-def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str | None = None,
-            remarks: tuple[str, ...] = ()) -> ComposedTask:
+def compose(
+    checked: CheckedPlan, *, namespace: str = "generated", task_id: str | None = None, remarks: tuple[str, ...] = ()
+) -> ComposedTask:
     """Lay out and compose ``checked`` (see the module docstring).
 
     Raises:
@@ -128,9 +136,12 @@ def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str 
     program = [skill for stage in stages for skill in stage.program]
     releases = [m for stage in stages for m in stage.mechanisms]
     if len({m.joint for m in releases}) < len(releases) or any(
-            s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in releases) for s in steps):
-        raise PlanError("a release button holds its lid open once pressed; a task cannot press it and then close "
-                        "that lid, or press it twice")
+        s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in releases) for s in steps
+    ):
+        raise PlanError(
+            "a release button holds its lid open once pressed; a task cannot press it and then close "
+            "that lid, or press it twice"
+        )
     targets = list(dict.fromkeys(t for stage in stages for t in stage.targets))
     objects = list(layout.placed.values())
     robot = checked.robot.name
@@ -143,21 +154,46 @@ def compose(checked: CheckedPlan, *, namespace: str = "generated", task_id: str 
         tags.append("multi-step")
     if robot != DEFAULT_ROBOT:
         tags.append(next(iter(robot_spec(robot).aliases), robot))
-    notes = [("scene.objects", "VERIFY the layout: computed by pipette new-task to be reachable and collision-free at "
-                               "reset; render it with pipette sim render."),
-             ("success", "VERIFY the thresholds (derived from the assets' geometry, see the comments) against a "
-                         "scripted or teleoperated demonstration.")]
+    notes = [
+        (
+            "scene.objects",
+            "VERIFY the layout: computed by pipette new-task to be reachable and collision-free at "
+            "reset; render it with pipette sim render.",
+        ),
+        (
+            "success",
+            "VERIFY the thresholds (derived from the assets' geometry, see the comments) against a "
+            "scripted or teleoperated demonstration.",
+        ),
+    ]
     for remark in remarks:
         index = next((i for i, o in enumerate(objects) if remark.endswith(o.asset)), None)
-        notes.append((f"scene.objects.{index}.asset" if index is not None else "scene.objects", f"VERIFY the choice: {remark}."))
+        notes.append(
+            (f"scene.objects.{index}.asset" if index is not None else "scene.objects", f"VERIFY the choice: {remark}.")
+        )
     if robot != DEFAULT_ROBOT:
         notes.append(("cameras.wrist", f"VERIFY the wrist camera mount on the {robot}."))
     category = CATEGORY[steps[-1].action] if not multi else "other"
     return ComposedTask(
-        task_id=tid, name=name[:1].upper() + name[1:], category=category, tags=tags, instruction=plan.instruction,
-        robot=robot, initial_joints=[r(v, 4) for v in checked.robot.arm.home], objects=objects,
-        joint_states=layout.joint_states, mechanisms=list[MechanismSpec](releases), targets=targets, stages=stages, success=success,
-        program=program, comments=comments, notes=notes, cameras=_cameras(objects, robot), checked=checked)
+        task_id=tid,
+        name=name[:1].upper() + name[1:],
+        category=category,
+        tags=tags,
+        instruction=plan.instruction,
+        robot=robot,
+        initial_joints=[r(v, 4) for v in checked.robot.arm.home],
+        objects=objects,
+        joint_states=layout.joint_states,
+        mechanisms=list[MechanismSpec](releases),
+        targets=targets,
+        stages=stages,
+        success=success,
+        program=program,
+        comments=comments,
+        notes=notes,
+        cameras=_cameras(objects, robot),
+        checked=checked,
+    )
 
 
 def _cameras(objects: list[PlacedObject], robot: str) -> dict[str, dict[str, Any]]:

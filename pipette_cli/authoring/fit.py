@@ -15,10 +15,18 @@ from pipette_cli.authoring.vocabulary import Vocabulary
 
 RECEPTACLES = ("cuvette_slot", "rotor_center", "cup_center", "block_center", "drawer_center")
 """Sites that hold an object with a little play (its radius may exceed the bare room by 1.5 mm)."""
-SURFACE_SIZE = {"pan_center": "pan_size", "platform_center": "platform_size", "plate_center": "plate_size",
-                "shelf_0_center": "shelf_size", "shelf_1_center": "shelf_size", "top_center": "top_size",
-                "center": "inner_size", "drawer_center": "plate_pocket", "block_center": "block_size",
-                "cuvette_slot": "cuvette_size"}
+SURFACE_SIZE = {
+    "pan_center": "pan_size",
+    "platform_center": "platform_size",
+    "plate_center": "plate_size",
+    "shelf_0_center": "shelf_size",
+    "shelf_1_center": "shelf_size",
+    "top_center": "top_size",
+    "center": "inner_size",
+    "drawer_center": "plate_pocket",
+    "block_center": "block_size",
+    "cuvette_slot": "cuvette_size",
+}
 """Site -> the semantics key with the (x, y) size of the surface or receptacle at it."""
 
 
@@ -53,14 +61,17 @@ def fit_radius(igeom: AssetGeometry, dgeom: AssetGeometry, site: str, *, item: s
     else:
         room = min(0.5 * (a - e) for a, e in zip(room_axes, extent, strict=True))
     if room < 0.0:
-        raise PlanError(f"impossible request: the {item} ({extent[1] * 1000:.0f} x {extent[0] * 1000:.0f} mm) "
-                        f"does not fit the {dest}'s {site.replace('_', ' ')} "
-                        f"({room_axes[1] * 1000:.0f} x {room_axes[0] * 1000:.0f} mm); choose a smaller object or a larger one to put it on")
+        raise PlanError(
+            f"impossible request: the {item} ({extent[1] * 1000:.0f} x {extent[0] * 1000:.0f} mm) "
+            f"does not fit the {dest}'s {site.replace('_', ' ')} "
+            f"({room_axes[1] * 1000:.0f} x {room_axes[0] * 1000:.0f} mm); choose a smaller object or a larger one to put it on"
+        )
     capacity = sem.get("capacity_kg")
     mass = float(igeom.semantics.get("mass", 0.0))
     if capacity is not None and mass > float(capacity):
-        raise PlanError(f"impossible request: the {item} weighs {mass:.2f} kg, over the "
-                        f"{capacity} kg capacity of the {dest}")
+        raise PlanError(
+            f"impossible request: the {item} weighs {mass:.2f} kg, over the {capacity} kg capacity of the {dest}"
+        )
     low = 0.01 if site in RECEPTACLES else 0.005
     return r(max(low, min(0.5 * half, room)), 4)
 
@@ -85,5 +96,6 @@ def check_hole_fit(vocab: Vocabulary, item_asset: str, holder_asset: str, *, ite
         raise PlanError(f"the {item} or the holes of the {dest} have no diameter in the asset library")
     holders = holders_that_fit(vocab, item_asset)
     hint = f"; holders that fit: {', '.join(holders)}" if holders else ""
-    raise PlanError(f"impossible request: the {item} is {d * 1000:.1f} mm wide, the holes "
-                    f"of the {dest} are {h * 1000:.1f} mm{hint}")
+    raise PlanError(
+        f"impossible request: the {item} is {d * 1000:.1f} mm wide, the holes of the {dest} are {h * 1000:.1f} mm{hint}"
+    )

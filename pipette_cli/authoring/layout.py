@@ -56,9 +56,15 @@ class Workspace:
 
         facts = robot_spec(robot)
         low, high = facts.min_reach + INNER_MARGIN, facts.reach - OUTER_MARGIN
-        return cls(center_x=round(0.5 * (low + high), 3), lane_y=round(0.2 * facts.reach, 3), min_reach=low,
-                   max_reach=high, origin_reach=facts.reach - ORIGIN_MARGIN,
-                   press_front=min(PRESS_FRONT, 0.55 * facts.reach), bench_z=facts.base_height)
+        return cls(
+            center_x=round(0.5 * (low + high), 3),
+            lane_y=round(0.2 * facts.reach, 3),
+            min_reach=low,
+            max_reach=high,
+            origin_reach=facts.reach - ORIGIN_MARGIN,
+            press_front=min(PRESS_FRONT, 0.55 * facts.reach),
+            bench_z=facts.base_height,
+        )
 
 
 @dataclass
@@ -91,13 +97,21 @@ class Layout:
     def __init__(self, robot: str) -> None:
         self.workspace = Workspace.of(robot)
         self.obstacles = robot_boxes(robot).copy()
-        self.obstacles = self.obstacles[self.obstacles[:, 5] > BENCH_Z + 0.002]  # parts below the bench top never collide
+        self.obstacles = self.obstacles[
+            self.obstacles[:, 5] > BENCH_Z + 0.002
+        ]  # parts below the bench top never collide
         xs = np.arange(0.1, BENCH_X[1] + 1e-9, GRID_STEP)
         ys = np.arange(-0.45, 0.45 + 1e-9, GRID_STEP)
         self.grid = np.array([(x, y) for x in xs for y in ys])
 
-    def place(self, fp: Footprint, z: float = BENCH_Z, *, commit: bool = True,
-              away: tuple[tuple[float, float], float] | None = None) -> tuple[float, float] | None:
+    def place(
+        self,
+        fp: Footprint,
+        z: float = BENCH_Z,
+        *,
+        commit: bool = True,
+        away: tuple[tuple[float, float], float] | None = None,
+    ) -> tuple[float, float] | None:
         """Best free position (x, y) of ``fp``'s origin, or None when there is none; with ``commit``
         the object becomes an obstacle there; ``away = (point, d)`` keeps the origin ``d`` from ``point``.
 
@@ -109,8 +123,15 @@ class Layout:
             spot = self._place(fp, z, commit, away, self.workspace.origin_reach, TIGHT_CLEARANCE)
         return spot
 
-    def _place(self, fp: Footprint, z: float, commit: bool, away: tuple[tuple[float, float], float] | None,
-               max_reach: float, pad: float) -> tuple[float, float] | None:
+    def _place(
+        self,
+        fp: Footprint,
+        z: float,
+        commit: bool,
+        away: tuple[tuple[float, float], float] | None,
+        max_reach: float,
+        pad: float,
+    ) -> tuple[float, float] | None:
         grid = self.grid
         boxes = fp.boxes
         world = np.repeat(boxes[None], len(grid), axis=0).copy()
@@ -118,7 +139,9 @@ class Layout:
         world[:, :, [1, 4]] += grid[:, None, 1:2]
         world[:, :, [2, 5]] += z
         lo, hi = world[:, :, :3].min(axis=1), world[:, :, 3:].max(axis=1)
-        on_bench = (lo[:, 0] >= BENCH_X[0]) & (hi[:, 0] <= BENCH_X[1]) & (lo[:, 1] >= BENCH_Y[0]) & (hi[:, 1] <= BENCH_Y[1])
+        on_bench = (
+            (lo[:, 0] >= BENCH_X[0]) & (hi[:, 0] <= BENCH_X[1]) & (lo[:, 1] >= BENCH_Y[0]) & (hi[:, 1] <= BENCH_Y[1])
+        )
         ws = self.workspace
         ok = on_bench.copy()
         for k in fp.keys or [(0.0, 0.0)]:

@@ -133,13 +133,25 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
         hinge = kind == int(mujoco.mjtJoint.mjJNT_HINGE)
         low, high = model.jnt_range[j]
         scale = np.rad2deg(1.0) if hinge else 1.0
-        joints[model.joint(j).name] = JointInfo(model.joint(j).name, "hinge" if hinge else "slide",
-                                                round(float(low * scale), 4), round(float(high * scale), 4))
+        joints[model.joint(j).name] = JointInfo(
+            model.joint(j).name,
+            "hinge" if hinge else "slide",
+            round(float(low * scale), 4),
+            round(float(high * scale), 4),
+        )
     for name, value in joint_values:
         info = joints[name]
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = np.deg2rad(value) if info.kind == "hinge" else value
     mujoco.mj_forward(model, data)
     boxes = _geom_boxes(model, data, range(model.ngeom))
     sites = {model.site(i).name: _point(data.site_xpos[i]) for i in range(model.nsite)}
-    return AssetGeometry(asset_id, entry.category, free, semantics, boxes, sites, joints,
-                         quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0))
+    return AssetGeometry(
+        asset_id,
+        entry.category,
+        free,
+        semantics,
+        boxes,
+        sites,
+        joints,
+        quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0),
+    )

@@ -71,10 +71,15 @@ class Builder:
 
     # ------------------------------------------------------------------ objects
     def _static(self, obj: Obj) -> bool:
-        return all(self.vocab.assets[a].static or not self.vocab.assets[a].graspable for a in self.vocab.members(obj.wanted.kind))
+        return all(
+            self.vocab.assets[a].static or not self.vocab.assets[a].graspable
+            for a in self.vocab.members(obj.wanted.kind)
+        )
 
     def _moved(self) -> list[Obj]:
-        return [s.object for s in self.steps if s.object is not None and s.action in ("pick", "place", "remove", "position")]
+        return [
+            s.object for s in self.steps if s.object is not None and s.action in ("pick", "place", "remove", "position")
+        ]
 
     def _holders(self) -> list[Obj]:
         out = []
@@ -107,7 +112,9 @@ class Builder:
             for old in reversed(self.objects):
                 if old in taken or not mine & set(self.vocab.members(old.wanted.kind)):
                     continue
-                if set(wanted.sizes) - set(old.wanted.sizes) or set(wanted.modifiers) - set(old.wanted.modifiers) - {"open"}:
+                if set(wanted.sizes) - set(old.wanted.sizes) or set(wanted.modifiers) - set(old.wanted.modifiers) - {
+                    "open"
+                }:
                     continue
                 return old
         made = Obj(mention, wanted)
@@ -125,8 +132,9 @@ class Builder:
         hatch = next((p for p in clause.parts if p.name in HATCH_PARTS), None)
         words = {t.text for t in clause.tokens}
         if hatch is not None and (not direct or all(m is hatch.owner for m in direct)):
-            if action in ("pick", "remove") or (action == "place" and not clause.with_prep("dest", "over")
-                                                 and ({"up", "open", "opened"} & words)):
+            if action in ("pick", "remove") or (
+                action == "place" and not clause.with_prep("dest", "over") and ({"up", "open", "opened"} & words)
+            ):
                 action = "open"  # "lift the lid", "take the lid off the water bath", "pull the drawer out"
             elif action in ("place", "press"):
                 action = "close"  # "put the lid back on the bath", "push the drawer in", "lower the lid"
@@ -145,11 +153,15 @@ class Builder:
         part = button if action == "press" else hatch
         owner = part.owner if part is not None and part.owner is not None else None
         if owner is None:
-            owner = next(iter(direct), None) or next((m for m in clause.mentions if not m.is_bench and m.prep in ("dest", "source", "of")), None)
+            owner = next(iter(direct), None) or next(
+                (m for m in clause.mentions if not m.is_bench and m.prep in ("dest", "source", "of")), None
+            )
         obj = self.obj(owner, clause, "instrument", []) if owner is not None else None
         if action == "press" and part is None and obj is not None and hatch is None:
             part = None
-        self.steps.append(RawStep(action, obj, part=part.name if part is not None else ("button" if action == "press" else None)))
+        self.steps.append(
+            RawStep(action, obj, part=part.name if part is not None else ("button" if action == "press" else None))
+        )
 
     def _movement(self, action: str, clause: Clause, direct: list[Mention]) -> None:
         taken: list[Obj] = []
@@ -159,7 +171,9 @@ class Builder:
             taken.append(o)
             items.append(o)
         if not items:
-            raise PlanError(f"found no object to {clause.verb or action} in '{clause.text}'; name one from the asset library")
+            raise PlanError(
+                f"found no object to {clause.verb or action} in '{clause.text}'; name one from the asset library"
+            )
         dests = [m for m in clause.with_prep("dest") if not m.is_bench]
         overs = clause.with_prep("over")
         sources = [m for m in clause.with_prep("source") if not m.is_bench]
@@ -169,7 +183,7 @@ class Builder:
             if not m.is_bench and not m.is_pronoun:
                 taken.append(self.obj(m, clause, "distractor", taken))  # "next to the beaker": on the bench, unused
         targets: list[tuple[Obj, str | None]] = []
-        for m in (dests or overs):
+        for m in dests or overs:
             o = self.obj(m, clause, "holder", taken)
             taken.append(o)
             targets.append((o, m.part))
@@ -182,7 +196,9 @@ class Builder:
             action = "place"
         elif action == "place" and self._dangling_dest(clause) and not on_bench:
             targets.append((self.pronoun("holder", clause), None))
-        elif (action == "pick" and source is not None and sources[0].prep_phrase in REMOVING) or (action == "place" and (on_bench or source is not None)):
+        elif (action == "pick" and source is not None and sources[0].prep_phrase in REMOVING) or (
+            action == "place" and (on_bench or source is not None)
+        ):
             action = "remove"
         elif action == "place" and not on_bench and self._opened():
             targets.append((self._opened()[-1], None))  # "open the cycler, load the plate, close it"
@@ -193,9 +209,13 @@ class Builder:
             source = self._last_place_of(items[0])
             if source is None:
                 if on_bench:
-                    raise PlanError("the object already stands on the bench; name where it should go, or where it "
-                                    "comes from ('from the balance')")
-                raise PlanError(f"say where the {items[0].wanted.words()} is taken from ('out of the rack', 'off the balance')")
+                    raise PlanError(
+                        "the object already stands on the bench; name where it should go, or where it "
+                        "comes from ('from the balance')"
+                    )
+                raise PlanError(
+                    f"say where the {items[0].wanted.words()} is taken from ('out of the rack', 'off the balance')"
+                )
         for k, item in enumerate(items):
             target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
             self.steps.append(RawStep(action, item, target, source, part))
@@ -224,11 +244,18 @@ class Builder:
         extra = [o for o in self.objects if o not in used]
         self._name(used + extra)
         roles = _roles(steps)
-        objects = [PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra]
+        objects = [
+            PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra
+        ]
         plan_steps = [_plan_step(s) for s in steps]
         try:
-            return TaskPlanSpec(objects=objects, steps=plan_steps, robot=robot, instruction=instruction,
-                                thresholds=PlanThresholdsSpec(**thresholds))
+            return TaskPlanSpec(
+                objects=objects,
+                steps=plan_steps,
+                robot=robot,
+                instruction=instruction,
+                thresholds=PlanThresholdsSpec(**thresholds),
+            )
         except ValueError as exc:
             raise PlanError(f"could not make a plan: {exc}") from None
 
@@ -238,7 +265,11 @@ class Builder:
         for i, step in enumerate(self.steps):
             if step.object is not None:
                 continue
-            near = [s.object for s in self.steps[i + 1:] + self.steps[:i][::-1] if s.action in ("open", "close", "press") and s.object]
+            near = [
+                s.object
+                for s in self.steps[i + 1 :] + self.steps[:i][::-1]
+                if s.action in ("open", "close", "press") and s.object
+            ]
             near += [o for o in self.objects if self._static(o)]
             if not near:
                 raise PlanError(f"say which instrument to {step.action} (e.g. '{step.action} the centrifuge lid')")
@@ -248,16 +279,30 @@ class Builder:
         out: list[RawStep] = []
         for step in self.steps:
             last = out[-1] if out else None
-            if last is not None and last.object is step.object and last.action == "pick" and step.action in ("place", "position", "pick", "remove"):
+            if (
+                last is not None
+                and last.object is step.object
+                and last.action == "pick"
+                and step.action in ("place", "position", "pick", "remove")
+            ):
                 step.source = step.source or last.source
                 out[-1] = step  # "pick up the tube and put it on the balance" is one placement
                 continue
-            if last is not None and last.object is step.object and last.action == "remove" and step.action in ("place", "position"):
+            if (
+                last is not None
+                and last.object is step.object
+                and last.action == "remove"
+                and step.action in ("place", "position")
+            ):
                 step.source = step.source or last.source
                 out[-1] = step  # "take the tube out of the rack and put it on the balance"
                 continue
-            if last is not None and (last.action, last.object, last.part, last.target) == \
-                    (step.action, step.object, step.part, step.target) and step.action in ("open", "close", "press", "position", "place"):
+            if (
+                last is not None
+                and (last.action, last.object, last.part, last.target)
+                == (step.action, step.object, step.part, step.target)
+                and step.action in ("open", "close", "press", "position", "place")
+            ):
                 continue  # "hold it over the beaker and keep it there": said twice, done once
             out.append(step)
         return out
@@ -297,8 +342,13 @@ class Builder:
 def _plan_step(step: RawStep) -> PlanStepSpec:
     if step.object is None:  # Builder._fill_elided gives every step its object or refuses the description
         raise PlanError(f"say what to {step.action}")
-    return PlanStepSpec(action=step.action, object=step.object.name, target=step.target.name if step.target else None,
-                        source=step.source.name if step.source else None, part=step.part)
+    return PlanStepSpec(
+        action=step.action,
+        object=step.object.name,
+        target=step.target.name if step.target else None,
+        source=step.source.name if step.source else None,
+        part=step.part,
+    )
 
 
 def _roles(steps: list[RawStep]) -> dict[int, str]:
@@ -369,7 +419,9 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     if not re.search(r"[a-z]", text):
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     if has_negation(text):
-        raise PlanError("negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'")
+        raise PlanError(
+            "negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'"
+        )
     text, thresholds = extract_thresholds(text)
     text, robots = extract_robots(text, words)
     if len(robots) > 1:

@@ -22,14 +22,30 @@ from pipette_cli.specs.robot import robot_names
 
 Action = Literal["pick", "place", "remove", "open", "close", "press", "position"]
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
-Part = Literal["lid", "door", "drawer", "sash", "button", "shelf_0", "shelf_1", "shelf", "pan", "platform", "plate",
-               "block", "rotor", "slot"]
+Part = Literal[
+    "lid",
+    "door",
+    "drawer",
+    "sash",
+    "button",
+    "shelf_0",
+    "shelf_1",
+    "shelf",
+    "pan",
+    "platform",
+    "plate",
+    "block",
+    "rotor",
+    "slot",
+]
 if TYPE_CHECKING:
     type Robot = str  # the robot names are read from registry/robots/ at import time; a str to the checker
 else:
     Robot = Literal.__getitem__(tuple(robot_names()))  # the robots of registry/robots/, an enum for the LLM schema
-ObjectName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=32,
-                                  description="the object's name in this plan (lower_snake_case)")]
+ObjectName = Annotated[
+    str,
+    Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=32, description="the object's name in this plan (lower_snake_case)"),
+]
 MAX_STEPS = 5
 
 
@@ -47,10 +63,13 @@ class PlanObjectSpec(Spec):
     """One object on the bench and its role."""
 
     name: ObjectName
-    asset: str = Field(min_length=2, max_length=80,
-                       description="an asset id from the library (the words naming it are resolved too)")
-    role: Role = Field(description="item: moved; destination/source: where it goes/comes from; instrument: "
-                                   "opened, closed or pressed; target: a tool is held over it; distractor: unused")
+    asset: str = Field(
+        min_length=2, max_length=80, description="an asset id from the library (the words naming it are resolved too)"
+    )
+    role: Role = Field(
+        description="item: moved; destination/source: where it goes/comes from; instrument: "
+        "opened, closed or pressed; target: a tool is held over it; distractor: unused"
+    )
 
 
 class PlanStepSpec(Spec):
@@ -60,8 +79,11 @@ class PlanStepSpec(Spec):
     object: ObjectName = Field(description="the object moved, or the instrument opened/closed/pressed")
     target: ObjectName | None = Field(None, description="place: where it goes; position: what it is held over")
     source: ObjectName | None = Field(None, description="where the object starts (it is taken off or out of it)")
-    part: Part | None = Field(None, description="the instrument's part (lid, door, drawer, sash, button) or the "
-                                                "target's surface (shelf_0, shelf_1)")
+    part: Part | None = Field(
+        None,
+        description="the instrument's part (lid, door, drawer, sash, button) or the "
+        "target's surface (shelf_0, shelf_1)",
+    )
 
     def required_target(self) -> str:
         """``target`` of a step that must have one (place, position).

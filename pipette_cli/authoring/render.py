@@ -37,8 +37,11 @@ def yaml_scalar(value: Any) -> str:
         text = repr(round(value, 6))
         return text if "e" not in text else f"{value:.6f}"
     text = str(value)
-    if _PLAIN.match(text) and text.lower() not in ("yes", "no", "true", "false", "null", "on", "off") \
-            and not re.fullmatch(r"[\d.eE+-]+", text):
+    if (
+        _PLAIN.match(text)
+        and text.lower() not in ("yes", "no", "true", "false", "null", "on", "off")
+        and not re.fullmatch(r"[\d.eE+-]+", text)
+    ):
         return text
     return json.dumps(text, ensure_ascii=False)
 
@@ -59,7 +62,7 @@ def is_leaf(value: Any) -> bool:
 
 def dash(block: str, indent: int) -> str:
     """Turn the first line's indentation of a rendered mapping into a list item."""
-    return " " * indent + "- " + block.lstrip("\n")[indent + 2:]
+    return " " * indent + "- " + block.lstrip("\n")[indent + 2 :]
 
 
 def plain(spec: BaseModel) -> dict[str, Any]:
@@ -98,12 +101,25 @@ def environment() -> jinja2.Environment:
 def render_task(task: ComposedTask, *, description: str, backend: str) -> str:
     """The registry YAML of ``task``."""
     context = {
-        "task_id": task.task_id, "name": task.name, "category": task.category, "tags": task.tags,
-        "instruction": task.instruction, "robot": task.robot, "initial_joints": task.initial_joints,
-        "objects": task.objects, "joint_states": task.joint_states, "mechanisms": [plain(m) for m in task.mechanisms],
-        "cameras": task.cameras, "targets": task.targets, "success": plain(task.success),
-        "program": [(plain(step), stage_index) for stage_index, stage in enumerate(task.stages) for step in stage.program],
-        "stages": len(task.stages), "comments": task.comments, "notes": task.notes,
+        "task_id": task.task_id,
+        "name": task.name,
+        "category": task.category,
+        "tags": task.tags,
+        "instruction": task.instruction,
+        "robot": task.robot,
+        "initial_joints": task.initial_joints,
+        "objects": task.objects,
+        "joint_states": task.joint_states,
+        "mechanisms": [plain(m) for m in task.mechanisms],
+        "cameras": task.cameras,
+        "targets": task.targets,
+        "success": plain(task.success),
+        "program": [
+            (plain(step), stage_index) for stage_index, stage in enumerate(task.stages) for step in stage.program
+        ],
+        "stages": len(task.stages),
+        "comments": task.comments,
+        "notes": task.notes,
     }
     one_line = " ".join(description.split())
     return environment().get_template(DRAFT_TEMPLATE).render(description=one_line, backend=backend, **context)

@@ -43,8 +43,10 @@ def candidates(vocab: Vocabulary, wanted: Wanted) -> list[str]:
             if not same and size_class(tag) in ("ml", "mm", "ul"):
                 continue  # sizes the kind does not vary by (a "250 mL" pipette stand) carry no choice
             sizes = ", ".join(same) if same else "no sizes"
-            raise PlanError(f"no {tag} {kind.name} in the asset library ({kind.name} sizes: {sizes}); pick one of "
-                            f"those, or make it with `pipette assets new \"a {tag} {kind.name}\"`")
+            raise PlanError(
+                f"no {tag} {kind.name} in the asset library ({kind.name} sizes: {sizes}); pick one of "
+                f'those, or make it with `pipette assets new "a {tag} {kind.name}"`'
+            )
         members = keep
     wanted_words = set(wanted.modifiers)
     scored = []
@@ -95,7 +97,9 @@ def choose_pair(vocab: Vocabulary, items: list[str], holders: list[str]) -> tupl
     matching sizes, then the holders' order, then the tightest fit."""
     pairs = [(i, h) for i in items for h in holders]
     fitting = [p for p in pairs if fits(vocab, *p) is not False] or pairs
-    return min(fitting, key=lambda p: (items.index(p[0]), -_affinity(vocab, *p), holders.index(p[1]), _slack(vocab, *p)))
+    return min(
+        fitting, key=lambda p: (items.index(p[0]), -_affinity(vocab, *p), holders.index(p[1]), _slack(vocab, *p))
+    )
 
 
 def holders_that_fit(vocab: Vocabulary, item: str) -> list[str]:

@@ -21,9 +21,23 @@ from pipette_cli.authoring.validate import CheckedPlan, separate_lid
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")
-SURFACE_SITES = ("pan_center", "platform_center", "plate_center", "shelf_0_center", "top_center", "drawer_center",
-                 "block_center", "cuvette_slot", "rotor_center", "cup_center", "work_center", "ring_center",
-                 "inside_bottom", "center", "opening")
+SURFACE_SITES = (
+    "pan_center",
+    "platform_center",
+    "plate_center",
+    "shelf_0_center",
+    "top_center",
+    "drawer_center",
+    "block_center",
+    "cuvette_slot",
+    "rotor_center",
+    "cup_center",
+    "work_center",
+    "ring_center",
+    "inside_bottom",
+    "center",
+    "opening",
+)
 OPEN_FRACTION = 0.95
 """An opened lid or door starts at this fraction of its open limit."""
 
@@ -135,7 +149,9 @@ class SceneBuilder:
                 if holder is None or step.action in ("open", "close", "press"):
                     continue
                 geom = self.geom(holder)
-                site = receiving_site(geom, step.part if holder == step.target else None, self.checked.asset(step.object))
+                site = receiving_site(
+                    geom, step.part if holder == step.target else None, self.checked.asset(step.object)
+                )
                 if site in (None, "lid_seat", "opening"):
                     continue
                 for joint in movable_joints(geom):
@@ -143,8 +159,10 @@ class SceneBuilder:
                         continue
                     key = (holder, joint.name)
                     if state.get(key) == "closed":
-                        raise PlanError(f"step {i + 1} ({step.action} {step.object}) needs the {self.human(holder)} open, "
-                                        f"but an earlier step closes it; open it first")
+                        raise PlanError(
+                            f"step {i + 1} ({step.action} {step.object}) needs the {self.human(holder)} open, "
+                            f"but an earlier step closes it; open it first"
+                        )
                     if key not in start:
                         start[key] = open_value(joint)
                         state[key] = "open"
@@ -174,8 +192,11 @@ class SceneBuilder:
                 x, y = self.ws.center_x + 0.05, self.ws.lane_y
             self._place_free(name, (x, y - 0.1 * k * (1 if y <= 0 else -1)))
         for (name, joint), value in joints.items():
-            comment = "shut at reset (0)" if value == 0.0 else \
-                f"open at reset: {OPEN_FRACTION:.0%} of its limit; VERIFY it stays open by itself"
+            comment = (
+                "shut at reset (0)"
+                if value == 0.0
+                else f"open at reset: {OPEN_FRACTION:.0%} of its limit; VERIFY it stays open by itself"
+            )
             self.out.joint_states.append((f"{name}/{joint}", r(value, 3), comment))
         return self.out
 
@@ -225,12 +246,18 @@ class SceneBuilder:
             shifted = lid_geom.boxes.copy()
             shifted[:, [2, 5]] += seat[2]
             boxes.append(shifted)
-        spot = self.layout.place(Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed),
-                                 self.ws.bench_z)
+        spot = self.layout.place(
+            Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed), self.ws.bench_z
+        )
         if spot is None:
             raise self._no_room(name)
-        self.out.placed[name] = PlacedObject(name, asset, (spot[0], spot[1], self.ws.bench_z), randomize={"xy": (0.02, 0.02)},
-                                             comment="VERIFY the layout (pipette sim render): placed within reach by pipette new-task")
+        self.out.placed[name] = PlacedObject(
+            name,
+            asset,
+            (spot[0], spot[1], self.ws.bench_z),
+            randomize={"xy": (0.02, 0.02)},
+            comment="VERIFY the layout (pipette sim render): placed within reach by pipette new-task",
+        )
         self.geoms[name] = geom
         if lid:
             self._place_lid(name, geom, lid)
@@ -248,14 +275,23 @@ class SceneBuilder:
             base = self.out.placed[name].pos
             pos = (r(base[0] + seat[0]), r(base[1] + seat[1]), r(base[2] + seat[2], 4))
             self.out.placed[name].randomize = None
-            self.out.placed[lid_name] = PlacedObject(lid_name, lid, pos, comment=f"on {name}/lid_seat; VERIFY it rests on the rim")
+            self.out.placed[lid_name] = PlacedObject(
+                lid_name, lid, pos, comment=f"on {name}/lid_seat; VERIFY it rests on the rim"
+            )
             return
-        spot = self.layout.place(Footprint(lid_geom.boxes, [(0.0, 0.0)], (self.ws.center_x - 0.05, -self.ws.lane_y - 0.05),
-                                           margin=0.02), self.ws.bench_z)
+        spot = self.layout.place(
+            Footprint(lid_geom.boxes, [(0.0, 0.0)], (self.ws.center_x - 0.05, -self.ws.lane_y - 0.05), margin=0.02),
+            self.ws.bench_z,
+        )
         if spot is None:
             raise self._no_room(name)
-        self.out.placed[lid_name] = PlacedObject(lid_name, lid, (spot[0], spot[1], r(self.ws.bench_z + lid_geom.origin_height + 0.001, 4)),
-                                                 randomize={"xy": (0.02, 0.02), "yaw_deg": 5}, comment="lid beside it; VERIFY reachable")
+        self.out.placed[lid_name] = PlacedObject(
+            lid_name,
+            lid,
+            (spot[0], spot[1], r(self.ws.bench_z + lid_geom.origin_height + 0.001, 4)),
+            randomize={"xy": (0.02, 0.02), "yaw_deg": 5},
+            comment="lid beside it; VERIFY reachable",
+        )
 
     def _place_free(self, name: str, preferred: tuple[float, float]) -> None:
         asset = self.checked.asset(name)
@@ -269,8 +305,14 @@ class SceneBuilder:
         if spot is None:
             raise self._no_room(name)
         z = r(self.ws.bench_z + geom.origin_height + 0.001, 4)
-        self.out.placed[name] = PlacedObject(name, asset, (spot[0], spot[1], z), geom.rest_euler_deg, randomize,
-                                             "VERIFY reachable: placed by pipette new-task")
+        self.out.placed[name] = PlacedObject(
+            name,
+            asset,
+            (spot[0], spot[1], z),
+            geom.rest_euler_deg,
+            randomize,
+            "VERIFY reachable: placed by pipette new-task",
+        )
         self.geoms[name] = geom
 
     def _place_on_source(self, name: str, source: str, joints: dict[tuple[str, str], float]) -> None:
@@ -283,8 +325,10 @@ class SceneBuilder:
         sgeom = measure_asset(holder.asset, states)
         site = receiving_site(sgeom, None, self.checked.asset(name))
         if site is None or site == "opening":
-            raise PlanError(f"impossible request: the {self.human(source)} has no surface or slot the "
-                            f"{self.human(name)} can start on")
+            raise PlanError(
+                f"impossible request: the {self.human(source)} has no surface or slot the "
+                f"{self.human(name)} can start on"
+            )
         item = measure_asset(self.checked.asset(name))
         if site == "slot_grid":
             site = self.pick_slot(source, sgeom)
@@ -295,11 +339,15 @@ class SceneBuilder:
         else:
             local = sgeom.sites[site]
             cx, cy = (0.5 * (item.low[:2] + item.high[:2])).tolist()
-            pos = (r(holder.pos[0] + local[0] - cx), r(holder.pos[1] + local[1] - cy),
-                   r(holder.pos[2] + local[2] + item.origin_height + 0.001, 4))
+            pos = (
+                r(holder.pos[0] + local[0] - cx),
+                r(holder.pos[1] + local[1] - cy),
+                r(holder.pos[2] + local[2] + item.origin_height + 0.001, 4),
+            )
             euler, boxes = item.rest_euler_deg, item.boxes
-        self.out.placed[name] = PlacedObject(name, self.checked.asset(name), pos, euler, None,
-                                             f"starts in/on {source}/{site}; VERIFY it settles there")
+        self.out.placed[name] = PlacedObject(
+            name, self.checked.asset(name), pos, euler, None, f"starts in/on {source}/{site}; VERIFY it settles there"
+        )
         self.out.start_site[name] = (source, site)
         self.layout.add_obstacle(boxes, pos)
 
@@ -308,7 +356,9 @@ class SceneBuilder:
         slots = {k: np.asarray(v) for k, v in geom.sites.items() if k.startswith("slot_")}
         used = self.out.slots_used.setdefault(holder, [])
         middle = np.mean(list(slots.values()), axis=0)
-        free = sorted((k for k in slots if k not in used), key=lambda k: (float(np.linalg.norm(slots[k][:2] - middle[:2])), k))
+        free = sorted(
+            (k for k in slots if k not in used), key=lambda k: (float(np.linalg.norm(slots[k][:2] - middle[:2])), k)
+        )
         if not free:
             raise PlanError(f"the {self.human(holder)} has no free slot left")
         used.append(free[0])
@@ -316,6 +366,8 @@ class SceneBuilder:
 
     def _no_room(self, name: str) -> PlanError:
         ws = self.ws
-        return PlanError(f"impossible layout: found no place for the {self.human(name)} on the bench within the "
-                         f"{self.robot}'s comfortable reach ({ws.min_reach:.2f}-{ws.max_reach:.2f} m) clear of the robot "
-                         "and the other objects; try fewer objects or another robot ('with the UR5e')")
+        return PlanError(
+            f"impossible layout: found no place for the {self.human(name)} on the bench within the "
+            f"{self.robot}'s comfortable reach ({ws.min_reach:.2f}-{ws.max_reach:.2f} m) clear of the robot "
+            "and the other objects; try fewer objects or another robot ('with the UR5e')"
+        )

@@ -103,8 +103,12 @@ class StageBuilder:
     def _take(self, name: str, lift: float | None = None, hold_s: float = 0.0) -> list[sk.StepSpec]:
         """Grasp ``name`` where it is: out of an enclosure with ``remove_from``, else ``pick``."""
         where = self.held_at.get(name)
-        if where is not None and where[1] != "slot_grid" and where[1] in self.geom(where[0]).sites \
-                and covered(self.geom(where[0]), where[1]):
+        if (
+            where is not None
+            and where[1] != "slot_grid"
+            and where[1] in self.geom(where[0]).sites
+            and covered(self.geom(where[0]), where[1])
+        ):
             return [sk.RemoveFromSpec(object=name, source=where[0], to="hold", hold_s=0.3)]
         if lift is None:
             return [sk.PickSpec(object=name)]
@@ -118,12 +122,20 @@ class StageBuilder:
         hold = self.hold(0.5)
         upright = geom.semantics.get("upright", True) and geom.height > 1.5 * 2 * max(geom.half_xy)
         tilt = self.th.max_tilt_deg or (35.0 if upright else None)
-        criterion = ev.LiftAndHoldSpec(object=name, min_height_gain=gain, hold_s=hold, max_tilt_deg=tilt,
-                                       timeout_s=self.timeout(10))
-        comments = {"min_height_gain": "from the description" if self.th.lift_height_m else
-                    f"VERIFY: half the object's resting height ({geom.height * 1000:.0f} mm), clipped to 3-8 cm"}
+        criterion = ev.LiftAndHoldSpec(
+            object=name, min_height_gain=gain, hold_s=hold, max_tilt_deg=tilt, timeout_s=self.timeout(10)
+        )
+        comments = {
+            "min_height_gain": "from the description"
+            if self.th.lift_height_m
+            else f"VERIFY: half the object's resting height ({geom.height * 1000:.0f} mm), clipped to 3-8 cm"
+        }
         if tilt:
-            comments["max_tilt_deg"] = "from the description" if self.th.max_tilt_deg else "tall upright object: tilting past this fails (paper A.8 uses 35)"
+            comments["max_tilt_deg"] = (
+                "from the description"
+                if self.th.max_tilt_deg
+                else "tall upright object: tilting past this fails (paper A.8 uses 35)"
+            )
         program = self._take(name, lift=max(0.08, gain + 0.05), hold_s=hold + 0.5)
         if isinstance(program[0], sk.RemoveFromSpec):
             program = [program[0].model_copy(update={"hold_s": hold + 0.5})]
@@ -136,15 +148,18 @@ class StageBuilder:
         igeom, dgeom = self.geom(item), self.scene.geoms.get(dest) or self.geom(dest)
         site = receiving_site(dgeom, step.part, self.placed[item].asset)
         if site is None or ("lid_seat" in dgeom.sites and site != "lid_seat"):
-            raise PlanError(f"impossible request: the {self.human(dest)} has no surface, slot or opening to put the "
-                            f"{self.human(item)} in or on")
+            raise PlanError(
+                f"impossible request: the {self.human(dest)} has no surface, slot or opening to put the "
+                f"{self.human(item)} in or on"
+            )
         take = self._take(item)
         if site == "slot_grid":
             stage = self._into_rack(step, igeom, dgeom)
         elif site in SLOTS:
             stage = self._onto(step, igeom, dgeom, site, insert=True)
-        elif site == "opening" or (float(dgeom.high[2]) - float(dgeom.sites[site][2]) >= DEEP
-                                   and site in ("center", "inside_bottom")):
+        elif site == "opening" or (
+            float(dgeom.high[2]) - float(dgeom.sites[site][2]) >= DEEP and site in ("center", "inside_bottom")
+        ):
             stage = self._drop_in(step, igeom, dgeom, site)
         else:
             stage = self._onto(step, igeom, dgeom, site, insert=False)
@@ -159,29 +174,50 @@ class StageBuilder:
     def _onto(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str, insert: bool) -> Stage:
         item, dest = step.object, step.required_target()
         radius = self.th.xy_tolerance_m or self._fit_radius(step, igeom, dgeom, site)
-        surface = float(dgeom.sites[site][2]) + self.placed[dest].pos[2] if not dgeom.free else \
-            self.placed[dest].pos[2] + float(dgeom.sites[site][2])
+        surface = (
+            float(dgeom.sites[site][2]) + self.placed[dest].pos[2]
+            if not dgeom.free
+            else self.placed[dest].pos[2] + float(dgeom.sites[site][2])
+        )
         ref, lift = _reference(item, igeom)
         upright = bool(igeom.semantics.get("upright", True))
         tilt = self.th.max_tilt_deg or (15.0 if upright else None)
-        criterion = ev.RegionHoldSpec(object=ref, within=ev.CircleSpec(center=f"{dest}/{site}", radius=radius),
-                                      z=BoundSpec(min=r(surface - 0.01), max=r(surface + lift + 0.03)),
-                                      max_tilt_deg=tilt, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
-        comments = {"within": "from the description" if self.th.xy_tolerance_m else
-                    f"VERIFY: at most half of the {site.replace('_', ' ')}'s half-width, and the object's footprint stays on it",
-                    "z": f"VERIFY: resting on the surface at z = {surface:.3f} m (bench {self.bench:.2f})"}
+        criterion = ev.RegionHoldSpec(
+            object=ref,
+            within=ev.CircleSpec(center=f"{dest}/{site}", radius=radius),
+            z=BoundSpec(min=r(surface - 0.01), max=r(surface + lift + 0.03)),
+            max_tilt_deg=tilt,
+            hold_s=self.hold(1.0),
+            timeout_s=self.timeout(15),
+        )
+        comments = {
+            "within": "from the description"
+            if self.th.xy_tolerance_m
+            else f"VERIFY: at most half of the {site.replace('_', ' ')}'s half-width, and the object's footprint stays on it",
+            "z": f"VERIFY: resting on the surface at z = {surface:.3f} m (bench {self.bench:.2f})",
+        }
         if ref != item:
             comments["object"] = "a lying object's middle (its grasp site), not its end"
         if tilt:
-            comments["max_tilt_deg"] = "from the description" if self.th.max_tilt_deg else "an upright object must arrive upright"
-        skill: sk.StepSpec = sk.InsertIntoSpec(object=item, target=f"{dest}/{site}") if insert else \
-            sk.PlaceOnSpec(object=item, target=f"{dest}/{site}")
+            comments["max_tilt_deg"] = (
+                "from the description" if self.th.max_tilt_deg else "an upright object must arrive upright"
+            )
+        skill: sk.StepSpec = (
+            sk.InsertIntoSpec(object=item, target=f"{dest}/{site}")
+            if insert
+            else sk.PlaceOnSpec(object=item, target=f"{dest}/{site}")
+        )
         return Stage(step, criterion, [skill], comments, [item, dest])
 
     def _into_rack(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry) -> Stage:
         item, dest = step.object, step.required_target()
-        check_hole_fit(load_vocabulary(), self.placed[item].asset, self.placed[dest].asset,
-                       item=self.human(item), dest=self.human(dest))
+        check_hole_fit(
+            load_vocabulary(),
+            self.placed[item].asset,
+            self.placed[dest].asset,
+            item=self.human(item),
+            dest=self.human(dest),
+        )
         slots = np.array([v for k, v in dgeom.sites.items() if k.startswith("slot_")])
         pitch = float(dgeom.semantics.get("pitch", 0.02))
         lo, hi = slots.min(axis=0), slots.max(axis=0)
@@ -199,8 +235,10 @@ class StageBuilder:
             x = BoundSpec(min=r(px + lo[0] - pitch / 2), max=r(px + hi[0] + pitch / 2))
             y = BoundSpec(min=r(py + lo[1] - pitch / 2), max=r(py + hi[1] + pitch / 2))
             z = BoundSpec(min=r(pz + slot_z - 0.01), max=r(pz + slot_z + 0.4 * height + 0.01))
-            comments["z"] = (f"VERIFY: standing in a slot (floor {slot_z * 1000:.0f} mm), below 40 % of the "
-                             f"{height * 1000:.0f} mm holder, so lying on top does not count")
+            comments["z"] = (
+                f"VERIFY: standing in a slot (floor {slot_z * 1000:.0f} mm), below 40 % of the "
+                f"{height * 1000:.0f} mm holder, so lying on top does not count"
+            )
         criterion = ev.RegionHoldSpec(object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
         return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{slot}")], comments, [item, dest])
 
@@ -208,14 +246,28 @@ class StageBuilder:
         item, dest = step.object, step.required_target()
         rim = self.placed[dest].pos[2] + float(dgeom.high[2])
         radius = self._fit_radius(step, igeom, dgeom, site if site != "opening" else "opening")
-        criterion = ev.RegionHoldSpec(object=item, within=ev.CircleSpec(center=f"{dest}/{site}", radius=max(radius, 0.01)),
-                                      z=BoundSpec(max=r(rim)), hold_s=self.hold(0.5), timeout_s=self.timeout(15))
-        comments = {"z": f"inside: below its rim at z = {rim:.3f} m", "within": "VERIFY: over the middle of its opening"}
+        criterion = ev.RegionHoldSpec(
+            object=item,
+            within=ev.CircleSpec(center=f"{dest}/{site}", radius=max(radius, 0.01)),
+            z=BoundSpec(max=r(rim)),
+            hold_s=self.hold(0.5),
+            timeout_s=self.timeout(15),
+        )
+        comments = {
+            "z": f"inside: below its rim at z = {rim:.3f} m",
+            "within": "VERIFY: over the middle of its opening",
+        }
         over = max(0.03, float(igeom.height)) + 0.03
         program: list[sk.StepSpec] = [
-            sk.MoveSpec(object=item, to=sk.TargetSpec(at=f"{dest}/{site}", offset=(0.0, 0.0, r(rim - self.placed[dest].pos[2]
-                                                                                                 - float(dgeom.sites[site][2]) + over)))),
-            sk.RetreatSpec(distance=0.08)]
+            sk.MoveSpec(
+                object=item,
+                to=sk.TargetSpec(
+                    at=f"{dest}/{site}",
+                    offset=(0.0, 0.0, r(rim - self.placed[dest].pos[2] - float(dgeom.sites[site][2]) + over)),
+                ),
+            ),
+            sk.RetreatSpec(distance=0.08),
+        ]
         return Stage(step, criterion, program, comments, [item, dest])
 
     # ------------------------------------------------------------------ remove
@@ -230,24 +282,33 @@ class StageBuilder:
         hx, hy = sgeom.half_xy
         d = r(max(hx, hy) + max(igeom.half_xy) + 0.03)
         spot = self.scene.layout.place(
-            _footprint(igeom, (self.ws.center_x - 0.1, float(start[1]))), self.bench, away=((spos[0], spos[1]), d))
+            _footprint(igeom, (self.ws.center_x - 0.1, float(start[1]))), self.bench, away=((spos[0], spos[1]), d)
+        )
         if spot is None:
-            raise PlanError(f"impossible layout: no free spot on the bench within reach to set the {self.human(item)} down "
-                            f"away from the {self.human(source)}")
+            raise PlanError(
+                f"impossible layout: no free spot on the bench within reach to set the {self.human(item)} down "
+                f"away from the {self.human(source)}"
+            )
         offset = (r(spot[0] - start[0]), r(spot[1] - start[1]), 0.0)
         axis = int(np.argmax(np.abs(offset[:2])))
         moved = 0.6 * offset[axis]
         delta: dict[str, BoundSpec] = {"xy"[axis]: BoundSpec(max=r(moved)) if moved < 0 else BoundSpec(min=r(moved))}
         rise = float(start[2]) - (self.bench + igeom.origin_height)
-        comments = {"delta": f"VERIFY: set down on the bench {abs(offset[axis]) * 1000:.0f} mm away along {'xy'[axis]}"
-                             " (a free spot the layout keeps clear)"}
+        comments = {
+            "delta": f"VERIFY: set down on the bench {abs(offset[axis]) * 1000:.0f} mm away along {'xy'[axis]}"
+            " (a free spot the layout keeps clear)"
+        }
         if rise >= 0.03:
             delta["z"] = BoundSpec(max=r(-(rise - 0.01)))
             comments["delta"] += f", and down from {rise * 1000:.0f} mm above the bench"
         upright = bool(igeom.semantics.get("upright", True))
-        criterion = ev.DisplacementSpec(object=item, delta=ev.AxisDeltaSpec(**delta), hold_s=self.hold(0.5),
-                                        max_tilt_deg=(self.th.max_tilt_deg or 30.0) if upright else None,
-                                        timeout_s=self.timeout(15))
+        criterion = ev.DisplacementSpec(
+            object=item,
+            delta=ev.AxisDeltaSpec(**delta),
+            hold_s=self.hold(0.5),
+            max_tilt_deg=(self.th.max_tilt_deg or 30.0) if upright else None,
+            timeout_s=self.timeout(15),
+        )
         target = sk.TargetSpec(point=(spot[0], spot[1], r(self.bench + 0.02)))
         program: list[sk.StepSpec] = [sk.RemoveFromSpec(object=item, source=source, to=target, hold_s=0.2)]
         self.held_at.pop(item, None)
@@ -278,13 +339,22 @@ class StageBuilder:
             tol = 5.0 if joint.kind == "hinge" else 0.01
             bound = BoundSpec(max=tol) if sign > 0 else BoundSpec(min=-tol)
             note = f"VERIFY: within {tol:g} {joint.unit} of shut (0)"
-        criterion = ev.JointThresholdSpec(joint=ref, bound=bound, unit="m" if joint.kind == "slide" else "deg",
-                                          hold_s=hold, timeout_s=self.timeout(10))
+        criterion = ev.JointThresholdSpec(
+            joint=ref,
+            bound=bound,
+            unit="m" if joint.kind == "slide" else "deg",
+            hold_s=hold,
+            timeout_s=self.timeout(10),
+        )
         handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
         if joint.kind == "slide":
-            skill: sk.StepSpec = sk.SlideSpec(joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3)
+            skill: sk.StepSpec = sk.SlideSpec(
+                joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3
+            )
         elif opening:
-            skill = sk.OpenHingeSpec(joint=ref, to_deg=r(0.75 * limit + 3.0 * sign, 1), handle=handle, hold_s=hold + 0.3)
+            skill = sk.OpenHingeSpec(
+                joint=ref, to_deg=r(0.75 * limit + 3.0 * sign, 1), handle=handle, hold_s=hold + 0.3
+            )
         else:
             skill = sk.CloseHingeSpec(joint=ref, hold_s=hold + 0.3)
         return Stage(step, criterion, [skill], {"bound": note}, [name])
@@ -300,16 +370,28 @@ class StageBuilder:
         if opening:
             depth = r(2 * lid_geom.half_xy[0], 2)
             criterion: ev.EvaluatorSpec = ev.DisplacementSpec(
-                object=lid, delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),
-                hold_s=self.hold(0.3), timeout_s=self.timeout(15))
-            comments = {"delta": f"lifted 10 cm (paper A.8) and drawn toward the robot by its own depth ({depth * 1000:.0f} mm)"}
-            program: list[sk.StepSpec] = [sk.PickSpec(object=lid, at=handle, lift=0.14),
-                                          sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0)]
+                object=lid,
+                delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),
+                hold_s=self.hold(0.3),
+                timeout_s=self.timeout(15),
+            )
+            comments = {
+                "delta": f"lifted 10 cm (paper A.8) and drawn toward the robot by its own depth ({depth * 1000:.0f} mm)"
+            }
+            program: list[sk.StepSpec] = [
+                sk.PickSpec(object=lid, at=handle, lift=0.14),
+                sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0),
+            ]
         else:
             z = self.placed[name].pos[2] + seat[2]
-            criterion = ev.RegionHoldSpec(object=lid, within=ev.CircleSpec(center=f"{name}/lid_seat", radius=0.015),
-                                          z=BoundSpec(min=r(z - 0.015), max=r(z + 0.015)), max_tilt_deg=5.0,
-                                          hold_s=self.hold(0.5), timeout_s=self.timeout(20))
+            criterion = ev.RegionHoldSpec(
+                object=lid,
+                within=ev.CircleSpec(center=f"{name}/lid_seat", radius=0.015),
+                z=BoundSpec(min=r(z - 0.015), max=r(z + 0.015)),
+                max_tilt_deg=5.0,
+                hold_s=self.hold(0.5),
+                timeout_s=self.timeout(20),
+            )
             comments = {"z": "VERIFY: seated on the rim (lid_seat site height)"}
             program = [sk.PickSpec(object=lid, at=handle), sk.PlaceOnSpec(object=lid, target=f"{name}/lid_seat")]
         return Stage(step, criterion, program, comments, [lid, name])
@@ -320,9 +402,13 @@ class StageBuilder:
         geom = measure_asset(self.placed[name].asset)
         joint = hatch_joint(geom, "lid", self.human(name))
         target = float(geom.semantics.get("lid_open_angle_deg", 0.4 * joint.open_limit))
-        mechanism = ButtonReleaseSpec(name=f"{name}_release", button=f"{name}/button", joint=f"{name}/{joint.name}",
-                                      trigger_radius=float(geom.semantics.get("button_trigger_radius", 0.02)),
-                                      target_deg=target)
+        mechanism = ButtonReleaseSpec(
+            name=f"{name}_release",
+            button=f"{name}/button",
+            joint=f"{name}/{joint.name}",
+            trigger_radius=float(geom.semantics.get("button_trigger_radius", 0.02)),
+            target_deg=target,
+        )
         bound = BoundSpec(max=r(target + 1.0)) if target < 0 else BoundSpec(min=r(target - 1.0))
         criterion = ev.MechanismTriggeredSpec(mechanism=mechanism.name, target=bound, timeout_s=self.timeout(10))
         comments = {"target": "fired and the lid target within 1 deg of its open angle (paper A.6: -39 for -40)"}
@@ -333,8 +419,24 @@ class StageBuilder:
     def _position(self, step: PlanStepSpec) -> Stage:
         item, target = step.object, step.required_target()
         igeom, tgeom = self.geom(item), self.geom(target)
-        site = next((s for s in ("center", "plate_center", "pan_center", "platform_center", "inside_bottom", "well_a1",
-                                 "neck", "cap_top", "cup_center") if s in tgeom.sites), None)
+        site = next(
+            (
+                s
+                for s in (
+                    "center",
+                    "plate_center",
+                    "pan_center",
+                    "platform_center",
+                    "inside_bottom",
+                    "well_a1",
+                    "neck",
+                    "cap_top",
+                    "cup_center",
+                )
+                if s in tgeom.sites
+            ),
+            None,
+        )
         point = f"{item}/tip" if "tip" in igeom.sites else item
         tip_z = self.placed[item].pos[2] + (igeom.sites["tip"][2] if "tip" in igeom.sites else 0.0)
         hx, hy = tgeom.half_xy
@@ -343,15 +445,25 @@ class StageBuilder:
         min_z = r(max(top + 0.03, tip_z + 0.03))
         hold = self.hold(0.5)
         where = f"{target}/{site}" if site else target
-        criterion = ev.NearTargetSpec(object=point, target=where, max_xy_distance=radius, min_z=min_z, hold_s=hold,
-                                      timeout_s=self.timeout(12))
-        comments = {"max_xy_distance": "from the description" if self.th.xy_tolerance_m else
-                    f"VERIFY: within the target's half-width ({min(hx, hy) * 1000:.0f} mm)",
-                    "min_z": f"VERIFY: 3 cm above the target's top ({top:.3f} m) and above where the "
-                             f"{'tip' if 'tip' in igeom.sites else 'object'} starts"}
-        height = r(max(0.05, min_z - (self.placed[target].pos[2] + float(tgeom.sites[site][2]) if site else top) + 0.04))
-        program = [*self._take(item), sk.PositionOverSpec(object=item, point=point if "/" in point else None, target=where,
-                                                          height=height, hold_s=hold + 0.5)]
+        criterion = ev.NearTargetSpec(
+            object=point, target=where, max_xy_distance=radius, min_z=min_z, hold_s=hold, timeout_s=self.timeout(12)
+        )
+        comments = {
+            "max_xy_distance": "from the description"
+            if self.th.xy_tolerance_m
+            else f"VERIFY: within the target's half-width ({min(hx, hy) * 1000:.0f} mm)",
+            "min_z": f"VERIFY: 3 cm above the target's top ({top:.3f} m) and above where the "
+            f"{'tip' if 'tip' in igeom.sites else 'object'} starts",
+        }
+        height = r(
+            max(0.05, min_z - (self.placed[target].pos[2] + float(tgeom.sites[site][2]) if site else top) + 0.04)
+        )
+        program = [
+            *self._take(item),
+            sk.PositionOverSpec(
+                object=item, point=point if "/" in point else None, target=where, height=height, hold_s=hold + 0.5
+            ),
+        ]
         self.held_at.pop(item, None)
         return Stage(step, criterion, program, comments, [item, target])
 

@@ -30,12 +30,20 @@ SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
 SECONDS = r"(?:seconds?|secs?|s)\b"
 THRESHOLD_PATTERNS: tuple[tuple[str, str, float], ...] = (
     # (regex, field, scale); the first group is the number
-    (r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it|up)\s+(\d+(?:\.\d+)?)\s*cm\b", "lift_height_m", 0.01),
+    (
+        r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it|up)\s+(\d+(?:\.\d+)?)\s*cm\b",
+        "lift_height_m",
+        0.01,
+    ),
     (r"\b(?:by|at least|to a height of|a height of|up)\s+(\d+(?:\.\d+)?)\s*mm\b", "lift_height_m", 0.001),
     (rf"\bfor\s+(?:at least\s+|about\s+|around\s+)?(\d+(?:\.\d+)?)\s*{SECONDS}", "hold_s", 1.0),
     (rf"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*{SECONDS}", "timeout_s", 1.0),
     (r"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*(?:min|mins|minutes?)\b", "timeout_s", 60.0),
-    (r"\btilt(?:ing|ed)?\s+(?:it\s+)?(?:more than|over|by more than|beyond|past)\s+(\d+(?:\.\d+)?)\s*(?:deg|degrees?)\b", "max_tilt_deg", 1.0),
+    (
+        r"\btilt(?:ing|ed)?\s+(?:it\s+)?(?:more than|over|by more than|beyond|past)\s+(\d+(?:\.\d+)?)\s*(?:deg|degrees?)\b",
+        "max_tilt_deg",
+        1.0,
+    ),
     (r"\bwithin\s+(\d+(?:\.\d+)?)\s*cm\s+of\b", "xy_tolerance_m", 0.01),
     (r"\bwithin\s+(\d+(?:\.\d+)?)\s*mm\s+of\b", "xy_tolerance_m", 0.001),
 )
@@ -72,7 +80,9 @@ def normalise(description: str, words: VocabularySpec) -> str:
     s = description.lower().replace("µ", "u").replace("μ", "u").replace("×", "x").replace("’", "'").replace("°", " deg")
     s = s.replace("“", '"').replace("”", '"')
     s = re.sub(r"(\d),(\d{3})\b", r"\1\2", s)  # 1,000 -> 1000
-    s = re.sub(r"without (?:its |a |the )?caps?\b|\bno caps?\b|\bcap(?:ped)? off\b|\bwith the cap removed\b", " nocap ", s)
+    s = re.sub(
+        r"without (?:its |a |the )?caps?\b|\bno caps?\b|\bcap(?:ped)? off\b|\bwith the cap removed\b", " nocap ", s
+    )
     s = re.sub(r"(?<=[a-z])-(?=[a-z])", " ", s)  # multi-channel -> multi channel
     s = re.sub(r"(?<=\d)-(?=[a-z])|(?<=[a-z])-(?=\d)", " ", s)  # 96-well, t-75
     s = re.sub(r"'s\b", " ", s)
@@ -94,7 +104,7 @@ def extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
         for m in re.finditer(pattern, text):
             if name not in found:
                 found[name] = round(float(m.group(1)) * scale, 6)
-            text = text[: m.start()] + " " * (m.end() - m.start()) + text[m.end():]
+            text = text[: m.start()] + " " * (m.end() - m.start()) + text[m.end() :]
     if re.search(UPRIGHT, text) and "max_tilt_deg" not in found:
         found["max_tilt_deg"] = 15.0
     return text, found
@@ -176,7 +186,9 @@ def first_match(tokens: list[Token], i: int, phrases: list[str]) -> tuple[str, i
     return best
 
 
-def split_steps(tokens: list[Token], vocab: Vocabulary, is_verb: Callable[[list[Token], int], bool]) -> list[list[Token]]:
+def split_steps(
+    tokens: list[Token], vocab: Vocabulary, is_verb: Callable[[list[Token], int], bool]
+) -> list[list[Token]]:
     """Split a description into steps: at sentence punctuation, at sequence words ("then",
     "after that"), and at "and" or "," followed by a new verb ("pick up the tube and put it ...").
     Words that only mark the first step ("first") are dropped."""
@@ -193,7 +205,7 @@ def split_steps(tokens: list[Token], vocab: Vocabulary, is_verb: Callable[[list[
             continue
         prep = first_match(tokens, i, prepositions)  # "next to" is a place, not "next"
         if prep is not None:
-            steps[-1].extend(tokens[i:i + prep[1]])
+            steps[-1].extend(tokens[i : i + prep[1]])
             i += prep[1]
             continue
         marker = first_match(tokens, i, words.sequence)

@@ -80,7 +80,11 @@ def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
     if geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2]):
         return float(min(high[:2] - low[:2]))  # lying: across its long axis
     top = float(high[2])
-    z = geom.origin_height + float(geom.sites["grasp"][2]) if "grasp" in geom.sites else float(low[2]) + 0.6 * (top - float(low[2]))
+    z = (
+        geom.origin_height + float(geom.sites["grasp"][2])
+        if "grasp" in geom.sites
+        else float(low[2]) + 0.6 * (top - float(low[2]))
+    )
     z = min(max(z, top - (robot.gripper.finger_depth - PALM_MARGIN), float(low[2]) + FINGERTIP_LIFT), top - 0.004)
     slab = boxes[(boxes[:, 2] <= z + 0.008) & (boxes[:, 5] >= z - 0.008)]
     if not len(slab):
@@ -96,8 +100,10 @@ def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None
     opening = robot.gripper.max_opening
     if width is None or width <= opening - GRIP_MARGIN:
         return None
-    return (f"impossible request: the {name} is {width * 1000:.0f} mm across where it would be held; the "
-            f"{robot.name}'s gripper opens {opening * 1000:.0f} mm, so it cannot hold it")
+    return (
+        f"impossible request: the {name} is {width * 1000:.0f} mm across where it would be held; the "
+        f"{robot.name}'s gripper opens {opening * 1000:.0f} mm, so it cannot hold it"
+    )
 
 
 def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], robot: RobotSpec) -> list[str]:
@@ -108,15 +114,19 @@ def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], r
     problems: list[str] = []
     if step.action in ("pick", "place", "remove", "position"):
         if not info.graspable:
-            problems.append(f"{where}: impossible request: the {human} is fixed to the bench ({info.category}); the robot "
-                            f"cannot move it")
+            problems.append(
+                f"{where}: impossible request: the {human} is fixed to the bench ({info.category}); the robot "
+                f"cannot move it"
+            )
             return problems
         grip = grip_problem(measure_asset(obj.asset), robot, human)
         if grip:
             problems.append(f"{where}: {grip}")
         mass = float(info.semantics.get("mass", 0.0))
         if mass > robot.payload_kg:
-            problems.append(f"{where}: the {human} weighs {mass:.1f} kg, over the {robot.name}'s {robot.payload_kg} kg payload")
+            problems.append(
+                f"{where}: the {human} weighs {mass:.1f} kg, over the {robot.name}'s {robot.payload_kg} kg payload"
+            )
     if step.action in ("place", "position") and step.target is None:
         problems.append(f"{where}: say where it goes (target)")
     if step.action == "remove" and step.source is None and step.target is None:

@@ -185,8 +185,12 @@ class AssetInfo:
         """``15 mL conical tube`` for ``conical_tube_15ml``: the words a person would use."""
         name = self.kinds[0] if self.kinds else self.asset_id.replace("_", " ")
         digits = set(re.findall(r"\d+", self.asset_id.replace("1_5", "1.5").replace("0_2", "0.2")))
-        named = [t for t in self.size_tags
-                 if (re.match(r"[\d.]+|[pt](\d+)", t) or [""])[0].lstrip("pt") in digits or t in self.asset_id.replace("_", ".")]
+        named = [
+            t
+            for t in self.size_tags
+            if (re.match(r"[\d.]+|[pt](\d+)", t) or [""])[0].lstrip("pt") in digits
+            or t in self.asset_id.replace("_", ".")
+        ]
         order = ("well", "channel", "ml", "ul", "mm", "p", "t", "x")
         named.sort(key=lambda t: order.index(size_class(t)))
         if not named:
@@ -298,7 +302,9 @@ def load_vocabulary() -> Vocabulary:
         try:
             re.compile(k.assets)
         except re.error as exc:
-            raise SpecError(f"vocabulary kinds.{name}.assets: {k.assets!r} is not a regular expression ({exc})") from None
+            raise SpecError(
+                f"vocabulary kinds.{name}.assets: {k.assets!r} is not a regular expression ({exc})"
+            ) from None
         default = k.default if k.default in library.entries else None
         kinds[name] = Kind(name, tuple(k.aliases), k.assets, default)
     assets: dict[str, AssetInfo] = {}
@@ -308,8 +314,14 @@ def load_vocabulary() -> Vocabulary:
         semantics = entry.semantics()
         member_of = tuple(k.name for k in kinds.values() if re.search(k.pattern, entry.asset_id))
         text = entry.asset_id.replace("_", " ") + " " + str(semantics.get("description", ""))
-        assets[entry.asset_id] = AssetInfo(entry.asset_id, entry.category, semantics, member_of,
-                                           asset_size_tags(entry.asset_id, semantics), frozenset(_words(text)))
+        assets[entry.asset_id] = AssetInfo(
+            entry.asset_id,
+            entry.category,
+            semantics,
+            member_of,
+            asset_size_tags(entry.asset_id, semantics),
+            frozenset(_words(text)),
+        )
     alias_to_kind: dict[str, str] = {}
     for kind in kinds.values():
         for alias in kind.aliases:

@@ -83,13 +83,26 @@ class DraftOptions:
 def task_prompt(vocab: Vocabulary) -> str:
     """The system prompt for LLM backends: the plan's fields, an example, and every asset id."""
     ids = sorted(vocab.assets)
-    return environment().get_template(PROMPT_TEMPLATE).render(
-        robots=robot_names(), graspable=[a for a in ids if vocab.assets[a].graspable],
-        fixed=[a for a in ids if not vocab.assets[a].graspable])
+    return (
+        environment()
+        .get_template(PROMPT_TEMPLATE)
+        .render(
+            robots=robot_names(),
+            graspable=[a for a in ids if vocab.assets[a].graspable],
+            fixed=[a for a in ids if not vocab.assets[a].graspable],
+        )
+    )
 
 
-def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vocabulary,
-                options: DraftOptions = DraftOptions(), remarks: tuple[str, ...] = ()) -> DraftedTask:
+def finish_plan(
+    plan: TaskPlanSpec,
+    description: str,
+    backend: str,
+    *,
+    vocab: Vocabulary,
+    options: DraftOptions = DraftOptions(),
+    remarks: tuple[str, ...] = (),
+) -> DraftedTask:
     """Validate, compose, render, check against the registry rules, build and gate one plan.
 
     ``remarks`` become VERIFY notes (the offline parser's choices among equal assets).
@@ -104,15 +117,19 @@ def finish_plan(plan: TaskPlanSpec, description: str, backend: str, *, vocab: Vo
     if not re.match(TASK_ID_PATTERN, composed.task_id):
         raise PlanError(f"task id {composed.task_id!r} must look like namespace/Name-v1")
     if registry is not None and composed.task_id in registry.tasks:
-        raise PlanError(f"task id {composed.task_id!r} is already registered ({registry.entry(composed.task_id).path}); "
-                        "pass --id to name the new task")
+        raise PlanError(
+            f"task id {composed.task_id!r} is already registered ({registry.entry(composed.task_id).path}); "
+            "pass --id to name the new task"
+        )
     text = render_task(composed, description=description, backend=backend)
     source = f"<draft {composed.file_stem}.yaml>"
     try:
         doc = parse_yaml(text, source)
         spec = validate_task_document(doc, source)
     except SpecError as exc:
-        raise PlanError(["the drafted YAML does not validate (a bug in the template or composition):", *exc.problems]) from None
+        raise PlanError(
+            ["the drafted YAML does not validate (a bug in the template or composition):", *exc.problems]
+        ) from None
     text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
     drafted = DraftedTask(description, backend, checked.plan, composed, text, spec, list(remarks))
     if options.build:
@@ -138,8 +155,9 @@ def screen(description: str, vocab: Vocabulary) -> set[str]:
     kinds |= {c.implied_target for c in clauses if c.implied_target}
     if not kinds:
         refuse_unknown(clauses, vocab)
-        raise PlanError("found no object of the asset library in the description; name one (see `pipette assets list`)",
-                        final=True)
+        raise PlanError(
+            "found no object of the asset library in the description; name one (see `pipette assets list`)", final=True
+        )
     return kinds
 
 
@@ -152,14 +170,24 @@ def grounding_problems(checked: CheckedPlan, kinds: set[str], vocab: Vocabulary)
     problems = []
     for name, obj in checked.objects.items():
         if obj.asset not in named and obj.asset not in lids:
-            problems.append(f"objects: {name!r} is {obj.asset}, but the description names no "
-                            f"{obj.info.kinds[0] if obj.info.kinds else obj.asset}; use only the objects it names "
-                            f"({', '.join(sorted(kinds))})")
+            problems.append(
+                f"objects: {name!r} is {obj.asset}, but the description names no "
+                f"{obj.info.kinds[0] if obj.info.kinds else obj.asset}; use only the objects it names "
+                f"({', '.join(sorted(kinds))})"
+            )
     return problems
 
 
-def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = "generated", task_id: str | None = None,
-               registry: Registry | None = None, build: bool = True, gate: Gate | None = None) -> DraftedTask:
+def draft_task(
+    description: str,
+    backend: AuthoringBackend,
+    *,
+    namespace: str = "generated",
+    task_id: str | None = None,
+    registry: Registry | None = None,
+    build: bool = True,
+    gate: Gate | None = None,
+) -> DraftedTask:
     """Turn ``description`` into a :class:`DraftedTask` with ``backend``.
 
     Raises:
@@ -172,8 +200,9 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
     options = DraftOptions(namespace=namespace, task_id=task_id, registry=registry, build=build, gate=gate)
     parsed = backend.parse_task(description)
     if parsed is not None:
-        return finish_plan(parsed.plan, description, backend.name, vocab=vocab, options=options,
-                           remarks=tuple(parsed.remarks))
+        return finish_plan(
+            parsed.plan, description, backend.name, vocab=vocab, options=options, remarks=tuple(parsed.remarks)
+        )
     kinds = screen(description, vocab)
 
     def accept(plan: TaskPlanSpec) -> DraftedTask:
@@ -183,8 +212,13 @@ def draft_task(description: str, backend: AuthoringBackend, *, namespace: str = 
             raise PlanError(problems)
         return finish_plan(plan, description, backend.name, vocab=vocab, options=options)
 
-    return backend.complete(system=task_prompt(vocab), user=f"Task: {description}", schema=TaskPlanSpec,
-                            accept=accept, json_schema=plan_json_schema(list(vocab.assets)))
+    return backend.complete(
+        system=task_prompt(vocab),
+        user=f"Task: {description}",
+        schema=TaskPlanSpec,
+        accept=accept,
+        json_schema=plan_json_schema(list(vocab.assets)),
+    )
 
 
 def check_gate(episodes: int, *, enforce: bool = True) -> Gate:

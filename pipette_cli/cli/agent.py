@@ -41,10 +41,15 @@ def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
     steps = []
     reads_only = True
     for step in plan.steps:
-        item: dict[str, Any] = {"step": step.index, "command": step.command,
-                                "args": {k: plain(v) for k, v in step.args.items()},
-                                "command_line": command_text(agent.catalog, plan, step.index), "missing": step.missing,
-                                "output": step.product, "notes": step.notes}
+        item: dict[str, Any] = {
+            "step": step.index,
+            "command": step.command,
+            "args": {k: plain(v) for k, v in step.args.items()},
+            "command_line": command_text(agent.catalog, plan, step.index),
+            "missing": step.missing,
+            "output": step.product,
+            "notes": step.notes,
+        }
         is_answer = agent.catalog.get(step.command).is_answer
         reads_only = reads_only and is_answer
         if is_answer and reads_only and not step.missing:
@@ -84,8 +89,9 @@ def _ask_missing(agent: Any, plan: CheckedPlan, context: Context) -> CheckedPlan
         for name in step.missing:
             options = name.split("|")
             while name not in options:
-                name = typer.prompt(f"step {step.index} ('pipette {step.command}') needs one of "
-                                    f"{', '.join(options)}; which").strip()
+                name = typer.prompt(
+                    f"step {step.index} ('pipette {step.command}') needs one of {', '.join(options)}; which"
+                ).strip()
             args[name] = typer.prompt(f"step {step.index} {name.replace('_', ' ')}")
         steps.append(StepSpec(command=step.command, args=args))
     return agent.validator.check(PlanSpec(steps=steps), request=plan.request, context=context)
@@ -98,8 +104,10 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
     can_ask = interactive or (sys.stdin.isatty() and not yes)
     if plan.missing and not as_json:
         if not can_ask:
-            needs = "; ".join(f"step {i} (pipette {plan.steps[i - 1].command}) needs {say_missing(m)}"
-                              for i, m in plan.missing.items())
+            needs = "; ".join(
+                f"step {i} (pipette {plan.steps[i - 1].command}) needs {say_missing(m)}"
+                for i, m in plan.missing.items()
+            )
             count = sum(len(m) for m in plan.missing.values())
             raise AgentError(f"{needs}; add {'it' if count == 1 else 'them'} to the request")
         show_plan(agent.catalog, plan)
@@ -120,13 +128,20 @@ def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: b
         if not (interactive or sys.stdin.isatty()):
             err_console.print(f"[dim]add --yes to run {'it' if len(plan.steps) == 1 else 'them'}[/dim]")
             return
-        if not typer.confirm(f"Run {'it' if len(plan.steps) == 1 else f'these {len(plan.steps)} steps'}?",
-                             default=False, err=True):
+        if not typer.confirm(
+            f"Run {'it' if len(plan.steps) == 1 else f'these {len(plan.steps)} steps'}?", default=False, err=True
+        ):
             return
     global_args = [arg for d in STATE.registry_dirs for arg in ("--registry-dir", str(d))]
-    runner = PlanRunner(catalog, err_console, global_args=global_args,
-                        show_output=lambda text: out_console.print(text, end="", markup=False, highlight=False),
-                        show_answer=show_answer, background=agent.vocab.background, registry=agent.registry)
+    runner = PlanRunner(
+        catalog,
+        err_console,
+        global_args=global_args,
+        show_output=lambda text: out_console.print(text, end="", markup=False, highlight=False),
+        show_answer=show_answer,
+        background=agent.vocab.background,
+        registry=agent.registry,
+    )
     runner.run(plan)
 
 
@@ -135,7 +150,9 @@ def agent(
     request: Annotated[str | None, typer.Argument(help="What you want done, in words.")] = None,
     backend: Annotated[str, typer.Option("--backend", "-b", help="offline, openai or ollama.")] = "offline",
     yes: Annotated[bool, typer.Option("--yes", "-y", help="Run the plan without asking.")] = False,
-    as_json: Annotated[bool, typer.Option("--json", help="Print the plan (and answers) as JSON; run it only with --yes.")] = False,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="Print the plan (and answers) as JSON; run it only with --yes.")
+    ] = False,
     interactive: Annotated[bool, typer.Option("--interactive", "-i", help="A small REPL that keeps context.")] = False,
     model: Annotated[str | None, typer.Option("--model", help="LLM model for openai/ollama.")] = None,
     base_url: Annotated[str | None, typer.Option("--base-url", help="LLM server URL.")] = None,

@@ -16,7 +16,10 @@ from pipette_cli.assets.library import CATEGORIES, AssetEntry, load_asset_librar
 from pipette_cli.cli.common import err_console, out_console, print_json
 from pipette_cli.errors import AssetError
 
-app = typer.Typer(help="Browse and check the USD asset library.\n\nExample: pipette assets list --category instruments", no_args_is_help=True)
+app = typer.Typer(
+    help="Browse and check the USD asset library.\n\nExample: pipette assets list --category instruments",
+    no_args_is_help=True,
+)
 
 
 def _entries(targets: list[str] | None) -> list[AssetEntry]:
@@ -85,7 +88,9 @@ def show(
 
 @app.command("validate")
 def validate(
-    targets: Annotated[list[str] | None, typer.Argument(help="Asset ids, .usda files or folders (default: all).")] = None,
+    targets: Annotated[
+        list[str] | None, typer.Argument(help="Asset ids, .usda files or folders (default: all).")
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable report.")] = False,
     physics: Annotated[bool, typer.Option("--physics/--no-physics", help="Run the settle and joint tests.")] = True,
 ) -> None:
@@ -108,12 +113,20 @@ def validate(
             progress.advance(task)
     failed = [r for r in reports if not r.ok]
     if as_json:
-        print_json({"assets": [r.as_dict() for r in reports], "failed": len(failed), "seconds": round(time.perf_counter() - t0, 2)})
+        print_json(
+            {
+                "assets": [r.as_dict() for r in reports],
+                "failed": len(failed),
+                "seconds": round(time.perf_counter() - t0, 2),
+            }
+        )
     else:
         for r in failed:
             for problem in r.problems:
                 out_console.print(f"[red]FAIL[/red] {r.asset_id}: {escape(problem)}")
-        err_console.print(f"{len(reports) - len(failed)}/{len(reports)} assets valid in {time.perf_counter() - t0:.1f} s")
+        err_console.print(
+            f"{len(reports) - len(failed)}/{len(reports)} assets valid in {time.perf_counter() - t0:.1f} s"
+        )
     if failed:
         raise typer.Exit(1)
 
@@ -144,7 +157,9 @@ def render(
 @app.command("generate")
 def generate(
     asset_ids: Annotated[list[str] | None, typer.Argument(help="Generator ids (default: all).")] = None,
-    out: Annotated[Path | None, typer.Option("--out", help="Asset root to write (default: the built-in assets folder).")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Asset root to write (default: the built-in assets folder).")
+    ] = None,
 ) -> None:
     """Regenerate .usda files from the parametric generators (overwrites them).
 
@@ -161,7 +176,9 @@ def generate(
 def repair_paths(
     folder: Annotated[Path, typer.Argument(help="Folder to scan for .usd/.usda/.usdc files.")],
     report: Annotated[Path, typer.Option("--report", help="JSON report to write.")] = Path("report.json"),
-    fix: Annotated[bool, typer.Option("--fix", help="Rewrite absolute paths as relative (writes <file>.bak first).")] = False,
+    fix: Annotated[
+        bool, typer.Option("--fix", help="Rewrite absolute paths as relative (writes <file>.bak first).")
+    ] = False,
 ) -> None:
     """Report absolute vs relative asset paths (sublayers, references, payloads, asset attributes).
 

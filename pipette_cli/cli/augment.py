@@ -41,7 +41,9 @@ def _table(report: dict) -> Table:
         failures = ", ".join(f"{k} {v}" for k, v in row["failures"].items())
         if row.get("failed_at_stage"):
             failures += " (at stage " + ", ".join(f"{k}: {v}" for k, v in row["failed_at_stage"].items()) + ")"
-        table.add_row(row["variant"], row["magnitude"], str(row["attempts"]), str(row["kept"]), f"{row['yield']:.0%}", failures)
+        table.add_row(
+            row["variant"], row["magnitude"], str(row["attempts"]), str(row["kept"]), f"{row['yield']:.0%}", failures
+        )
     return table
 
 
@@ -49,26 +51,71 @@ def augment(
     task_id: Annotated[str, typer.Argument(help="Task id, e.g. PickUpTestTube.")],
     input: Annotated[Path, typer.Option("--input", "-i", help="Raw demos (HDF5 from `pipette collect`).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Augmented file to create or resume.")],
-    variants: Annotated[str, typer.Option("--variants", help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object.")] = "paper",
-    light_scale: Annotated[float, typer.Option("--light-scale", help=spec_help(LightingSpec, "scale"))] = spec_default(LightingSpec, "scale"),
-    speed: Annotated[float, typer.Option("--speed", help=spec_help(SpeedSpec, "factor"))] = spec_default(SpeedSpec, "factor"),
+    variants: Annotated[
+        str,
+        typer.Option(
+            "--variants",
+            help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object.",
+        ),
+    ] = "paper",
+    light_scale: Annotated[float, typer.Option("--light-scale", help=spec_help(LightingSpec, "scale"))] = spec_default(
+        LightingSpec, "scale"
+    ),
+    speed: Annotated[float, typer.Option("--speed", help=spec_help(SpeedSpec, "factor"))] = spec_default(
+        SpeedSpec, "factor"
+    ),
     rho: Annotated[float, typer.Option("--rho", help=spec_help(SpeedSpec, "rho"))] = spec_default(SpeedSpec, "rho"),
-    interpolation: Annotated[str, typer.Option("--interpolation", help="catmull_rom or linear.")] = spec_default(SpeedSpec, "interpolation"),
-    noise_sigma: Annotated[float, typer.Option("--noise-sigma", help=spec_help(JointNoiseSpec, "sigma"))] = spec_default(JointNoiseSpec, "sigma"),
-    noise_clip: Annotated[float, typer.Option("--noise-clip", help=spec_help(JointNoiseSpec, "bound"))] = spec_default(JointNoiseSpec, "bound"),
-    camera: Annotated[str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")] = spec_default(CameraPoseSpec, "camera"),
-    camera_radius: Annotated[float, typer.Option("--camera-radius", help=spec_help(CameraPoseSpec, "radius", "Ball radius for top/main"))] = spec_default(CameraPoseSpec, "radius"),
-    wrist_radius: Annotated[float, typer.Option("--wrist-radius", help=spec_help(CameraPoseSpec, "wrist_radius", "Ball radius for the wrist camera"))] = spec_default(CameraPoseSpec, "wrist_radius"),
-    object_xy: Annotated[float, typer.Option("--object-xy", help=spec_help(ObjectPoseSpec, "xy", "Object shift range for the object variant"))] = spec_default(ObjectPoseSpec, "xy"),
-    object_yaw: Annotated[float, typer.Option("--object-yaw", help=spec_help(ObjectPoseSpec, "yaw_deg", "Object yaw range (deg) for the object variant"))] = spec_default(ObjectPoseSpec, "yaw_deg"),
-    seed: Annotated[int, typer.Option("--seed", help=spec_help(AugmentSpec, "seed", "Base seed"))] = spec_default(AugmentSpec, "seed"),
-    image_size: Annotated[int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")] = spec_default(AugmentSpec, "image_size"),
+    interpolation: Annotated[str, typer.Option("--interpolation", help="catmull_rom or linear.")] = spec_default(
+        SpeedSpec, "interpolation"
+    ),
+    noise_sigma: Annotated[
+        float, typer.Option("--noise-sigma", help=spec_help(JointNoiseSpec, "sigma"))
+    ] = spec_default(JointNoiseSpec, "sigma"),
+    noise_clip: Annotated[float, typer.Option("--noise-clip", help=spec_help(JointNoiseSpec, "bound"))] = spec_default(
+        JointNoiseSpec, "bound"
+    ),
+    camera: Annotated[
+        str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")
+    ] = spec_default(CameraPoseSpec, "camera"),
+    camera_radius: Annotated[
+        float, typer.Option("--camera-radius", help=spec_help(CameraPoseSpec, "radius", "Ball radius for top/main"))
+    ] = spec_default(CameraPoseSpec, "radius"),
+    wrist_radius: Annotated[
+        float,
+        typer.Option(
+            "--wrist-radius", help=spec_help(CameraPoseSpec, "wrist_radius", "Ball radius for the wrist camera")
+        ),
+    ] = spec_default(CameraPoseSpec, "wrist_radius"),
+    object_xy: Annotated[
+        float,
+        typer.Option("--object-xy", help=spec_help(ObjectPoseSpec, "xy", "Object shift range for the object variant")),
+    ] = spec_default(ObjectPoseSpec, "xy"),
+    object_yaw: Annotated[
+        float,
+        typer.Option(
+            "--object-yaw", help=spec_help(ObjectPoseSpec, "yaw_deg", "Object yaw range (deg) for the object variant")
+        ),
+    ] = spec_default(ObjectPoseSpec, "yaw_deg"),
+    seed: Annotated[int, typer.Option("--seed", help=spec_help(AugmentSpec, "seed", "Base seed"))] = spec_default(
+        AugmentSpec, "seed"
+    ),
+    image_size: Annotated[
+        int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")
+    ] = spec_default(AugmentSpec, "image_size"),
     rejected: Annotated[Path | None, typer.Option("--rejected", help="Also keep failed variants in this file.")] = None,
-    workers: Annotated[int | None, typer.Option("--workers", "-w", min=1, help="Worker processes (default: all cores).")] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", "-w", min=1, help="Worker processes (default: all cores).")
+    ] = None,
     executor: Annotated[str, typer.Option("--executor", help="local (process pool) or ray.")] = "local",
     address: Annotated[str | None, typer.Option("--address", help="Ray cluster address (--executor ray).")] = None,
     report: Annotated[Path | None, typer.Option("--report", help="Write the yield report JSON here.")] = None,
-    target_yield: Annotated[float | None, typer.Option("--target-yield", help="Shrink all magnitudes (x0.7 per round, physics only, first 3 demos) until this fraction of variants passes.")] = None,
+    target_yield: Annotated[
+        float | None,
+        typer.Option(
+            "--target-yield",
+            help="Shrink all magnitudes (x0.7 per round, physics only, first 3 demos) until this fraction of variants passes.",
+        ),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the yield report as JSON.")] = False,
     robot: RobotOption = None,
 ) -> None:
@@ -102,19 +149,28 @@ def augment(
 
     recorded = check_inputs(load_task(task_id), input, output, rejected).embodiment
     if robot is not None and resolve_robot(robot).name != recorded:
-        raise PipetteError(f"--robot {robot}: {input} was recorded on the {recorded}; augmentation replays demos on the "
-                           "robot that recorded them (record new ones with `pipette collect --robot`)")
+        raise PipetteError(
+            f"--robot {robot}: {input} was recorded on the {recorded}; augmentation replays demos on the "
+            "robot that recorded them (record new ones with `pipette collect --robot`)"
+        )
     task = load_task(task_id, recorded)
     if target_yield is not None:
         from pipette_cli.augment.calibrate import calibrate
 
         found = calibrate(task, input, spec, target_yield)
         for row in found.rounds:
-            err_console.print(f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})")
+            err_console.print(
+                f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})"
+            )
         spec = found.spec
     progress = Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
-        console=err_console, disable=STATE.verbosity < 0,
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+        disable=STATE.verbosity < 0,
     )
     bar = progress.add_task(f"{task.short_name}", total=None)
     kept = tried = 0
@@ -136,8 +192,17 @@ def augment(
     try:
         with deferred_sigint() as interrupted:
             result = run_augment(
-                task, input, output, spec, rejected=rejected, workers=workers, executor=executor,  # type: ignore[arg-type]
-                address=address, on_start=started, on_demo=finished, stop=interrupted,
+                task,
+                input,
+                output,
+                spec,
+                rejected=rejected,
+                workers=workers,
+                executor=executor,  # type: ignore[arg-type]
+                address=address,
+                on_start=started,
+                on_demo=finished,
+                stop=interrupted,
             )
     finally:
         progress.stop()

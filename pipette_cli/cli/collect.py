@@ -21,12 +21,24 @@ class Source(str, Enum):
 def collect(
     task_id: Annotated[str, typer.Argument(help="Task id, e.g. PickUpTestTube.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="HDF5 file to create or add to.")],
-    source: Annotated[Source, typer.Option("--source", help="scripted (the task's expert) or teleop (keyboard, needs a display).")] = Source.scripted,
-    episodes: Annotated[int, typer.Option("--episodes", "-n", min=0, help="Episodes the file should hold in the end (a rerun resumes).")] = 10,
+    source: Annotated[
+        Source, typer.Option("--source", help="scripted (the task's expert) or teleop (keyboard, needs a display).")
+    ] = Source.scripted,
+    episodes: Annotated[
+        int, typer.Option("--episodes", "-n", min=0, help="Episodes the file should hold in the end (a rerun resumes).")
+    ] = 10,
     seed: Annotated[int, typer.Option("--seed", help="Seed of episode 0; episode i uses seed + i.")] = 0,
-    image_size: Annotated[int | None, typer.Option("--image-size", min=16, max=4096, help="Square image side in pixels (default: the task's, 400).")] = None,
-    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes recording episodes in parallel (scripted only).")] = 1,
-    max_steps: Annotated[int | None, typer.Option("--max-steps", min=1, help="Control-step cap per episode (default: the task's timeout + 1 s).")] = None,
+    image_size: Annotated[
+        int | None,
+        typer.Option("--image-size", min=16, max=4096, help="Square image side in pixels (default: the task's, 400)."),
+    ] = None,
+    workers: Annotated[
+        int, typer.Option("--workers", "-w", min=1, help="Processes recording episodes in parallel (scripted only).")
+    ] = 1,
+    max_steps: Annotated[
+        int | None,
+        typer.Option("--max-steps", min=1, help="Control-step cap per episode (default: the task's timeout + 1 s)."),
+    ] = None,
     profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "fast",
     robot: RobotOption = None,
 ) -> None:
@@ -46,8 +58,14 @@ def collect(
 
     ok = failed = 0
     progress = Progress(
-        TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(), TimeRemainingColumn(),
-        console=err_console, transient=False, disable=STATE.verbosity < 0,
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+        transient=False,
+        disable=STATE.verbosity < 0,
     )
     bar = progress.add_task(f"{spec.short_name}", total=None)
 
@@ -60,17 +78,28 @@ def collect(
     def finished(summary: EpisodeSummary) -> None:
         nonlocal ok, failed
         ok, failed = ok + summary.success, failed + (not summary.success)
-        progress.update(bar, advance=1, description=f"{spec.short_name} [green]{ok} ok[/green] [red]{failed} failed[/red]")
+        progress.update(
+            bar, advance=1, description=f"{spec.short_name} [green]{ok} ok[/green] [red]{failed} failed[/red]"
+        )
 
     try:
         with deferred_sigint() as interrupted:
             if source is Source.teleop:
                 from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
 
-                err_console.print("keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True)
+                err_console.print(
+                    "keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True
+                )
                 result = teleop_collect(
-                    spec, out, episodes=episodes, seed=seed, image_size=image_size, max_steps=max_steps,
-                    on_start=started, on_episode=finished, stop=interrupted,
+                    spec,
+                    out,
+                    episodes=episodes,
+                    seed=seed,
+                    image_size=image_size,
+                    max_steps=max_steps,
+                    on_start=started,
+                    on_episode=finished,
+                    stop=interrupted,
                     on_done=lambda v: err_console.print(
                         f"episode {'succeeded' if v.success else 'failed: ' + str(v.reason or 'step cap')}; "
                         "Enter saves, Delete discards, Home retries",
@@ -79,8 +108,17 @@ def collect(
                 )
             else:
                 result = collect_episodes(
-                    spec, out, episodes=episodes, seed=seed, image_size=image_size, workers=workers,
-                    max_steps=max_steps, render_profile=profile, on_start=started, on_episode=finished, stop=interrupted,
+                    spec,
+                    out,
+                    episodes=episodes,
+                    seed=seed,
+                    image_size=image_size,
+                    workers=workers,
+                    max_steps=max_steps,
+                    render_profile=profile,
+                    on_start=started,
+                    on_episode=finished,
+                    stop=interrupted,
                 )
     finally:
         progress.stop()
@@ -88,7 +126,9 @@ def collect(
     rate = f"{added / result.seconds * 60:.1f} episodes/min" if added and result.seconds else ""
     plural = "" if result.total == 1 else "s"
     successes = sum(s.success for s in result.added)
-    summary = f"{out}: {result.total} episode{plural} ({added} new, {successes} successful{', ' + rate if rate else ''})"
+    summary = (
+        f"{out}: {result.total} episode{plural} ({added} new, {successes} successful{', ' + rate if rate else ''})"
+    )
     if result.interrupted:
         err_console.print(f"interrupted; {summary}; run the same command again to resume", soft_wrap=True)
         raise typer.Exit(130)

@@ -47,9 +47,16 @@ def spec_help(model: type[BaseModel], field: str, text: str = "") -> str:
     """``text`` followed by the field's own description (units, the paper's symbol and section)."""
     description = model.model_fields[field].description or ""
     return f"{text} ({description})" if text and description else text or description
-RobotOption = Annotated[str | None, typer.Option(
-    "--robot", help="Robot to run the task on: panda, piper, ur5e_2f85 or any id of registry/robots "
-                    "(default: the task's embodiment.robot). The base moves along the bench where needed to reach.")]
+
+
+RobotOption = Annotated[
+    str | None,
+    typer.Option(
+        "--robot",
+        help="Robot to run the task on: panda, piper, ur5e_2f85 or any id of registry/robots "
+        "(default: the task's embodiment.robot). The base moves along the bench where needed to reach.",
+    ),
+]
 
 
 def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
@@ -71,6 +78,9 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
     placed = on_robot(task, robot)
     before, after = task.embodiment.base.pos, placed.embodiment.base.pos
     if placed.embodiment.robot != task.embodiment.robot and before != after:
-        err_console.print(f"{placed.embodiment.robot}: base moved from ({before[0]:.2f}, {before[1]:.2f}) to "
-                          f"({after[0]:.2f}, {after[1]:.2f}) on the bench to reach the task's work points", soft_wrap=True)
+        err_console.print(
+            f"{placed.embodiment.robot}: base moved from ({before[0]:.2f}, {before[1]:.2f}) to "
+            f"({after[0]:.2f}, {after[1]:.2f}) on the bench to reach the task's work points",
+            soft_wrap=True,
+        )
     return placed

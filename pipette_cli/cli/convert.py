@@ -16,17 +16,36 @@ from pipette_cli.lerobot.frames import FrameFilter
 
 def convert(
     inputs: Annotated[list[Path], typer.Argument(help="HDF5 files written by `pipette collect` (or augmentation).")],
-    repo_id: Annotated[str | None, typer.Option("--repo-id", help="LeRobot repo id OWNER/NAME (default local/<task>_<version>); never pushed.")] = None,
-    root: Annotated[Path | None, typer.Option("--root", help="Dataset folder to create (default datasets/<task>/<version>).")] = None,
+    repo_id: Annotated[
+        str | None,
+        typer.Option("--repo-id", help="LeRobot repo id OWNER/NAME (default local/<task>_<version>); never pushed."),
+    ] = None,
+    root: Annotated[
+        Path | None, typer.Option("--root", help="Dataset folder to create (default datasets/<task>/<version>).")
+    ] = None,
     fps: Annotated[int, typer.Option("--fps", min=1, help="Dataset frame rate.")] = 10,
-    frame_filter: Annotated[FrameFilter, typer.Option("--frame-filter", help="fresh: steps with a new camera frame; stride: every k-th step.")] = FrameFilter.fresh,
-    video: Annotated[bool, typer.Option("--video/--images", help="Cameras as MP4 video (lossy, small) or PNG images (exact).")] = True,
-    dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented; the two go to separate datasets.")] = "raw",
+    frame_filter: Annotated[
+        FrameFilter,
+        typer.Option("--frame-filter", help="fresh: steps with a new camera frame; stride: every k-th step."),
+    ] = FrameFilter.fresh,
+    video: Annotated[
+        bool, typer.Option("--video/--images", help="Cameras as MP4 video (lossy, small) or PNG images (exact).")
+    ] = True,
+    dataset_version: Annotated[
+        str, typer.Option("--dataset-version", help="raw or augmented; the two go to separate datasets.")
+    ] = "raw",
     include_failed: Annotated[bool, typer.Option("--include-failed", help="Keep failed episodes too.")] = False,
     allow_mixed: Annotated[bool, typer.Option("--allow-mixed", help="Allow several tasks in one dataset.")] = False,
-    allow_mixed_robots: Annotated[bool, typer.Option("--allow-mixed-robots", help="Allow episodes of several robots (same state/action size) in one dataset.")] = False,
+    allow_mixed_robots: Annotated[
+        bool,
+        typer.Option(
+            "--allow-mixed-robots", help="Allow episodes of several robots (same state/action size) in one dataset."
+        ),
+    ] = False,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing dataset at --root.")] = False,
-    vcodec: Annotated[str, typer.Option("--vcodec", help="Video codec: libsvtav1 (LeRobot default) or h264 (faster).")] = "libsvtav1",
+    vcodec: Annotated[
+        str, typer.Option("--vcodec", help="Video codec: libsvtav1 (LeRobot default) or h264 (faster).")
+    ] = "libsvtav1",
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable result.")] = False,
 ) -> None:
     """Convert recorded episodes into a LeRobot dataset (written with LeRobot's own API, offline).
@@ -53,12 +72,26 @@ def convert(
         repo_id = repo_id or f"local/{slug(first.task_id).replace('/', '_')}_{version.value}"
         root = root or default_root(first.task_id, version)
     options = ConvertOptions(
-        repo_id=repo_id, root=root, fps=fps, frame_filter=frame_filter, video=video, dataset_version=version,
-        include_failed=include_failed, allow_mixed=allow_mixed, allow_mixed_robots=allow_mixed_robots, overwrite=overwrite, vcodec=vcodec,
+        repo_id=repo_id,
+        root=root,
+        fps=fps,
+        frame_filter=frame_filter,
+        video=video,
+        dataset_version=version,
+        include_failed=include_failed,
+        allow_mixed=allow_mixed,
+        allow_mixed_robots=allow_mixed_robots,
+        overwrite=overwrite,
+        vcodec=vcodec,
     )
     with Progress(
-        TextColumn("converting"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-        console=err_console, disable=STATE.verbosity < 0 or as_json, transient=True,
+        TextColumn("converting"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        console=err_console,
+        disable=STATE.verbosity < 0 or as_json,
+        transient=True,
     ) as progress:
         bar = progress.add_task("episodes", total=None)
 
@@ -71,9 +104,14 @@ def convert(
             inputs, options, on_plan=planned, on_episode=lambda done, total: progress.update(bar, completed=done)
         )
     report = {
-        "root": str(result.root), "repo_id": result.repo_id, "dataset_version": version.value,
-        "episodes": result.episodes, "frames": result.frames, "skipped_failed": result.skipped,
-        "seconds": round(result.seconds, 3), "frames_per_s": round(result.frames_per_s, 2),
+        "root": str(result.root),
+        "repo_id": result.repo_id,
+        "dataset_version": version.value,
+        "episodes": result.episodes,
+        "frames": result.frames,
+        "skipped_failed": result.skipped,
+        "seconds": round(result.seconds, 3),
+        "frames_per_s": round(result.frames_per_s, 2),
     }
     if as_json:
         print_json(report)

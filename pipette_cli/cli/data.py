@@ -11,7 +11,10 @@ from rich.table import Table
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.errors import DatasetError
 
-app = typer.Typer(help="Inspect, edit and replay recorded episode files.\n\nExample: pipette data inspect tube.h5", no_args_is_help=True)
+app = typer.Typer(
+    help="Inspect, edit and replay recorded episode files.\n\nExample: pipette data inspect tube.h5",
+    no_args_is_help=True,
+)
 
 
 @app.command("inspect")
@@ -33,31 +36,48 @@ def inspect(
     info = status.info
     episodes: list[dict[str, Any]] = [
         {
-            "index": ref.index, "seed": ref.summary.seed, "source": ref.summary.source, "steps": ref.summary.num_steps,
-            "success": ref.summary.success, "reason": ref.summary.reason, "metrics": ref.summary.metrics,
+            "index": ref.index,
+            "seed": ref.summary.seed,
+            "source": ref.summary.source,
+            "steps": ref.summary.num_steps,
+            "success": ref.summary.success,
+            "reason": ref.summary.reason,
+            "metrics": ref.summary.metrics,
             "pending": ref.pending,
         }
         for ref in status.episodes
     ]
     successes = sum(e["success"] for e in episodes)
     report = {
-        "file": str(file), "task_id": info.task_id, "embodiment": info.embodiment, "instruction": info.instruction,
-        "image_size": [info.image_height, info.image_width], "cameras": list(info.cameras),
-        "control_hz": info.control_hz, "vision_hz": info.vision_hz,
-        "num_episodes": len(episodes), "pending": len(status.pending), "successes": successes,
+        "file": str(file),
+        "task_id": info.task_id,
+        "embodiment": info.embodiment,
+        "instruction": info.instruction,
+        "image_size": [info.image_height, info.image_width],
+        "cameras": list(info.cameras),
+        "control_hz": info.control_hz,
+        "vision_hz": info.vision_hz,
+        "num_episodes": len(episodes),
+        "pending": len(status.pending),
+        "successes": successes,
         "success_rate": successes / len(episodes) if episodes else 0.0,
-        "steps": sum(e["steps"] for e in episodes), "size_mb": round(file_size(file) / 1e6, 3),
+        "steps": sum(e["steps"] for e in episodes),
+        "size_mb": round(file_size(file) / 1e6, 3),
         "episodes": episodes,
     }
     if as_json:
         print_json(report)
         return
-    table = Table(title=f"{file}: {info.task_id} ({info.embodiment}, {info.image_height}x{info.image_width}, {report['size_mb']} MB)")
+    table = Table(
+        title=f"{file}: {info.task_id} ({info.embodiment}, {info.image_height}x{info.image_width}, {report['size_mb']} MB)"
+    )
     for column in ("episode", "seed", "source", "steps", "outcome", "note"):
         table.add_column(column, justify="right" if column in ("episode", "seed", "steps") else "left")
     for e in episodes:
         outcome = "[green]success[/green]" if e["success"] else f"[red]failed[/red] {e['reason']}"
-        table.add_row(str(e["index"]), str(e["seed"]), e["source"], str(e["steps"]), outcome, "pending" if e["pending"] else "")
+        table.add_row(
+            str(e["index"]), str(e["seed"]), e["source"], str(e["steps"]), outcome, "pending" if e["pending"] else ""
+        )
     out_console.print(table)
     err_console.print(f"{len(episodes)} episodes, {successes} successful, {report['steps']} control steps")
     if status.pending:
@@ -101,7 +121,9 @@ def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> No
 def replay(
     file: Annotated[Path, typer.Argument(help="HDF5 episode file.")],
     episode: Annotated[int, typer.Option("--episode", "-e", help="Episode index.")] = 0,
-    check: Annotated[bool, typer.Option("--check", help="Exit 1 unless every state and the outcome are reproduced bit-exactly.")] = False,
+    check: Annotated[
+        bool, typer.Option("--check", help="Exit 1 unless every state and the outcome are reproduced bit-exactly.")
+    ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """Re-execute an episode's actions from its recorded initial state and compare.
@@ -125,7 +147,9 @@ def replay(
     task = on_robot(load_registry(STATE.registry_dirs).get(status.info.task_id), status.info.embodiment)
     report = replay_episode(file, episode, task)
     if report.spec_changed:
-        err_console.print(f"[yellow]warning:[/yellow] the {task.id} spec changed since episode {episode} was recorded", soft_wrap=True)
+        err_console.print(
+            f"[yellow]warning:[/yellow] the {task.id} spec changed since episode {episode} was recorded", soft_wrap=True
+        )
     if as_json:
         print_json(report.as_dict())
     else:
@@ -136,6 +160,8 @@ def replay(
         )
         outcome = "same outcome" if report.outcome_equal else f"outcome {report.replayed} != recorded {report.recorded}"
         verdict = "success" if report.replayed.get("success") else f"failed ({report.replayed.get('reason')})"
-        out_console.print(f"episode {episode} (seed {report.seed}, {report.steps} steps): {verdict}; {states}; {outcome}")
+        out_console.print(
+            f"episode {episode} (seed {report.seed}, {report.steps} steps): {verdict}; {states}; {outcome}"
+        )
     if check and not report.ok:
         raise DatasetError(f"{file}: episode {episode} does not replay exactly")

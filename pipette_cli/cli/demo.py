@@ -15,7 +15,13 @@ from pipette_cli.demo import DEFAULT_TASK
 def demo(
     task_id: Annotated[str, typer.Option("--task", help="Task to run the pipeline on.")] = DEFAULT_TASK,
     out: Annotated[Path, typer.Option("--out", "-o", help="Empty folder for every artefact.")] = Path("demo_run"),
-    fast: Annotated[bool, typer.Option("--fast", help="Smoke run (CI): 2 demos, 32 px, 2 training steps, 2 evaluation episodes; trains no usable policy.")] = False,
+    fast: Annotated[
+        bool,
+        typer.Option(
+            "--fast",
+            help="Smoke run (CI): 2 demos, 32 px, 2 training steps, 2 evaluation episodes; trains no usable policy.",
+        ),
+    ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
     robot: RobotOption = None,
 ) -> None:

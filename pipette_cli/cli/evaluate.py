@@ -37,25 +37,67 @@ def _report_click() -> Any:
 
 
 def eval_command(
-    task_id: Annotated[str | None, typer.Argument(
-        help="Task id; with --suite, one task of the suite (default: all of them). `report`: see `pipette eval report --help`.")] = None,
-    suite_id: Annotated[str | None, typer.Option(
-        "--suite", help="A frozen evaluation suite (registry/suites/): its seeds, instructions, image size and render profile.")] = None,
-    endpoint: Annotated[list[str] | None, typer.Option(
-        "--endpoint", help="Policy server (pipette serve), e.g. tcp://127.0.0.1:5555; repeat for several (worker i uses the i-th).")] = None,
-    policy: Annotated[Path | None, typer.Option("--policy", help="Or: a policy folder evaluated in this process (no server).")] = None,
-    policy_type: Annotated[str | None, typer.Option(
-        "--policy-type", help="act, smolvla or pi0: decoding, timeouts, gripper thresholds "
-                              "(default: the `type` in --policy's config.json, else act).")] = None,
-    episodes: Annotated[int | None, typer.Option("--episodes", "-n", min=1, help="Episodes without a suite (seeds seed..seed+n-1; default 100).")] = None,
+    task_id: Annotated[
+        str | None,
+        typer.Argument(
+            help="Task id; with --suite, one task of the suite (default: all of them). `report`: see `pipette eval report --help`."
+        ),
+    ] = None,
+    suite_id: Annotated[
+        str | None,
+        typer.Option(
+            "--suite",
+            help="A frozen evaluation suite (registry/suites/): its seeds, instructions, image size and render profile.",
+        ),
+    ] = None,
+    endpoint: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--endpoint",
+            help="Policy server (pipette serve), e.g. tcp://127.0.0.1:5555; repeat for several (worker i uses the i-th).",
+        ),
+    ] = None,
+    policy: Annotated[
+        Path | None, typer.Option("--policy", help="Or: a policy folder evaluated in this process (no server).")
+    ] = None,
+    policy_type: Annotated[
+        str | None,
+        typer.Option(
+            "--policy-type",
+            help="act, smolvla or pi0: decoding, timeouts, gripper thresholds "
+            "(default: the `type` in --policy's config.json, else act).",
+        ),
+    ] = None,
+    episodes: Annotated[
+        int | None,
+        typer.Option("--episodes", "-n", min=1, help="Episodes without a suite (seeds seed..seed+n-1; default 100)."),
+    ] = None,
     seed: Annotated[int | None, typer.Option("--seed", help="First episode seed without a suite (default 0).")] = None,
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Results folder; rerunning the command resumes it (suites: one subfolder per task).")] = None,
-    dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented: the label `eval report` groups by.")] = "raw",
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Camera image side without a suite (must match the policy's).")] = None,
-    workers: Annotated[int, typer.Option("--workers", "-w", min=1, help="Processes playing episodes (each loads the policy or connects to a server).")] = 1,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out", "-o", help="Results folder; rerunning the command resumes it (suites: one subfolder per task)."
+        ),
+    ] = None,
+    dataset_version: Annotated[
+        str, typer.Option("--dataset-version", help="raw or augmented: the label `eval report` groups by.")
+    ] = "raw",
+    image_size: Annotated[
+        int | None, typer.Option("--image-size", help="Camera image side without a suite (must match the policy's).")
+    ] = None,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers", "-w", min=1, help="Processes playing episodes (each loads the policy or connects to a server)."
+        ),
+    ] = 1,
     device: Annotated[str, typer.Option("--device", help="Torch device for --policy: cpu, cuda, auto.")] = "auto",
-    dead_after: Annotated[float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")] = 5.0,
-    connect_timeout: Annotated[float, typer.Option("--connect-timeout", min=0.1, help="Seconds to wait for the server at the start.")] = 30.0,
+    dead_after: Annotated[
+        float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")
+    ] = 5.0,
+    connect_timeout: Annotated[
+        float, typer.Option("--connect-timeout", min=0.1, help="Seconds to wait for the server at the start.")
+    ] = 30.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summaries as JSON.")] = False,
     robot: RobotOption = None,
 ) -> None:
@@ -79,7 +121,9 @@ def eval_command(
     temporary = tempfile.TemporaryDirectory(prefix="pipette-eval-") if out is None else None
     folder = out if out is not None else Path(temporary.name)  # type: ignore[union-attr]
     try:
-        runs, settings = _plan(registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version, robot)
+        runs, settings = _plan(
+            registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version, robot
+        )
         if source.endpoints:
             cameras = runs[0].task.cameras
             size = settings.image_size
@@ -94,13 +138,24 @@ def eval_command(
     for s in summaries:
         low, high = s["success_ci95"]
         staged = f", stage progress {s['mean_progress']:.2f}" if s.get("mean_progress") is not None else ""
-        out_console.print(f"{s['task']}: SR = {s['successes']}/{s['episodes']} = {100 * s['success_rate']:.1f} % "
-                          f"(95 % CI {100 * low:.1f}-{100 * high:.1f}){staged}")
+        out_console.print(
+            f"{s['task']}: SR = {s['successes']}/{s['episodes']} = {100 * s['success_rate']:.1f} % "
+            f"(95 % CI {100 * low:.1f}-{100 * high:.1f}){staged}"
+        )
 
 
-def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: int | None, seed: int | None,
-          image_size: int | None, out: Path, config: Any, dataset_version: str,
-          robot: str | None = None) -> tuple[list[Any], Any]:
+def _plan(
+    registry: Any,
+    task_id: str | None,
+    suite_id: str | None,
+    episodes: int | None,
+    seed: int | None,
+    image_size: int | None,
+    out: Path,
+    config: Any,
+    dataset_version: str,
+    robot: str | None = None,
+) -> tuple[list[Any], Any]:
     """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself),
     each task placed on ``robot`` when one is given."""
     from pipette_cli.demos.embodiment import on_robot
@@ -113,13 +168,21 @@ def _plan(registry: Any, task_id: str | None, suite_id: str | None, episodes: in
         task = on_robot(registry.get(task_id), robot)
         plan = adhoc_plan(task, episodes or 100, seed or 0)
         return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, "fast", dataset_version)
-    fixed = [flag for flag, value in (("--episodes", episodes), ("--seed", seed), ("--image-size", image_size)) if value is not None]
+    fixed = [
+        flag
+        for flag, value in (("--episodes", episodes), ("--seed", seed), ("--image-size", image_size))
+        if value is not None
+    ]
     if fixed:
-        raise PipetteError(f"{', '.join(fixed)}: the suite fixes seeds and image size; drop them or evaluate without --suite")
+        raise PipetteError(
+            f"{', '.join(fixed)}: the suite fixes seeds and image size; drop them or evaluate without --suite"
+        )
     suite = load_suites(registry, STATE.registry_dirs).get(suite_id)
     tasks = None if task_id is None else [registry.get(task_id).id]
     by_task = episode_plan(suite.spec, tasks)
-    runs = [TaskRun(on_robot(registry.get(t), robot), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()]
+    runs = [
+        TaskRun(on_robot(registry.get(t), robot), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()
+    ]
     settings = EvalSettings(config, suite.spec.image_size, suite.spec.render_profile, dataset_version, suite.record())
     return runs, settings
 
@@ -130,8 +193,15 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
     from pipette_cli.evaluation.runner import evaluate_runs
 
     ok = failed = 0
-    progress = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                        TimeRemainingColumn(), console=err_console, disable=STATE.verbosity < 0)
+    progress = Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+        disable=STATE.verbosity < 0,
+    )
     bar = progress.add_task("eval", total=None)
 
     def started(done: int, todo: int) -> None:
@@ -145,27 +215,35 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
         nonlocal ok, failed
         ok, failed = ok + log.success, failed + (not log.success)
         if STATE.verbosity > 0:
-            progress.console.print(f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
-                                   f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)")
+            progress.console.print(
+                f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
+                f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)"
+            )
         progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
         with deferred_sigint() as interrupted:
-            result = evaluate_runs(runs, source, settings, workers=workers, on_start=started, on_episode=finished,
-                                   stop=interrupted)
+            result = evaluate_runs(
+                runs, source, settings, workers=workers, on_start=started, on_episode=finished, stop=interrupted
+            )
     finally:
         progress.stop()
     summaries = [result.summaries[run.task.id] for run in runs if run.task.id in result.summaries]
     if result.interrupted:
-        err_console.print(f"interrupted after {result.new_episodes} new episodes; summaries written; "
-                          "run the same command again to resume", soft_wrap=True)
+        err_console.print(
+            f"interrupted after {result.new_episodes} new episodes; summaries written; "
+            "run the same command again to resume",
+            soft_wrap=True,
+        )
         raise typer.Exit(130)
     return summaries
 
 
 def report_command(
     folders: Annotated[list[Path], typer.Argument(help="Folders holding evaluation results (searched recursively).")],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Also write OUT.md, OUT.json, OUT.csv and a bar chart OUT.png.")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Also write OUT.md, OUT.json, OUT.csv and a bar chart OUT.png.")
+    ] = None,
 ) -> None:
     """Tabulate evaluation results: one row per (task, policy), raw and augmented side by side,
     with 95 % Wilson intervals, stage progress and an exact test of each difference.

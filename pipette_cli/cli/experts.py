@@ -13,14 +13,21 @@ from pipette_cli.cli.common import STATE, RobotOption, err_console, load_task, o
 from pipette_cli.demos.check import ExpertReport, check_expert, step_of
 from pipette_cli.registry import load_registry
 
-app = typer.Typer(help="Scripted experts.\n\nExample: pipette experts check PickUpTestTube --episodes 50", no_args_is_help=True)
+app = typer.Typer(
+    help="Scripted experts.\n\nExample: pipette experts check PickUpTestTube --episodes 50", no_args_is_help=True
+)
 
 
 def markdown_table(reports: list[ExpertReport]) -> str:
-    lines = ["| task | episodes | success | rate | failures (reason: count) | seconds |", "| --- | ---: | ---: | ---: | --- | ---: |"]
+    lines = [
+        "| task | episodes | success | rate | failures (reason: count) | seconds |",
+        "| --- | ---: | ---: | ---: | --- | ---: |",
+    ]
     for r in reports:
         failures = ", ".join(f"{k}: {v}" for k, v in r.failures.most_common()) or "-"
-        lines.append(f"| {r.task_id} | {r.episodes} | {r.successes} | {100 * r.success_rate:.0f} % | {failures} | {r.seconds:.0f} |")
+        lines.append(
+            f"| {r.task_id} | {r.episodes} | {r.successes} | {100 * r.success_rate:.0f} % | {failures} | {r.seconds:.0f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -42,7 +49,9 @@ def check(
     reports = []
     for task_id in ids:
         report = check_expert(load_task(task_id, robot), episodes, seed)
-        err_console.print(f"{task_id}: {report.successes}/{report.episodes} in {report.seconds:.0f} s", soft_wrap=True, markup=False)
+        err_console.print(
+            f"{task_id}: {report.successes}/{report.episodes} in {report.seconds:.0f} s", soft_wrap=True, markup=False
+        )
         for failed_seed, why in report.expert_failures.items():
             err_console.print(f"  seed {failed_seed}: {why}", soft_wrap=True, markup=False)
         reports.append(report)
@@ -50,15 +59,26 @@ def check(
         markdown.parent.mkdir(parents=True, exist_ok=True)
         markdown.write_text(markdown_table(reports), encoding="utf-8")
     if as_json:
-        print_json([
-            {"task": r.task_id, "episodes": r.episodes, "successes": r.successes, "success_rate": r.success_rate,
-             "failures": dict(r.failures), "failed_seeds": r.failed_seeds, "seconds": r.seconds,
-             "median_episode_s": r.median_seconds, "stage_count": r.stage_count, "stages": r.stages,
-             "mean_progress": r.mean_progress,
-             "expert_failures": {str(k): v for k, v in r.expert_failures.items()},
-             "failed_steps": dict(Counter(step_of(v) for v in r.expert_failures.values()))}
-            for r in reports
-        ])
+        print_json(
+            [
+                {
+                    "task": r.task_id,
+                    "episodes": r.episodes,
+                    "successes": r.successes,
+                    "success_rate": r.success_rate,
+                    "failures": dict(r.failures),
+                    "failed_seeds": r.failed_seeds,
+                    "seconds": r.seconds,
+                    "median_episode_s": r.median_seconds,
+                    "stage_count": r.stage_count,
+                    "stages": r.stages,
+                    "mean_progress": r.mean_progress,
+                    "expert_failures": {str(k): v for k, v in r.expert_failures.items()},
+                    "failed_steps": dict(Counter(step_of(v) for v in r.expert_failures.values())),
+                }
+                for r in reports
+            ]
+        )
         return
     table = Table(title=f"scripted experts, {episodes} seeds from {seed}")
     for column in ("task", "success", "rate", "stages (progress)", "failures"):

@@ -83,7 +83,9 @@ def main(
     debug: Annotated[bool, typer.Option("--debug", help="Show tracebacks and debug logs.")] = False,
     registry_dir: Annotated[
         list[Path] | None,
-        typer.Option("--registry-dir", help="Extra folder of task YAML files (repeatable; also PIPETTE_REGISTRY_PATH)."),
+        typer.Option(
+            "--registry-dir", help="Extra folder of task YAML files (repeatable; also PIPETTE_REGISTRY_PATH)."
+        ),
     ] = None,
     version: Annotated[
         bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")

@@ -13,12 +13,22 @@ from pipette_cli.serving.protocol import DEFAULT_MAX_REQUEST_BYTES
 
 
 def serve(
-    policy: Annotated[Path, typer.Option("--policy", help="LeRobot policy folder (config.json, model.safetensors, processor files).")],
-    bind: Annotated[str, typer.Option("--bind", help="ZeroMQ endpoint; port 0 lets the OS pick one.")] = "tcp://127.0.0.1:5555",
-    allow_remote: Annotated[bool, typer.Option("--allow-remote", help="Allow a non-loopback address (the server has no authentication).")] = False,
+    policy: Annotated[
+        Path, typer.Option("--policy", help="LeRobot policy folder (config.json, model.safetensors, processor files).")
+    ],
+    bind: Annotated[
+        str, typer.Option("--bind", help="ZeroMQ endpoint; port 0 lets the OS pick one.")
+    ] = "tcp://127.0.0.1:5555",
+    allow_remote: Annotated[
+        bool, typer.Option("--allow-remote", help="Allow a non-loopback address (the server has no authentication).")
+    ] = False,
     device: Annotated[str, typer.Option("--device", help="auto (cuda when available), cpu or cuda[:N].")] = "auto",
-    max_request_mb: Annotated[float, typer.Option("--max-request-mb", min=0.001, help="Larger requests are answered too_large.")] = DEFAULT_MAX_REQUEST_BYTES / 2**20,
-    max_requests: Annotated[int | None, typer.Option("--max-requests", min=1, help="Stop after this many requests (tests, smoke runs).")] = None,
+    max_request_mb: Annotated[
+        float, typer.Option("--max-request-mb", min=0.001, help="Larger requests are answered too_large.")
+    ] = DEFAULT_MAX_REQUEST_BYTES / 2**20,
+    max_requests: Annotated[
+        int | None, typer.Option("--max-requests", min=1, help="Stop after this many requests (tests, smoke runs).")
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable start and stop lines.")] = False,
 ) -> None:
     """Serve a trained policy to evaluation clients (msgpack over a ZeroMQ socket, never pickle).
@@ -47,16 +57,23 @@ def serve(
     try:
         stats = server.serve_forever(
             max_requests=max_requests,
-            on_request=None if STATE.verbosity < 1 else lambda s: err_console.print(
-                f"request {s.requests}: {s.actions} actions, {s.errors} errors"
-            ),
+            on_request=None
+            if STATE.verbosity < 1
+            else lambda s: err_console.print(f"request {s.requests}: {s.actions} actions, {s.errors} errors"),
         )
     finally:
         signal.signal(signal.SIGINT, previous)
     mean_ms = 1000 * stats.inference_s / stats.actions if stats.actions else 0.0
     if as_json:
-        print_json({"event": "stopped", "requests": stats.requests, "actions": stats.actions, "errors": stats.errors,
-                    "mean_inference_ms": round(mean_ms, 3)})
+        print_json(
+            {
+                "event": "stopped",
+                "requests": stats.requests,
+                "actions": stats.actions,
+                "errors": stats.errors,
+                "mean_inference_ms": round(mean_ms, 3),
+            }
+        )
     else:
         out_console.print(
             f"stopped after {stats.requests} requests ({stats.actions} actions, {stats.errors} errors, "

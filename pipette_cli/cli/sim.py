@@ -14,7 +14,10 @@ from pipette_cli.cli.common import RobotOption, err_console, load_task, out_cons
 from pipette_cli.errors import PipetteError
 from pipette_cli.sim.render import PROFILES
 
-app = typer.Typer(help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png", no_args_is_help=True)
+app = typer.Typer(
+    help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png",
+    no_args_is_help=True,
+)
 
 
 def save_png(image: np.ndarray, path: Path) -> None:

@@ -24,7 +24,9 @@ from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec, stage_specs
 from pipette_cli.specs.yaml_io import dump_yaml, format_problem, parse_yaml, read_yaml
 from pipette_cli.templating import render_task_template, task_template_names
 
-app = typer.Typer(help="Browse, check and create task specs.\n\nExample: pipette tasks list --tag hatch_control", no_args_is_help=True)
+app = typer.Typer(
+    help="Browse, check and create task specs.\n\nExample: pipette tasks list --tag hatch_control", no_args_is_help=True
+)
 
 
 def _registry() -> Registry:
@@ -46,8 +48,10 @@ def _summary(spec: TaskSpec) -> dict[str, object]:
 
 def _stages(spec: TaskSpec) -> list[dict[str, object]]:
     """A protocol's stages in order: each one's instruction and criterion (``[]`` for one-step tasks)."""
-    return [{"stage": i + 1, "instruction": stage.instruction, "criterion": stage.type}
-            for i, stage in enumerate(stage_specs(spec))]
+    return [
+        {"stage": i + 1, "instruction": stage.instruction, "criterion": stage.type}
+        for i, stage in enumerate(stage_specs(spec))
+    ]
 
 
 def _evaluator(spec: TaskSpec) -> str:
@@ -93,9 +97,18 @@ def list_suites(
     for suite_id in suites.ids():
         entry = suites.get(suite_id)
         spec = entry.spec
-        rows.append({"id": spec.id, "name": spec.name, "tasks": [t.task for t in spec.tasks],
-                     "episodes": sum(len(spec.task_seeds(t)) for t in spec.tasks), "image_size": spec.image_size,
-                     "render_profile": spec.render_profile, "sha256": entry.sha256, "path": str(entry.path)})
+        rows.append(
+            {
+                "id": spec.id,
+                "name": spec.name,
+                "tasks": [t.task for t in spec.tasks],
+                "episodes": sum(len(spec.task_seeds(t)) for t in spec.tasks),
+                "image_size": spec.image_size,
+                "render_profile": spec.render_profile,
+                "sha256": entry.sha256,
+                "path": str(entry.path),
+            }
+        )
     if as_json:
         print_json(rows)
         return
@@ -119,8 +132,14 @@ def show_task(
     entry = _registry().entry(task_id)
     program, source = _program(entry.spec)
     if as_json:
-        print_json({"path": str(entry.path), **entry.spec.model_dump(mode="json", by_alias=True),
-                    "expert_program": {"source": source, "steps": program}, "stages": _stages(entry.spec)})
+        print_json(
+            {
+                "path": str(entry.path),
+                **entry.spec.model_dump(mode="json", by_alias=True),
+                "expert_program": {"source": source, "steps": program},
+                "stages": _stages(entry.spec),
+            }
+        )
         return
     out_console.print(f"# {entry.path}", style="dim")
     out_console.print(entry.path.read_text(encoding="utf-8"), markup=False, highlight=False, end="")
@@ -128,11 +147,17 @@ def show_task(
     if stages:
         out_console.print(f"# {len(stages)} stages (progress = stages completed / {len(stages)}):", style="dim")
         for row in stages:
-            out_console.print(f"#   {row['stage']}. {row['instruction'] or '(no instruction)'}  [{row['criterion']}]",
-                              style="dim", markup=False, highlight=False)
+            out_console.print(
+                f"#   {row['stage']}. {row['instruction'] or '(no instruction)'}  [{row['criterion']}]",
+                style="dim",
+                markup=False,
+                highlight=False,
+            )
     if source != "task":
         out_console.print(f"# expert program in use ({source}):", style="dim")
-        out_console.print(dump_yaml({"expert": program}) if program else "# (none)\n", markup=False, highlight=False, end="")
+        out_console.print(
+            dump_yaml({"expert": program}) if program else "# (none)\n", markup=False, highlight=False, end=""
+        )
 
 
 def _program(spec) -> tuple[list[dict], str]:
@@ -150,7 +175,9 @@ def _program(spec) -> tuple[list[dict], str]:
 
 @app.command("validate")
 def validate_tasks(
-    paths: Annotated[list[Path] | None, typer.Argument(help="YAML files or folders (default: the whole registry).")] = None,
+    paths: Annotated[
+        list[Path] | None, typer.Argument(help="YAML files or folders (default: the whole registry).")
+    ] = None,
 ) -> None:
     """Check task files; every problem is printed as file:line: field: message.
 
@@ -164,8 +191,10 @@ def validate_tasks(
 
         registry = _registry()
         suites = load_suites(registry, STATE.registry_dirs)
-        err_console.print(f"{len(registry.tasks)} tasks and {len(suites.suites)} evaluation suites valid in "
-                          f"{len(registry_dirs(STATE.registry_dirs))} folder(s)")
+        err_console.print(
+            f"{len(registry.tasks)} tasks and {len(suites.suites)} evaluation suites valid in "
+            f"{len(registry_dirs(STATE.registry_dirs))} folder(s)"
+        )
         return
     registry_dirs(STATE.registry_dirs)  # imports the task packs, which may register evaluator types
     files: list[Path] = []
@@ -186,7 +215,9 @@ def validate_tasks(
             problems.extend(exc.problems)
             continue
         if spec.id in seen:
-            problems.append(format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already in {seen[spec.id]}"))
+            problems.append(
+                format_problem(str(path), doc, ("id",), f"duplicate task id {spec.id!r}, already in {seen[spec.id]}")
+            )
             continue
         seen[spec.id] = path
         err_console.print(f"ok  {path}  ({spec.id})")
@@ -204,9 +235,14 @@ def _name_from_id(task_id: str) -> str:
 def new_task(
     task_id: Annotated[str, typer.Argument(help="New id, e.g. mylab/PickUpCryovial-v1.")],
     template: Annotated[
-        str, typer.Option("--from", help="A template (pick, place, close_lid, press_button) or an existing task id to copy.")
+        str,
+        typer.Option(
+            "--from", help="A template (pick, place, close_lid, press_button) or an existing task id to copy."
+        ),
     ],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="File or folder to write (default: ./<name>.yaml).")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="File or folder to write (default: ./<name>.yaml).")
+    ] = None,
     instruction: Annotated[str | None, typer.Option("--instruction", help="Language instruction.")] = None,
     asset: Annotated[str | None, typer.Option("--asset", help="Main object's asset id (templates only).")] = None,
     force: Annotated[bool, typer.Option("--force", help="Overwrite an existing file.")] = False,
@@ -234,8 +270,10 @@ def new_task(
         text = render_task_template(template, **context)
     else:
         if template not in registry.tasks and "/" not in template and not re.search(r"[A-Z]", template):
-            raise PipetteError(f"unknown template {template!r}; {suggest(template, task_template_names())} "
-                               "(or give a registered task id to copy)")
+            raise PipetteError(
+                f"unknown template {template!r}; {suggest(template, task_template_names())} "
+                "(or give a registered task id to copy)"
+            )
         source = registry.entry(template)
         doc = read_yaml(source.path)
         doc["id"] = task_id

@@ -15,20 +15,64 @@ from pipette_cli.lerobot.train import IfExists, Policy
 
 
 def train(
-    tasks: Annotated[str, typer.Option("--tasks", help="Comma-separated task ids, or `all` (every registered task with a dataset).")],
+    tasks: Annotated[
+        str, typer.Option("--tasks", help="Comma-separated task ids, or `all` (every registered task with a dataset).")
+    ],
     policy: Annotated[Policy, typer.Option("--policy", help="act, smolvla or pi0.")],
     dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented.")] = "raw",
-    steps: Annotated[int | None, typer.Option("--steps", min=1, help="Training steps (default: act 15000, smolvla/pi0 20000).")] = None,
-    batch_size: Annotated[int | None, typer.Option("--batch-size", min=1, help="Batch size (default: act 32, smolvla 8, pi0 4).")] = None,
-    device: Annotated[str | None, typer.Option("--device", help="cpu, cuda, cuda:1, mps (default: LeRobot picks).")] = None,
-    datasets_root: Annotated[Path, typer.Option("--datasets-root", help="Folder of <task>/<version> datasets (pipette convert's layout).")] = Path("datasets"),
-    output_root: Annotated[Path, typer.Option("--output-root", help="Runs go to <root>/<policy>/<task>_<version>, logs beside as .log.")] = Path("outputs/train"),
-    if_exists: Annotated[IfExists, typer.Option("--if-exists", help="Existing output: skip the task, overwrite it, or continue from its last checkpoint.")] = IfExists.skip,
-    pretrained_path: Annotated[str | None, typer.Option("--pretrained-path", help="Checkpoint to fine-tune (--policy.path; hub id or local folder). pi0 default: lerobot/pi0_base.")] = None,
-    vlm_path: Annotated[str | None, typer.Option("--vlm-path", help="SmolVLA backbone (--policy.vlm_model_name): hub id or local folder with config and tokenizer.")] = None,
-    act_backbone_weights: Annotated[str | None, typer.Option("--act-backbone-weights", help="torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init).")] = None,
-    offline: Annotated[bool, typer.Option("--offline", help="Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache.")] = False,
-    extra: Annotated[list[str] | None, typer.Option("--extra", help="One more lerobot-train flag, e.g. --extra=--policy.dim_model=64 (repeatable; wins over the defaults).")] = None,
+    steps: Annotated[
+        int | None, typer.Option("--steps", min=1, help="Training steps (default: act 15000, smolvla/pi0 20000).")
+    ] = None,
+    batch_size: Annotated[
+        int | None, typer.Option("--batch-size", min=1, help="Batch size (default: act 32, smolvla 8, pi0 4).")
+    ] = None,
+    device: Annotated[
+        str | None, typer.Option("--device", help="cpu, cuda, cuda:1, mps (default: LeRobot picks).")
+    ] = None,
+    datasets_root: Annotated[
+        Path, typer.Option("--datasets-root", help="Folder of <task>/<version> datasets (pipette convert's layout).")
+    ] = Path("datasets"),
+    output_root: Annotated[
+        Path, typer.Option("--output-root", help="Runs go to <root>/<policy>/<task>_<version>, logs beside as .log.")
+    ] = Path("outputs/train"),
+    if_exists: Annotated[
+        IfExists,
+        typer.Option(
+            "--if-exists", help="Existing output: skip the task, overwrite it, or continue from its last checkpoint."
+        ),
+    ] = IfExists.skip,
+    pretrained_path: Annotated[
+        str | None,
+        typer.Option(
+            "--pretrained-path",
+            help="Checkpoint to fine-tune (--policy.path; hub id or local folder). pi0 default: lerobot/pi0_base.",
+        ),
+    ] = None,
+    vlm_path: Annotated[
+        str | None,
+        typer.Option(
+            "--vlm-path",
+            help="SmolVLA backbone (--policy.vlm_model_name): hub id or local folder with config and tokenizer.",
+        ),
+    ] = None,
+    act_backbone_weights: Annotated[
+        str | None,
+        typer.Option(
+            "--act-backbone-weights",
+            help="torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init).",
+        ),
+    ] = None,
+    offline: Annotated[
+        bool,
+        typer.Option("--offline", help="Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache."),
+    ] = False,
+    extra: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--extra",
+            help="One more lerobot-train flag, e.g. --extra=--policy.dim_model=64 (repeatable; wins over the defaults).",
+        ),
+    ] = None,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="Print each task's full command and exit.")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable plan/result.")] = False,
 ) -> None:
@@ -66,21 +110,43 @@ def train(
         requested, registry.ids(), lambda t: registry.entry(t).spec.id, version, datasets_root, allow_missing=dry_run
     )
     options = TrainOptions(
-        policy=policy, dataset_version=version, steps=steps, batch_size=batch_size, device=device,
-        datasets_root=datasets_root, output_root=output_root, if_exists=if_exists,
-        pretrained_path=pretrained_path, vlm_path=vlm_path, act_backbone_weights=act_backbone_weights,
-        offline=offline, extra=tuple(extra or ()),
+        policy=policy,
+        dataset_version=version,
+        steps=steps,
+        batch_size=batch_size,
+        device=device,
+        datasets_root=datasets_root,
+        output_root=output_root,
+        if_exists=if_exists,
+        pretrained_path=pretrained_path,
+        vlm_path=vlm_path,
+        act_backbone_weights=act_backbone_weights,
+        offline=offline,
+        extra=tuple(extra or ()),
     )
     executable = "lerobot-train" if dry_run else lerobot_train_executable()
     jobs = plan(task_ids, options, executable=executable)
     if dry_run:
         for root in missing_datasets(task_ids, version, datasets_root):
-            err_console.print(f"[yellow]warning:[/yellow] no LeRobot dataset (meta/info.json) at {escape(str(root))} "
-                              f"yet; make it with `pipette convert ... --dataset-version {version.value}` before training",
-                              soft_wrap=True)
+            err_console.print(
+                f"[yellow]warning:[/yellow] no LeRobot dataset (meta/info.json) at {escape(str(root))} "
+                f"yet; make it with `pipette convert ... --dataset-version {version.value}` before training",
+                soft_wrap=True,
+            )
         if as_json:
-            print_json([{"task": j.task_id, "action": j.action, "argv": list(j.argv), "env": j.env,
-                         "output_dir": str(j.output_dir), "log": str(j.log_file)} for j in jobs])
+            print_json(
+                [
+                    {
+                        "task": j.task_id,
+                        "action": j.action,
+                        "argv": list(j.argv),
+                        "env": j.env,
+                        "output_dir": str(j.output_dir),
+                        "log": str(j.log_file),
+                    }
+                    for j in jobs
+                ]
+            )
             return
         for job in jobs:
             if job.action == "skip":
@@ -95,21 +161,33 @@ def train(
     echo = None if STATE.verbosity < 0 or as_json else sys.stderr
     for i, job in enumerate(jobs, 1):
         if job.action == "skip":
-            err_console.print(f"[{i}/{len(jobs)}] {job.task_id}: skipped, {job.output_dir} exists (--if-exists overwrite|continue)",
-                              markup=False)
+            err_console.print(
+                f"[{i}/{len(jobs)}] {job.task_id}: skipped, {job.output_dir} exists (--if-exists overwrite|continue)",
+                markup=False,
+            )
         else:
-            err_console.print(f"[{i}/{len(jobs)}] {job.task_id}: {job.action} -> {job.output_dir} (log {job.log_file})",
-                              markup=False)
+            err_console.print(
+                f"[{i}/{len(jobs)}] {job.task_id}: {job.action} -> {job.output_dir} (log {job.log_file})", markup=False
+            )
         results.append(run_job(job, echo=echo))
-    report = [{"task": r.task_id, "action": r.action, "returncode": r.returncode, "seconds": round(r.seconds, 1),
-               "checkpoint": str(r.checkpoint) if r.checkpoint else None} for r in results]
+    report = [
+        {
+            "task": r.task_id,
+            "action": r.action,
+            "returncode": r.returncode,
+            "seconds": round(r.seconds, 1),
+            "checkpoint": str(r.checkpoint) if r.checkpoint else None,
+        }
+        for r in results
+    ]
     if as_json:
         print_json(report)
     else:
         for r in results:
             state = "skipped" if r.action == "skip" else "ok" if r.returncode == 0 else f"failed (exit {r.returncode})"
-            out_console.print(f"{r.task_id}: {state}, {r.seconds:.1f} s" + (f", {r.checkpoint}" if r.checkpoint else ""),
-                              markup=False)
+            out_console.print(
+                f"{r.task_id}: {state}, {r.seconds:.1f} s" + (f", {r.checkpoint}" if r.checkpoint else ""), markup=False
+            )
     failed = [r for r in results if r.returncode != 0]
     if failed:
         logs = ", ".join(str(j.log_file) for j in jobs if j.task_id in {r.task_id for r in failed})

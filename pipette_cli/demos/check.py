@@ -59,8 +59,9 @@ def step_of(failure: str) -> str:
     return match.group(1) if match else "unknown"
 
 
-def run_expert_episode(world: World, seed: int, max_steps: int | None = None,
-                       expert: Expert | None = None) -> tuple[Verdict, str | None]:
+def run_expert_episode(
+    world: World, seed: int, max_steps: int | None = None, expert: Expert | None = None
+) -> tuple[Verdict, str | None]:
     """Reset ``world`` to ``seed`` and let the task's expert act until the evaluator decides or the
     expert gives up. Returns the verdict and, if the expert gave up, why."""
     world.reset(seed)

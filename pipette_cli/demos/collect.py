@@ -127,12 +127,18 @@ class EpisodeRunner:
         steps = getattr(self.expert, "steps", None)
         if steps:  # the skill program the demonstrations follow, for provenance
             self.attrs["expert_program"] = json.dumps(
-                [step.model_dump(mode="json", by_alias=True, exclude_defaults=True) | {"skill": step.skill} for step in steps])
+                [
+                    step.model_dump(mode="json", by_alias=True, exclude_defaults=True) | {"skill": step.skill}
+                    for step in steps
+                ]
+            )
         self.max_steps = max_steps
         self.source = source
 
     def run(self, job: Job, stop: Callable[[], bool] = lambda: False) -> tuple[Path, EpisodeSummary] | None:
-        writer = EpisodeWriter(job.part, self.info, index=job.index, seed=job.seed, source=self.source, attrs=self.attrs)
+        writer = EpisodeWriter(
+            job.part, self.info, index=job.index, seed=job.seed, source=self.source, attrs=self.attrs
+        )
         with writer:
             summary = record_episode(self.env, self.expert, writer, max_steps=self.max_steps, stop=stop)
         return None if summary is None else (writer.tmp, summary)
@@ -194,7 +200,9 @@ def _check_picklable(factory: Callable[[], Expert]) -> None:
     try:
         pickle.dumps(factory)
     except Exception as exc:
-        raise PipetteError(f"--workers > 1 needs an expert factory that can be pickled ({exc}); use a module-level class") from None
+        raise PipetteError(
+            f"--workers > 1 needs an expert factory that can be pickled ({exc}); use a module-level class"
+        ) from None
 
 
 def _accept(status: DatasetStatus, info: DatasetInfo, tmp: Path) -> None:
@@ -250,7 +258,10 @@ def collect(
     status = scan(out)
     check_target(status, task, image_size)
     have = len(status.episodes)
-    jobs = [Job(have + i, s, part_path(out, have + i)) for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))]
+    jobs = [
+        Job(have + i, s, part_path(out, have + i))
+        for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))
+    ]
     result = CollectResult(out, total=have)
     if expert_factory is None and jobs:
         find_expert(task)  # fail fast, before building anything
@@ -263,8 +274,13 @@ def collect(
         if jobs:
             attrs = dict(provenance(task))
             kwargs = dict(
-                task=task, image_size=image_size, render_profile=render_profile, expert_factory=expert_factory,
-                attrs=attrs, max_steps=max_steps or step_cap(task), source="scripted",
+                task=task,
+                image_size=image_size,
+                render_profile=render_profile,
+                expert_factory=expert_factory,
+                attrs=attrs,
+                max_steps=max_steps or step_cap(task),
+                source="scripted",
             )
             runs = _in_process(kwargs, jobs, stop) if workers == 1 else _in_pool(kwargs, jobs, workers, stop)
             try:
@@ -291,7 +307,9 @@ def collect(
 Outcome = tuple[Path, EpisodeSummary, DatasetInfo] | None
 
 
-def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool]) -> Generator[tuple[Job, Outcome], None, None]:
+def _in_process(
+    kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool]
+) -> Generator[tuple[Job, Outcome], None, None]:
     runner = EpisodeRunner(**kwargs)
     try:
         for job in jobs:
@@ -304,7 +322,9 @@ def _in_process(kwargs: dict[str, Any], jobs: list[Job], stop: Callable[[], bool
         runner.close()
 
 
-def _in_pool(kwargs: dict[str, Any], jobs: list[Job], workers: int, stop: Callable[[], bool]) -> Generator[tuple[Job, Outcome], None, None]:
+def _in_pool(
+    kwargs: dict[str, Any], jobs: list[Job], workers: int, stop: Callable[[], bool]
+) -> Generator[tuple[Job, Outcome], None, None]:
     return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
 
 

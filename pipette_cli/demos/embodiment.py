@@ -80,8 +80,15 @@ def on_robot(task: TaskSpec, robot: str | None) -> TaskSpec:
     check_payload(moved, config, space)
     base = reachable_base(moved, config, space)
     if base != moved.embodiment.base:
-        log.info("%s on the %s: base moved from %s to %s so the work points are within %.0f %% of its %.2f m reach",
-                 task.id, config.name, _fmt(task.embodiment.base.pos), _fmt(base.pos), 100 * COMFORT, config.reach)
+        log.info(
+            "%s on the %s: base moved from %s to %s so the work points are within %.0f %% of its %.2f m reach",
+            task.id,
+            config.name,
+            _fmt(task.embodiment.base.pos),
+            _fmt(base.pos),
+            100 * COMFORT,
+            config.reach,
+        )
         moved = _with_robot(task, config, base)
     return moved
 
@@ -95,8 +102,10 @@ def task_for_recording(task: TaskSpec, embodiment: str) -> TaskSpec:
 def _with_robot(task: TaskSpec, config: RobotSpec, base: PoseSpec) -> TaskSpec:
     data = task.model_dump(mode="json")
     data["embodiment"] = {
-        "robot": config.name, "base": base.model_dump(mode="json"),
-        "initial_joints": list(config.arm.home), "gripper": task.embodiment.gripper,
+        "robot": config.name,
+        "base": base.model_dump(mode="json"),
+        "initial_joints": list(config.arm.home),
+        "gripper": task.embodiment.gripper,
     }
     if task.cameras.wrist.mount == "end_effector":
         data["cameras"]["wrist"] = {"mount": "end_effector", **config.wrist_camera.model_dump(mode="json")}
@@ -165,8 +174,10 @@ def check_payload(task: TaskSpec, config: RobotSpec, space: Workspace) -> None:
     """Refuse a task whose program carries an object heavier than the robot's payload."""
     for name, mass in space.carried.items():
         if mass > config.payload_kg:
-            raise InfeasibleTask(f"{task.id} on the {config.name}: payload: {name!r} weighs {mass:.2f} kg, "
-                                 f"over the robot's {config.payload_kg:.2f} kg payload")
+            raise InfeasibleTask(
+                f"{task.id} on the {config.name}: payload: {name!r} weighs {mass:.2f} kg, "
+                f"over the robot's {config.payload_kg:.2f} kg payload"
+            )
 
 
 def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseSpec:
@@ -183,7 +194,9 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
     points3 = np.array(list(space.points.values())).reshape(-1, 3)
     # what the program picks up off the bench top is grasped from above: the hand-down reach applies
     low = points3[:, 2] < home[2] + LOW
-    limit = COMFORT * np.where(low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach)
+    limit = COMFORT * np.where(
+        low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach
+    )
     points = points3[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench
@@ -194,8 +207,10 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
         xy = home[:2] + (dx, dy)
         if not (x0 + r <= xy[0] <= x1 - r and y0 + r <= xy[1] <= y1 - r):
             continue
-        if len(space.boxes) and (_box_distance(space.boxes, xy).min() < r + CLEARANCE
-                                 or _overlap(arm + [dx, dy, 0.0, dx, dy, 0.0], space.boxes)):
+        if len(space.boxes) and (
+            _box_distance(space.boxes, xy).min() < r + CLEARANCE
+            or _overlap(arm + [dx, dy, 0.0, dx, dy, 0.0], space.boxes)
+        ):
             continue
         dist = np.linalg.norm(points - xy, axis=1)
         far = dist - limit
@@ -204,8 +219,10 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
         if worst <= 0:
             if dx == 0 and dy == 0:
                 return task.embodiment.base
-            return PoseSpec(pos=(round(float(xy[0]), 4), round(float(xy[1]), 4), float(home[2])),
-                            euler_deg=task.embodiment.base.euler_deg)
+            return PoseSpec(
+                pos=(round(float(xy[0]), 4), round(float(xy[1]), 4), float(home[2])),
+                euler_deg=task.embodiment.base.euler_deg,
+            )
         if worst < best_miss[0]:
             i = int(np.argmax(np.maximum(far, near)))
             best_miss = (worst, f"{list(space.points)[i]} is {dist[i]:.2f} m away")

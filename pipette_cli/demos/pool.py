@@ -10,7 +10,11 @@ J = TypeVar("J")
 
 
 def ordered_pool(
-    init: Callable[..., None], init_args: tuple[Any, ...], run: Callable[[J], Any], jobs: Sequence[J], workers: int,
+    init: Callable[..., None],
+    init_args: tuple[Any, ...],
+    run: Callable[[J], Any],
+    jobs: Sequence[J],
+    workers: int,
     stop: Callable[[], bool],
 ) -> Generator[tuple[J, Any], None, None]:
     """Run ``run(job)`` in ``workers`` spawned processes (each set up by ``init(*init_args)``)

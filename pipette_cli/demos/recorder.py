@@ -156,10 +156,19 @@ class DatasetInfo:
                 f"(pass --image-size {self.image_height})"
             )
         if other.embodiment != self.embodiment:
-            return (f"it holds episodes recorded on the {self.embodiment}, not the {other.embodiment}; "
-                    "record each robot into its own file")
-        for name in ("cameras", "state_dim", "action_dim", "sim_state_size", "control_hz", "physics_hz",
-                     "instrument_names"):
+            return (
+                f"it holds episodes recorded on the {self.embodiment}, not the {other.embodiment}; "
+                "record each robot into its own file"
+            )
+        for name in (
+            "cameras",
+            "state_dim",
+            "action_dim",
+            "sim_state_size",
+            "control_hz",
+            "physics_hz",
+            "instrument_names",
+        ):
             if getattr(self, name) != getattr(other, name):
                 return f"its {name} is {getattr(self, name)}, not {getattr(other, name)} (the task changed)"
         return None
@@ -226,9 +235,22 @@ class EpisodeWriter:
         info.write(self._file.attrs)
         self.group = self._file.create_group(EPISODES).create_group(episode_name(index))
         self._attrs = dict(attrs or {})
-        self._rows: dict[str, list[Any]] = {k: [] for k in (
-            "state", "action", "sim_state", "sim_time", "wall_time", "step", "fresh", "frame_age", "instruction", "stage",
-            "instrument")}
+        self._rows: dict[str, list[Any]] = {
+            k: []
+            for k in (
+                "state",
+                "action",
+                "sim_state",
+                "sim_time",
+                "wall_time",
+                "step",
+                "fresh",
+                "frame_age",
+                "instruction",
+                "stage",
+                "instrument",
+            )
+        }
         self._images: dict[str, h5py.Dataset] = {}
         self._last_chunk: dict[str, tuple[np.ndarray, bytes]] = {}
         self._started = time.time()
@@ -247,8 +269,13 @@ class EpisodeWriter:
         if camera not in self._images:
             h, w, c = frame.shape
             self._images[camera] = self.group.require_group("images").create_dataset(
-                camera, shape=(0, h, w, c), maxshape=(None, h, w, c), dtype=np.uint8,
-                chunks=(1, h, w, c), compression="gzip", compression_opts=GZIP_LEVEL,
+                camera,
+                shape=(0, h, w, c),
+                maxshape=(None, h, w, c),
+                dtype=np.uint8,
+                chunks=(1, h, w, c),
+                compression="gzip",
+                compression_opts=GZIP_LEVEL,
             )
         return self._images[camera]
 
@@ -282,8 +309,10 @@ class EpisodeWriter:
         rows["instruction"].append(obs.instruction)
         rows["stage"].append(obs.stage)
         if len(obs.instrument) != len(self.info.instrument_names):
-            raise DatasetError(f"step {obs.step} has {len(obs.instrument)} instrument values; the dataset records "
-                               f"{len(self.info.instrument_names)} ({', '.join(self.info.instrument_names) or 'none'})")
+            raise DatasetError(
+                f"step {obs.step} has {len(obs.instrument)} instrument values; the dataset records "
+                f"{len(self.info.instrument_names)} ({', '.join(self.info.instrument_names) or 'none'})"
+            )
         rows["instrument"].append(np.asarray(obs.instrument, dtype=np.float64).copy())
         self.num_steps += 1
 
@@ -312,7 +341,11 @@ class EpisodeWriter:
         g.create_dataset("fresh", data=np.asarray(rows["fresh"], dtype=bool))
         g.create_dataset("frame_age", data=np.asarray(rows["frame_age"], dtype=np.int32))
         g.create_dataset(
-            "instruction", data=rows["instruction"], dtype=h5py.string_dtype(), compression="gzip", compression_opts=GZIP_LEVEL,
+            "instruction",
+            data=rows["instruction"],
+            dtype=h5py.string_dtype(),
+            compression="gzip",
+            compression_opts=GZIP_LEVEL,
         )
         g.create_dataset("stage", data=np.asarray(rows["stage"], dtype=np.int32))
         if self.info.instrument_names:
@@ -323,17 +356,31 @@ class EpisodeWriter:
         truncated = not verdict.done
         reason = (verdict.reason or "") if verdict.done else undecided
         summary = EpisodeSummary(
-            index=self.index, seed=self.seed, source=self.source, num_steps=self.num_steps,
-            success=bool(verdict.success), reason=reason,
-            metrics={k: float(v) for k, v in verdict.metrics.items()}, uid=self.uid,
+            index=self.index,
+            seed=self.seed,
+            source=self.source,
+            num_steps=self.num_steps,
+            success=bool(verdict.success),
+            reason=reason,
+            metrics={k: float(v) for k, v in verdict.metrics.items()},
+            uid=self.uid,
         )
         attrs = g.attrs
         attrs.update(
             {
-                "index": self.index, "seed": self.seed, "source": self.source, "uid": self.uid,
-                "task_id": self.info.task_id, "embodiment": self.info.embodiment, "instruction": self.info.instruction,
-                "num_steps": self.num_steps, "success": summary.success, "failed": bool(verdict.failed),
-                "truncated": truncated, "reason": reason, "metrics": json.dumps(summary.metrics, sort_keys=True),
+                "index": self.index,
+                "seed": self.seed,
+                "source": self.source,
+                "uid": self.uid,
+                "task_id": self.info.task_id,
+                "embodiment": self.info.embodiment,
+                "instruction": self.info.instruction,
+                "num_steps": self.num_steps,
+                "success": summary.success,
+                "failed": bool(verdict.failed),
+                "truncated": truncated,
+                "reason": reason,
+                "metrics": json.dumps(summary.metrics, sort_keys=True),
                 "recorded_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime(self._started)),
                 "wall_duration_s": time.time() - self._started,
             }
@@ -385,6 +432,12 @@ def read_summary(group: h5py.Group) -> EpisodeSummary:
     """The summary stored in an episode group's attributes."""
     a = group.attrs
     return EpisodeSummary(
-        index=int(a["index"]), seed=int(a["seed"]), source=str(a["source"]), num_steps=int(a["num_steps"]),
-        success=bool(a["success"]), reason=str(a["reason"]), metrics=json.loads(str(a["metrics"])), uid=str(a["uid"]),
+        index=int(a["index"]),
+        seed=int(a["seed"]),
+        source=str(a["source"]),
+        num_steps=int(a["num_steps"]),
+        success=bool(a["success"]),
+        reason=str(a["reason"]),
+        metrics=json.loads(str(a["metrics"])),
+        uid=str(a["uid"]),
     )

@@ -53,10 +53,18 @@ class ReplayReport:
 
     def as_dict(self) -> dict[str, object]:
         return {
-            "episode": self.episode, "seed": self.seed, "steps": self.steps, "states_compared": self.states_compared,
-            "states_equal": self.states_equal, "first_mismatch": self.first_mismatch, "max_abs_diff": self.max_abs_diff,
-            "outcome_equal": self.outcome_equal, "recorded": self.recorded, "replayed": self.replayed,
-            "spec_changed": self.spec_changed, "ok": self.ok,
+            "episode": self.episode,
+            "seed": self.seed,
+            "steps": self.steps,
+            "states_compared": self.states_compared,
+            "states_equal": self.states_equal,
+            "first_mismatch": self.first_mismatch,
+            "max_abs_diff": self.max_abs_diff,
+            "outcome_equal": self.outcome_equal,
+            "recorded": self.recorded,
+            "replayed": self.replayed,
+            "spec_changed": self.spec_changed,
+            "ok": self.ok,
         }
 
 
@@ -85,8 +93,10 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
     if status.info.task_id != task.id:
         raise DatasetError(f"{path} holds episodes of task {status.info.task_id}, not {task.id}")
     if status.info.embodiment != task.embodiment.robot:
-        raise DatasetError(f"{path} was recorded on the {status.info.embodiment}, not the {task.embodiment.robot}; "
-                           "replay it on the task placed on that robot (pipette_cli.demos.embodiment.on_robot)")
+        raise DatasetError(
+            f"{path} was recorded on the {status.info.embodiment}, not the {task.embodiment.robot}; "
+            "replay it on the task placed on that robot (pipette_cli.demos.embodiment.on_robot)"
+        )
     record = read_episode(ref)
     states = record.arrays["sim_state"]
     actions = record.arrays["action"]

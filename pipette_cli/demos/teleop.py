@@ -75,16 +75,42 @@ class KeyMap:
     def describe(self) -> list[tuple[str, str]]:
         """``(key, what it does)`` rows for help texts."""
         label = {code: name for name, code in _KEY_CODES.items()}
-        rows = [(label[k], f"move the target {'+' if s > 0 else '-'}{'xyz'[a]} (base frame)") for k, (a, s) in self.translate.items()]
-        rows += [(label[k], f"rotate {'+' if s > 0 else '-'} about the tool's {'xyz'[a]} axis") for k, (a, s) in self.rotate.items()]
+        rows = [
+            (label[k], f"move the target {'+' if s > 0 else '-'}{'xyz'[a]} (base frame)")
+            for k, (a, s) in self.translate.items()
+        ]
+        rows += [
+            (label[k], f"rotate {'+' if s > 0 else '-'} about the tool's {'xyz'[a]} axis")
+            for k, (a, s) in self.rotate.items()
+        ]
         rows.append((label[self.gripper], "toggle the gripper (open/closed)"))
         rows += [(label[k], f"{event} the episode") for k, event in self.events.items()]
         return rows
 
 
 DEFAULT_KEYS = KeyMap(
-    translate={glfw_key(k): v for k, v in {"W": (0, 1.0), "S": (0, -1.0), "A": (1, 1.0), "D": (1, -1.0), "R": (2, 1.0), "F": (2, -1.0)}.items()},
-    rotate={glfw_key(k): v for k, v in {"U": (0, 1.0), "J": (0, -1.0), "I": (1, 1.0), "K": (1, -1.0), "O": (2, 1.0), "L": (2, -1.0)}.items()},
+    translate={
+        glfw_key(k): v
+        for k, v in {
+            "W": (0, 1.0),
+            "S": (0, -1.0),
+            "A": (1, 1.0),
+            "D": (1, -1.0),
+            "R": (2, 1.0),
+            "F": (2, -1.0),
+        }.items()
+    },
+    rotate={
+        glfw_key(k): v
+        for k, v in {
+            "U": (0, 1.0),
+            "J": (0, -1.0),
+            "I": (1, 1.0),
+            "K": (1, -1.0),
+            "O": (2, 1.0),
+            "L": (2, -1.0),
+        }.items()
+    },
     gripper=glfw_key("G"),
     events={glfw_key("Enter"): "save", glfw_key("Delete"): "discard", glfw_key("Home"): "reset"},
 )
@@ -225,7 +251,9 @@ def teleop_episode(
                 return TeleopOutcome(event)
             if event == "save" and writer.num_steps:
                 undecided = TRUNCATED if writer.num_steps >= max_steps else STOPPED
-                summary = writer.close(verdict, env.world.state(), sim_state(env.world.model, env.world.data), undecided=undecided)
+                summary = writer.close(
+                    verdict, env.world.state(), sim_state(env.world.model, env.world.data), undecided=undecided
+                )
                 return TeleopOutcome("save", summary)
             if not done:
                 with lock():
@@ -293,8 +321,10 @@ def teleop_collect(
         if status.info is not None and (why := status.info.mismatch(info)) is not None:
             raise DatasetError(f"cannot add to {out}: {why}")
         attrs = {
-            **provenance(task), "model_sha256": model_sha256(env.world.model),
-            "expert": f"{KeyboardTeleop.__module__}.KeyboardTeleop", "sensitivity": sensitivity,
+            **provenance(task),
+            "model_sha256": model_sha256(env.world.model),
+            "expert": f"{KeyboardTeleop.__module__}.KeyboardTeleop",
+            "sensitivity": sensitivity,
         }
         teleop = KeyboardTeleop(env.world, sensitivity=sensitivity)
         used = set(status.seeds)
@@ -305,10 +335,19 @@ def teleop_collect(
         ) as viewer:
             while result.total < episodes:
                 index = result.total
-                writer = EpisodeWriter(part_path(out, index), info, index=index, seed=current, source="teleop", attrs=attrs)
+                writer = EpisodeWriter(
+                    part_path(out, index), info, index=index, seed=current, source="teleop", attrs=attrs
+                )
                 outcome = teleop_episode(
-                    env, teleop, writer, max_steps=cap, sync=viewer.sync, running=viewer.is_running,
-                    lock=viewer.lock, stop=stop, on_done=on_done,
+                    env,
+                    teleop,
+                    writer,
+                    max_steps=cap,
+                    sync=viewer.sync,
+                    running=viewer.is_running,
+                    lock=viewer.lock,
+                    stop=stop,
+                    on_done=on_done,
                 )
                 if outcome.event == "quit":
                     result.interrupted = stop()

@@ -87,11 +87,15 @@ def resolve_policy_type(given: str | None, checkpoint: Path | None) -> str:
         return given or "act"
     found = checkpoint_policy_type(checkpoint)
     if given is not None and given != found:
-        raise PipetteError(f"--policy-type {given} contradicts {Path(checkpoint) / 'config.json'}, which says type "
-                           f"{found!r}; drop --policy-type or pass the right checkpoint")
+        raise PipetteError(
+            f"--policy-type {given} contradicts {Path(checkpoint) / 'config.json'}, which says type "
+            f"{found!r}; drop --policy-type or pass the right checkpoint"
+        )
     if found not in POLICY_TYPES:
-        raise PipetteError(f"{Path(checkpoint) / 'config.json'}: policy type {found!r} cannot be evaluated; "
-                           f"expected one of {', '.join(POLICY_TYPES)}")
+        raise PipetteError(
+            f"{Path(checkpoint) / 'config.json'}: policy type {found!r} cannot be evaluated; "
+            f"expected one of {', '.join(POLICY_TYPES)}"
+        )
     return found
 
 
@@ -196,7 +200,13 @@ class Gripper:
 
 
 def run_episode(
-    env: PipetteEnv, source: ActionSource, config: DecodeConfig, *, episode: int, seed: int, instruction: str | None = None,
+    env: PipetteEnv,
+    source: ActionSource,
+    config: DecodeConfig,
+    *,
+    episode: int,
+    seed: int,
+    instruction: str | None = None,
     stop: Callable[[], bool] | None = None,
 ) -> EpisodeLog:
     """One closed-loop episode; ends when the task's evaluator decides.
@@ -236,20 +246,35 @@ def run_episode(
             try:
                 # a protocol's stage instruction where it has one, else this episode's (suite variants)
                 said = obs.instruction if obs.instruction != task.instruction else instruction
-                answer = source.act(policy_observation(obs, config.float_images), task=said,
-                                    reset=(k == 0), chunk=config.chunked)
+                answer = source.act(
+                    policy_observation(obs, config.float_images), task=said, reset=(k == 0), chunk=config.chunked
+                )
                 queries += 1
                 consecutive = 0
                 if config.chunked:
                     chunk, chunk_i = np.atleast_2d(answer), 0
                 else:
-                    q_prev, q_curr, raw_gripper, steps_since = _commanded(q_prev, q_curr, steps_since, d_pi), answer[:-1], float(answer[-1]), 0
+                    q_prev, q_curr, raw_gripper, steps_since = (
+                        _commanded(q_prev, q_curr, steps_since, d_pi),
+                        answer[:-1],
+                        float(answer[-1]),
+                        0,
+                    )
             except PolicyUnreachable as exc:
                 hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open], then stop the run
                 env.step(hold)
-                raise ServerLost(str(exc), {
-                    "task": task.id, "episode": episode, "seed": seed, "step": k, "hold": hold.round(6).tolist(),
-                    "held_at": time.time(), "message": str(exc)}) from None
+                raise ServerLost(
+                    str(exc),
+                    {
+                        "task": task.id,
+                        "episode": episode,
+                        "seed": seed,
+                        "step": k,
+                        "hold": hold.round(6).tolist(),
+                        "held_at": time.time(),
+                        "message": str(exc),
+                    },
+                ) from None
             except PipetteError:
                 failures += 1
                 consecutive += 1
@@ -270,14 +295,26 @@ def run_episode(
     steps = world.step_count
     metrics = {k: float(v) for k, v in verdict.metrics.items()}
     return EpisodeLog(
-        task=task.id, episode=episode, seed=seed, instruction=instruction, success=verdict.success,
-        failure_reason=None if verdict.success else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
-        runtime_s=time.perf_counter() - wall0, sim_time_s=sim_time, control_steps=steps,
-        control_hz=steps / sim_time if sim_time else 0.0, policy_queries=queries,
-        policy_hz=queries / sim_time if sim_time else 0.0, failed_queries=failures, safe_hold=hold is not None,
+        task=task.id,
+        episode=episode,
+        seed=seed,
+        instruction=instruction,
+        success=verdict.success,
+        failure_reason=None
+        if verdict.success
+        else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
+        runtime_s=time.perf_counter() - wall0,
+        sim_time_s=sim_time,
+        control_steps=steps,
+        control_hz=steps / sim_time if sim_time else 0.0,
+        policy_queries=queries,
+        policy_hz=queries / sim_time if sim_time else 0.0,
+        failed_queries=failures,
+        safe_hold=hold is not None,
         policy_type=config.policy_type,
         gripper_thresholds={"open": config.open_threshold, "stay_open": config.stay_open_threshold},
-        metrics=metrics, progress=stage_progress(metrics),
+        metrics=metrics,
+        progress=stage_progress(metrics),
     )
 
 

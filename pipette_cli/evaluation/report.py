@@ -53,14 +53,18 @@ def load_runs(dirs: list[Path]) -> list[RunRecord]:
     for root in dirs:
         folders = _run_folders(Path(root)) if Path(root).is_dir() else []
         if not folders:
-            raise DatasetError(f"{root}: no evaluation results (episode_XXXX.json or summary.json); "
-                               "write them with `pipette eval ... --out DIR`")
+            raise DatasetError(
+                f"{root}: no evaluation results (episode_XXXX.json or summary.json); "
+                "write them with `pipette eval ... --out DIR`"
+            )
         runs += [_load_run(folder) for folder in folders]
     seen: dict[tuple[str, str, str], Path] = {}
     for run in runs:
         if run.key in seen:
-            raise DatasetError(f"{seen[run.key]} and {run.folder} both hold {run.key[1]} on {run.key[2]} data for "
-                               f"{run.key[0]}; report one of them")
+            raise DatasetError(
+                f"{seen[run.key]} and {run.folder} both hold {run.key[1]} on {run.key[2]} data for "
+                f"{run.key[0]}; report one of them"
+            )
         seen[run.key] = run.folder
     return runs
 
@@ -73,14 +77,23 @@ def _load_run(folder: Path) -> RunRecord:
             summary["stopped"] = previous.get("stopped")
         if not (folder / MANIFEST_FILE).is_file():  # written before run.json existed: its label is in the summary
             summary["dataset_version"] = previous.get("dataset_version", "raw")
-        outcomes = {(int(log["seed"]), str(log.get("instruction", ""))): bool(log["success"]) for log in read_logs(folder)}
+        outcomes = {
+            (int(log["seed"]), str(log.get("instruction", ""))): bool(log["success"]) for log in read_logs(folder)
+        }
         return RunRecord(folder, summary, outcomes)
     data = _json(folder / SUMMARY_FILE)
     try:
         n = int(data["episodes"])
         successes = int(data["successes"]) if "successes" in data else round(float(data["success_rate"]) * n)
-        summary = {**data, "task": data["task"], "policy_type": data["policy_type"], "episodes": n, "successes": successes,
-                   "success_rate": successes / n if n else 0.0, "success_ci95": list(wilson_interval(successes, n))}
+        summary = {
+            **data,
+            "task": data["task"],
+            "policy_type": data["policy_type"],
+            "episodes": n,
+            "successes": successes,
+            "success_rate": successes / n if n else 0.0,
+            "success_ci95": list(wilson_interval(successes, n)),
+        }
     except (KeyError, TypeError, ValueError) as exc:
         raise DatasetError(f"{folder / SUMMARY_FILE}: not an evaluation summary ({exc})") from None
     summary.setdefault("complete", not (folder / MANIFEST_FILE).is_file())
@@ -117,7 +130,8 @@ def build_report(runs: list[RunRecord]) -> Report:
             continue
         report.comparisons[task, policy] = compare(
             raw.outcomes if raw.outcomes is not None else (raw.summary["successes"], raw.summary["episodes"]),
-            aug.outcomes if aug.outcomes is not None else (aug.summary["successes"], aug.summary["episodes"]))
+            aug.outcomes if aug.outcomes is not None else (aug.summary["successes"], aug.summary["episodes"]),
+        )
     keys = list(report.comparisons)
     report.holm_p = dict(zip(keys, holm([report.comparisons[k].p_value for k in keys]), strict=True))
     return report
@@ -142,17 +156,23 @@ def comparison_text(c: Comparison, holm_p: float) -> tuple[str, str, str]:
 
 def markdown(report: Report) -> str:
     """One row per (task, policy): each version's cell, the change and its test."""
-    lines = ["| task | policy | raw (95 % CI) | augmented (95 % CI) | change | test | significant |",
-             "| --- | --- | ---: | ---: | ---: | --- | --- |"]
+    lines = [
+        "| task | policy | raw (95 % CI) | augmented (95 % CI) | change | test | significant |",
+        "| --- | --- | ---: | ---: | ---: | --- | --- |",
+    ]
     for task, policy in report.rows():
         cells = [report.cells.get((task, policy, v)) for v in VERSIONS]
         texts = [cell_text(c.summary) if c is not None else "-" for c in cells]
         c = report.comparisons.get((task, policy))
         extra = comparison_text(c, report.holm_p[task, policy]) if c is not None else ("-", "-", "-")
         lines.append(f"| {task} | {policy} | {texts[0]} | {texts[1]} | {' | '.join(extra)} |")
-    notes = [(f"Cells: successes/episodes (rate, 95 % Wilson interval); staged tasks add the mean share of stages "
-             f"completed. Significant: two-sided exact test at {ALPHA}, Holm-adjusted over the {len(report.comparisons)} "
-             "comparison(s); McNemar pairs the same episodes (seed and instruction), Fisher compares independent samples.")]
+    notes = [
+        (
+            f"Cells: successes/episodes (rate, 95 % Wilson interval); staged tasks add the mean share of stages "
+            f"completed. Significant: two-sided exact test at {ALPHA}, Holm-adjusted over the {len(report.comparisons)} "
+            "comparison(s); McNemar pairs the same episodes (seed and instruction), Fisher compares independent samples."
+        )
+    ]
     others = sorted({v for _, _, v in report.cells} - set(VERSIONS))
     if others:
         notes.append(f"Not tabulated (only raw and augmented are): dataset versions {', '.join(others)}.")
@@ -165,22 +185,52 @@ def to_json(report: Report) -> dict[str, Any]:
     return {
         "alpha": ALPHA,
         "runs": [{"folder": str(run.folder), **run.summary} for run in report.cells.values()],
-        "comparisons": [{"task": task, "policy": policy, **c.as_dict(), "p_holm": report.holm_p[task, policy],
-                         "significant_holm": report.holm_p[task, policy] < ALPHA}
-                        for (task, policy), c in report.comparisons.items()],
+        "comparisons": [
+            {
+                "task": task,
+                "policy": policy,
+                **c.as_dict(),
+                "p_holm": report.holm_p[task, policy],
+                "significant_holm": report.holm_p[task, policy] < ALPHA,
+            }
+            for (task, policy), c in report.comparisons.items()
+        ],
     }
 
 
 def csv_text(report: Report) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer)
-    writer.writerow(["task", "policy", "version", "episodes", "successes", "success_rate", "ci95_low", "ci95_high",
-                     "mean_progress", "complete"])
+    writer.writerow(
+        [
+            "task",
+            "policy",
+            "version",
+            "episodes",
+            "successes",
+            "success_rate",
+            "ci95_low",
+            "ci95_high",
+            "mean_progress",
+            "complete",
+        ]
+    )
     for (task, policy, version), run in sorted(report.cells.items()):
         s = run.summary
-        writer.writerow([task, policy, version, s["episodes"], s["successes"], f"{s['success_rate']:.4f}",
-                         f"{s['success_ci95'][0]:.4f}", f"{s['success_ci95'][1]:.4f}",
-                         "" if s.get("mean_progress") is None else f"{s['mean_progress']:.4f}", s.get("complete", True)])
+        writer.writerow(
+            [
+                task,
+                policy,
+                version,
+                s["episodes"],
+                s["successes"],
+                f"{s['success_rate']:.4f}",
+                f"{s['success_ci95'][0]:.4f}",
+                f"{s['success_ci95'][1]:.4f}",
+                "" if s.get("mean_progress") is None else f"{s['mean_progress']:.4f}",
+                s.get("complete", True),
+            ]
+        )
     return buffer.getvalue()
 
 
@@ -222,7 +272,9 @@ def bar_chart(report: Report, path: Path) -> None:
         for k, line in enumerate([*_label_lines(task), policy]):
             draw.text((x, top + height + 6 + 14 * k), line, fill="black")
     for j, version in enumerate(VERSIONS):
-        draw.rectangle([left + 8 + 90 * j, top + height + 74, left + 20 + 90 * j, top + height + 86], fill=colors[version])
+        draw.rectangle(
+            [left + 8 + 90 * j, top + height + 74, left + 20 + 90 * j, top + height + 86], fill=colors[version]
+        )
         draw.text((left + 24 + 90 * j, top + height + 74), version, fill="black")
     draw.text((left + 8, top + height + 94), "whiskers: 95 % CI; *: significant (Holm)", fill="black")
     path.parent.mkdir(parents=True, exist_ok=True)

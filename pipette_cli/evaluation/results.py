@@ -58,26 +58,51 @@ def environment_record(gl: dict[str, str] | None = None) -> dict[str, Any]:
         except metadata.PackageNotFoundError:
             return "absent"
 
-    return {"pipette": pipette_cli.__version__, "git_commit": commit, "git_dirty": dirty, "mujoco": mujoco.__version__,
-            "torch": version("torch"), "lerobot": version("lerobot"), "python": platform.python_version(), **(gl or {})}
+    return {
+        "pipette": pipette_cli.__version__,
+        "git_commit": commit,
+        "git_dirty": dirty,
+        "mujoco": mujoco.__version__,
+        "torch": version("torch"),
+        "lerobot": version("lerobot"),
+        "python": platform.python_version(),
+        **(gl or {}),
+    }
 
 
 def checkpoint_record(path: Path) -> dict[str, Any]:
     """A policy folder, identified by the hash of its weights (the path may move)."""
     weights = Path(path) / "model.safetensors"
-    return {"kind": "checkpoint", "path": str(Path(path).resolve()),
-            "sha256": sha256_file(weights) if weights.is_file() else None}
+    return {
+        "kind": "checkpoint",
+        "path": str(Path(path).resolve()),
+        "sha256": sha256_file(weights) if weights.is_file() else None,
+    }
 
 
 def make_manifest(
-    task: TaskSpec, episodes: list[EpisodePlan], *, suite: dict[str, Any] | None, image_size: int | None,
-    render_profile: str, policy: dict[str, Any], config: DecodeConfig, dataset_version: str,
+    task: TaskSpec,
+    episodes: list[EpisodePlan],
+    *,
+    suite: dict[str, Any] | None,
+    image_size: int | None,
+    render_profile: str,
+    policy: dict[str, Any],
+    config: DecodeConfig,
+    dataset_version: str,
 ) -> dict[str, Any]:
     """The ``run.json`` of one task's run."""
     return {
-        "format": RUN_FORMAT, "task": task.id, "task_spec_sha256": task_spec_sha256(task), "suite": suite,
-        "image_size": image_size, "render_profile": render_profile, "policy": policy, "decode": asdict(config),
-        "dataset_version": dataset_version, "episodes": [[e.seed, e.instruction] for e in episodes],
+        "format": RUN_FORMAT,
+        "task": task.id,
+        "task_spec_sha256": task_spec_sha256(task),
+        "suite": suite,
+        "image_size": image_size,
+        "render_profile": render_profile,
+        "policy": policy,
+        "decode": asdict(config),
+        "dataset_version": dataset_version,
+        "episodes": [[e.seed, e.instruction] for e in episodes],
     }
 
 
@@ -124,8 +149,10 @@ def prepare_folder(folder: Path, manifest: dict[str, Any]) -> dict[int, dict[str
             old, manifest = {**old, "episodes": longer}, {**manifest, "episodes": longer}
         changed = _differences(old, manifest)
         if changed:
-            raise DatasetError(f"{folder} holds an evaluation with other settings ({changed[0]}); "
-                               "rerun with the same options to resume, or choose another --out")
+            raise DatasetError(
+                f"{folder} holds an evaluation with other settings ({changed[0]}); "
+                "rerun with the same options to resume, or choose another --out"
+            )
     elif any(folder.glob("episode_*.json")):
         raise DatasetError(f"{folder} holds episode logs without {MANIFEST_FILE} (an older run); choose another --out")
     write_json_atomic(path, manifest)
@@ -134,8 +161,14 @@ def prepare_folder(folder: Path, manifest: dict[str, Any]) -> dict[int, dict[str
     for log_path in sorted(folder.glob("episode_*.json")):
         log = _read_json(log_path)
         index = log.get("episode")
-        if not isinstance(index, int) or not 0 <= index < len(planned) or [log.get("seed"), log.get("instruction")] != planned[index]:
-            raise DatasetError(f"{log_path} is not episode {log_path.stem[8:]} of this run's plan; remove it or choose another --out")
+        if (
+            not isinstance(index, int)
+            or not 0 <= index < len(planned)
+            or [log.get("seed"), log.get("instruction")] != planned[index]
+        ):
+            raise DatasetError(
+                f"{log_path} is not episode {log_path.stem[8:]} of this run's plan; remove it or choose another --out"
+            )
         done[index] = log
     return done
 
@@ -173,18 +206,27 @@ def summarize(folder: Path, *, stopped: dict[str, Any] | None = None) -> dict[st
             environments.append(log["environment"])
     planned = len(manifest.get("episodes", [])) or n
     return {
-        "task": logs[0]["task"], "policy_type": logs[0]["policy_type"],
-        "dataset_version": manifest.get("dataset_version", "raw"), "suite": manifest.get("suite"),
-        "episodes": n, "planned": planned, "complete": n >= planned,
-        "successes": successes, "success_rate": successes / n, "success_ci95": [round(low, 4), round(high, 4)],
+        "task": logs[0]["task"],
+        "policy_type": logs[0]["policy_type"],
+        "dataset_version": manifest.get("dataset_version", "raw"),
+        "suite": manifest.get("suite"),
+        "episodes": n,
+        "planned": planned,
+        "complete": n >= planned,
+        "successes": successes,
+        "success_rate": successes / n,
+        "success_ci95": [round(low, 4), round(high, 4)],
         "failures": dict(Counter(log["failure_reason"] or "unknown" for log in logs if not log["success"])),
         "mean_progress": sum(progress) / len(progress) if progress else None,
         "final_stage_counts": dict(sorted(stages.items())) if progress else None,
         "safe_holds": sum(bool(log["safe_hold"]) for log in logs),
         "failed_queries": sum(int(log["failed_queries"]) for log in logs),
         "mean_runtime_s": sum(float(log["runtime_s"]) for log in logs) / n,
-        "image_size": manifest.get("image_size"), "render_profile": manifest.get("render_profile"),
-        "policy": manifest.get("policy"), "environments": environments, "stopped": stopped,
+        "image_size": manifest.get("image_size"),
+        "render_profile": manifest.get("render_profile"),
+        "policy": manifest.get("policy"),
+        "environments": environments,
+        "stopped": stopped,
     }
 
 

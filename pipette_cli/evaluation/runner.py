@@ -91,8 +91,12 @@ class PolicySource:
         if self.checkpoint is not None:
             return InProcessSource(self.checkpoint, device=self.device)
         heartbeat_ms = max(50, min(1000, int(self.dead_after_s * 200)))
-        return PolicyClient(self.endpoints[worker % len(self.endpoints)], timeout_ms=config.timeout_ms,
-                            heartbeat_ms=heartbeat_ms, dead_after_s=self.dead_after_s)
+        return PolicyClient(
+            self.endpoints[worker % len(self.endpoints)],
+            timeout_ms=config.timeout_ms,
+            heartbeat_ms=heartbeat_ms,
+            dead_after_s=self.dead_after_s,
+        )
 
     def record(self) -> dict[str, Any]:
         """The manifest's ``policy`` entry."""
@@ -110,13 +114,17 @@ def check_servers(endpoints: tuple[str, ...], image_hw: tuple[int, int], connect
     for endpoint in endpoints:
         with PolicyClient(endpoint, timeout_ms=int(1000 * connect_timeout_s) + 65_000) as client:
             if not client.wait_until_up(connect_timeout_s):
-                raise PipetteError(f"no policy server answers at {endpoint} (waited {connect_timeout_s:g} s); "
-                                   "start `pipette serve` first or fix --endpoint")
+                raise PipetteError(
+                    f"no policy server answers at {endpoint} (waited {connect_timeout_s:g} s); "
+                    "start `pipette serve` first or fix --endpoint"
+                )
             served = client.info()
         for key, shape in served.get("images", {}).items():
             if tuple(shape[-2:]) != tuple(image_hw):
-                raise PipetteError(f"the policy at {endpoint} reads {key.rsplit('.', 1)[-1]} images of {shape[-2]}x{shape[-1]}, "
-                                   f"but this evaluation renders {image_hw[0]}x{image_hw[1]} (--image-size, or the suite's image_size)")
+                raise PipetteError(
+                    f"the policy at {endpoint} reads {key.rsplit('.', 1)[-1]} images of {shape[-2]}x{shape[-1]}, "
+                    f"but this evaluation renders {image_hw[0]}x{image_hw[1]} (--image-size, or the suite's image_size)"
+                )
 
 
 @dataclass(frozen=True)
@@ -163,10 +171,20 @@ class EpisodeWorker:
     def run(self, plan: EpisodePlan, stop: Callable[[], bool] | None = None) -> EpisodeLog:
         if self.env is None or self.env.task.id != plan.task:
             self.close_env()
-            self.env = PipetteEnv(self.tasks[plan.task], image_size=self.settings.image_size,
-                                  render_profile=self.settings.render_profile)  # type: ignore[arg-type]
-        episode = run_episode(self.env, self.source, self.settings.config, episode=plan.index, seed=plan.seed,
-                              instruction=plan.instruction, stop=stop)
+            self.env = PipetteEnv(
+                self.tasks[plan.task],
+                image_size=self.settings.image_size,
+                render_profile=self.settings.render_profile,  # type: ignore[arg-type]  # a suite's profile is validated
+            )
+        episode = run_episode(
+            self.env,
+            self.source,
+            self.settings.config,
+            episode=plan.index,
+            seed=plan.seed,
+            instruction=plan.instruction,
+            stop=stop,
+        )
         if self.environment is None:
             self.environment = environment_record(gl_info())  # after a render: the GL context is current
         episode.environment = self.environment
@@ -189,8 +207,13 @@ Outcome = tuple[str, int, Any]
 
 
 def evaluate_runs(
-    runs: list[TaskRun], source: SourceFactory, settings: EvalSettings, *, workers: int = 1,
-    on_start: Callable[[int, int], None] | None = None, on_episode: Callable[[EpisodeLog], None] | None = None,
+    runs: list[TaskRun],
+    source: SourceFactory,
+    settings: EvalSettings,
+    *,
+    workers: int = 1,
+    on_start: Callable[[int, int], None] | None = None,
+    on_episode: Callable[[EpisodeLog], None] | None = None,
     stop: Callable[[], bool] = lambda: False,
 ) -> EvalResult:
     """Play every planned episode not yet logged; write logs and summaries.
@@ -215,9 +238,16 @@ def evaluate_runs(
     todo: list[tuple[int, EpisodePlan]] = []
     result = EvalResult()
     for i, run in enumerate(runs):
-        manifest = make_manifest(run.task, list(run.episodes), suite=settings.suite, image_size=settings.image_size,
-                                 render_profile=settings.render_profile, policy=policy, config=settings.config,
-                                 dataset_version=settings.dataset_version)
+        manifest = make_manifest(
+            run.task,
+            list(run.episodes),
+            suite=settings.suite,
+            image_size=settings.image_size,
+            render_profile=settings.render_profile,
+            policy=policy,
+            config=settings.config,
+            dataset_version=settings.dataset_version,
+        )
         done = prepare_folder(run.folder, manifest)
         result.already_done += sum(plan.index in done for plan in run.episodes)
         todo += [(i, plan) for plan in run.episodes if plan.index not in done]
@@ -227,7 +257,11 @@ def evaluate_runs(
     try:
         if todo:
             tasks = {run.task.id: run.task for run in runs}
-            played = _inline(tasks, source, settings, todo, stop) if workers == 1 else _in_workers(tasks, source, settings, todo, workers, stop)
+            played = (
+                _inline(tasks, source, settings, todo, stop)
+                if workers == 1
+                else _in_workers(tasks, source, settings, todo, workers, stop)
+            )
             try:
                 for kind, i, payload in played:
                     if kind == "stopped":
@@ -251,15 +285,26 @@ def evaluate_runs(
     if lost is not None:
         finished = result.already_done + result.new_episodes
         planned = sum(len(run.episodes) for run in runs)
-        raise ServerLost(f"{lost['message']}; safe hold applied in {lost['task']} episode {lost['episode']}; "
-                         f"stopped after {finished} of {planned} episodes (partial summary written); "
-                         "rerun the same command to resume once the server is back", lost)
+        raise ServerLost(
+            f"{lost['message']}; safe hold applied in {lost['task']} episode {lost['episode']}; "
+            f"stopped after {finished} of {planned} episodes (partial summary written); "
+            "rerun the same command to resume once the server is back",
+            lost,
+        )
     return result
 
 
 def evaluate_task(
-    task: TaskSpec, source: SourceFactory, config: DecodeConfig, *, episodes: int, seed: int, out: Path,
-    image_size: int | None = None, dataset_version: str = "raw", workers: int = 1,
+    task: TaskSpec,
+    source: SourceFactory,
+    config: DecodeConfig,
+    *,
+    episodes: int,
+    seed: int,
+    out: Path,
+    image_size: int | None = None,
+    dataset_version: str = "raw",
+    workers: int = 1,
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
     resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
@@ -270,8 +315,13 @@ def evaluate_task(
     return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
 
 
-def _inline(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSettings,
-            todo: list[tuple[int, EpisodePlan]], stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
+def _inline(
+    tasks: dict[str, TaskSpec],
+    source: SourceFactory,
+    settings: EvalSettings,
+    todo: list[tuple[int, EpisodePlan]],
+    stop: Callable[[], bool],
+) -> Generator[Outcome, None, None]:
     worker = EpisodeWorker(tasks, source, settings, 0)
     try:
         for i, plan in todo:
@@ -290,8 +340,14 @@ def _inline(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSet
         worker.close()
 
 
-def _in_workers(tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSettings,
-                todo: list[tuple[int, EpisodePlan]], workers: int, stop: Callable[[], bool]) -> Generator[Outcome, None, None]:
+def _in_workers(
+    tasks: dict[str, TaskSpec],
+    source: SourceFactory,
+    settings: EvalSettings,
+    todo: list[tuple[int, EpisodePlan]],
+    workers: int,
+    stop: Callable[[], bool],
+) -> Generator[Outcome, None, None]:
     context = multiprocessing.get_context("spawn")
     jobs, results = context.Queue(), context.Queue()
     count = min(workers, len(todo))
@@ -300,8 +356,10 @@ def _in_workers(tasks: dict[str, TaskSpec], source: SourceFactory, settings: Eva
     for _ in range(count):
         jobs.put(None)
     threads = max(1, (os.cpu_count() or 1) // count)
-    procs = [context.Process(target=_worker_main, args=(w, tasks, source, settings, threads, jobs, results), daemon=True)
-             for w in range(count)]
+    procs = [
+        context.Process(target=_worker_main, args=(w, tasks, source, settings, threads, jobs, results), daemon=True)
+        for w in range(count)
+    ]
     for proc in procs:
         proc.start()
     remaining = len(todo)
@@ -315,11 +373,16 @@ def _in_workers(tasks: dict[str, TaskSpec], source: SourceFactory, settings: Eva
             except queue.Empty:
                 for w, proc in enumerate(procs):
                     if proc.exitcode not in (None, 0):
-                        raise PipetteError(f"evaluation worker {w} died (exit code {proc.exitcode}); "
-                                           "rerun the same command to resume") from None
+                        raise PipetteError(
+                            f"evaluation worker {w} died (exit code {proc.exitcode}); rerun the same command to resume"
+                        ) from None
                 continue
             if kind == "error":
-                raise payload if isinstance(payload, PipetteError) else RuntimeError(f"evaluation worker failed:\n{payload}")
+                raise (
+                    payload
+                    if isinstance(payload, PipetteError)
+                    else RuntimeError(f"evaluation worker failed:\n{payload}")
+                )
             yield kind, i, payload
             if kind == "lost":
                 return
@@ -332,8 +395,15 @@ def _in_workers(tasks: dict[str, TaskSpec], source: SourceFactory, settings: Eva
             proc.join(5)
 
 
-def _worker_main(index: int, tasks: dict[str, TaskSpec], source: SourceFactory, settings: EvalSettings, threads: int,
-                 jobs: Any, results: Any) -> None:
+def _worker_main(
+    index: int,
+    tasks: dict[str, TaskSpec],
+    source: SourceFactory,
+    settings: EvalSettings,
+    threads: int,
+    jobs: Any,
+    results: Any,
+) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C and ends the workers
     parent = os.getppid()
     threading.Thread(target=_exit_with_parent, args=(parent,), daemon=True).start()

@@ -100,7 +100,9 @@ def compare(a: Outcomes | tuple[int, int], b: Outcomes | tuple[int, int]) -> Com
         only_a = sum(a[k] and not b[k] for k in a)
         only_b = sum(b[k] and not a[k] for k in a)
         k_a, k_b, n = sum(a.values()), sum(b.values()), len(a)
-        return Comparison("mcnemar_exact", n, k_a, n, k_b, only_a, only_b, k_b / n - k_a / n, mcnemar_exact(only_a, only_b))
+        return Comparison(
+            "mcnemar_exact", n, k_a, n, k_b, only_a, only_b, k_b / n - k_a / n, mcnemar_exact(only_a, only_b)
+        )
     k_a, n_a = _counts(a)
     k_b, n_b = _counts(b)
     rate_a, rate_b = (k_a / n_a if n_a else 0.0), (k_b / n_b if n_b else 0.0)

@@ -99,8 +99,14 @@ def validate_suite_document(doc: Any, source: str, registry: Registry) -> SuiteS
     problems = []
     for i, entry in enumerate(spec.tasks):
         if entry.task not in registry.tasks:
-            problems.append(format_problem(source, doc, ("tasks", i, "task"),
-                                           f"unknown task {entry.task!r}; {suggest(entry.task, registry.tasks)}"))
+            problems.append(
+                format_problem(
+                    source,
+                    doc,
+                    ("tasks", i, "task"),
+                    f"unknown task {entry.task!r}; {suggest(entry.task, registry.tasks)}",
+                )
+            )
     if problems:
         raise SpecError(problems)
     return spec
@@ -135,8 +141,11 @@ def load_suites(registry: Registry, extra_dirs: Iterable[Path] = ()) -> Suites:
     Raises:
         SpecError: every problem in every file, and every duplicate id.
     """
-    found = load_documents(suite_files(registry_dirs(extra_dirs)),
-                           lambda doc, source: validate_suite_document(doc, source, registry), "suite")
+    found = load_documents(
+        suite_files(registry_dirs(extra_dirs)),
+        lambda doc, source: validate_suite_document(doc, source, registry),
+        "suite",
+    )
     return Suites({suite_id: RegisteredSuite(spec, path) for suite_id, (spec, path) in found.items()})
 
 
@@ -154,8 +163,9 @@ def episode_plan(suite: SuiteSpec, tasks: Iterable[str] | None = None) -> dict[s
             raise SuiteNotFound(f"task {task_id} is not in suite {suite.id}; it has {', '.join(entries)}")
         entry = entries[task_id]
         variants = entry.instructions
-        plan[task_id] = [EpisodePlan(task_id, i, seed, variants[i % len(variants)])
-                         for i, seed in enumerate(suite.task_seeds(entry))]
+        plan[task_id] = [
+            EpisodePlan(task_id, i, seed, variants[i % len(variants)]) for i, seed in enumerate(suite.task_seeds(entry))
+        ]
     return plan
 
 

@@ -168,7 +168,9 @@ def _check_target(options: ConvertOptions) -> None:
         if not options.overwrite:
             raise DatasetError(f"{root} already exists; pass --overwrite to replace it or choose another --root")
         if not root.is_dir() or (any(root.iterdir()) and not (root / "meta" / "info.json").is_file()):
-            raise DatasetError(f"{root} exists and is not a LeRobot dataset; --overwrite only replaces a dataset folder")
+            raise DatasetError(
+                f"{root} exists and is not a LeRobot dataset; --overwrite only replaces a dataset folder"
+            )
 
 
 def _mixed(kind: str, values: list[str]) -> str:
@@ -216,7 +218,9 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
         embodiments[info.embodiment] = None
         for ref in status.episodes:
             if ref.summary.uid in uids:
-                raise DatasetError(f"episode {ref.index} of {path} is already in {uids[ref.summary.uid]} (an input given twice?)")
+                raise DatasetError(
+                    f"episode {ref.index} of {path} is already in {uids[ref.summary.uid]} (an input given twice?)"
+                )
             uids[ref.summary.uid] = path
             record = read_episode(ref)
             augmented = is_augmented(record.attrs)
@@ -227,11 +231,16 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
                     f"raw and augmented episodes go to separate datasets (--dataset-version {kind})"
                 )
             if not ref.summary.success and not options.include_failed:
-                skipped.append({"file": str(path), "index": ref.index, "seed": ref.summary.seed, "reason": ref.summary.reason})
+                skipped.append(
+                    {"file": str(path), "index": ref.index, "seed": ref.summary.seed, "reason": ref.summary.reason}
+                )
                 continue
             steps = select_frames(
-                record.arrays["fresh"], control_hz=info.control_hz, vision_hz=info.vision_hz,
-                fps=options.fps, mode=options.frame_filter,
+                record.arrays["fresh"],
+                control_hz=info.control_hz,
+                vision_hz=info.vision_hz,
+                fps=options.fps,
+                mode=options.frame_filter,
             )
             stale = int(np.count_nonzero(record.arrays["frame_age"][steps] > 0))
             episodes.append(PlannedEpisode(path, ref, info, record.attrs, steps, stale))
@@ -244,13 +253,16 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
     if len(tasks) > 1 and not options.allow_mixed:
         raise DatasetError(_mixed("task", list(tasks)))
     if len(embodiments) > 1 and not options.allow_mixed_robots:
-        raise DatasetError(f"the inputs were recorded on {len(embodiments)} robots ({', '.join(embodiments)}); their "
-                           "joints differ: convert each robot's episodes separately or pass --allow-mixed-robots")
+        raise DatasetError(
+            f"the inputs were recorded on {len(embodiments)} robots ({', '.join(embodiments)}); their "
+            "joints differ: convert each robot's episodes separately or pass --allow-mixed-robots"
+        )
     if not episodes:
         total = len(skipped)
         raise DatasetError(
             f"no episode to convert: all {total} episodes failed; pass --include-failed to keep failed episodes"
-            if total else "no episode to convert: the inputs hold no episodes"
+            if total
+            else "no episode to convert: the inputs hold no episodes"
         )
     return ConversionPlan(episodes, skipped, first, list(tasks), list(embodiments))
 
@@ -267,7 +279,9 @@ def vector_names(info: DatasetInfo, *, mixed_robots: bool = False) -> tuple[list
         if robot is not None and robot.arm_dof + 1 == info.state_dim:
             return robot.state_names(), robot.action_names()
     arm = info.state_dim - 1
-    return [f"joint_{i}" for i in range(1, arm + 1)] + ["gripper"], [f"joint_{i}_target" for i in range(1, arm + 1)] + ["gripper_open"]
+    return [f"joint_{i}" for i in range(1, arm + 1)] + ["gripper"], [f"joint_{i}_target" for i in range(1, arm + 1)] + [
+        "gripper_open"
+    ]
 
 
 def make_features(info: DatasetInfo, *, video: bool, mixed_robots: bool = False) -> dict[str, dict[str, Any]]:
@@ -276,7 +290,11 @@ def make_features(info: DatasetInfo, *, video: bool, mixed_robots: bool = False)
     state_names, action_names = vector_names(info, mixed_robots=mixed_robots)
     shape = (info.image_height, info.image_width, 3)
     features: dict[str, dict[str, Any]] = {
-        image_key(cam): {"dtype": "video" if video else "image", "shape": shape, "names": ["height", "width", "channels"]}
+        image_key(cam): {
+            "dtype": "video" if video else "image",
+            "shape": shape,
+            "names": ["height", "width", "channels"],
+        }
         for cam in CAMERAS
     }
     features["observation.state"] = {"dtype": "float32", "shape": (info.state_dim,), "names": state_names}
@@ -290,14 +308,40 @@ def make_features(info: DatasetInfo, *, video: bool, mixed_robots: bool = False)
 
 def _episode_provenance(index: int, planned: PlannedEpisode) -> dict[str, Any]:
     attrs, summary = planned.attrs, planned.ref.summary
-    keep = ("seed", "source", "expert", "uid", "task_id", "embodiment", "instruction", "num_steps", "success",
-            "failed", "truncated", "reason", "recorded_at", "git_commit", "task_spec_sha256", "model_sha256")
-    entry: dict[str, Any] = {"episode_index": index, "file": str(planned.file.resolve()), "source_index": planned.ref.index}
+    keep = (
+        "seed",
+        "source",
+        "expert",
+        "uid",
+        "task_id",
+        "embodiment",
+        "instruction",
+        "num_steps",
+        "success",
+        "failed",
+        "truncated",
+        "reason",
+        "recorded_at",
+        "git_commit",
+        "task_spec_sha256",
+        "model_sha256",
+    )
+    entry: dict[str, Any] = {
+        "episode_index": index,
+        "file": str(planned.file.resolve()),
+        "source_index": planned.ref.index,
+    }
     entry.update({k: attrs[k] for k in keep if k in attrs})
-    entry.update({
-        "success": summary.success, "reason": summary.reason, "metrics": summary.metrics,
-        "frames": len(planned.steps), "steps": planned.steps.tolist(), "stale_frames": planned.stale,
-    })
+    entry.update(
+        {
+            "success": summary.success,
+            "reason": summary.reason,
+            "metrics": summary.metrics,
+            "frames": len(planned.steps),
+            "steps": planned.steps.tolist(),
+            "stale_frames": planned.stale,
+        }
+    )
     perturbation = {k: attrs[k] for k in attrs if str(k).startswith(PERTURBATION_PREFIXES)}
     if perturbation:
         entry["perturbation"] = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in perturbation.items()}
@@ -306,10 +350,16 @@ def _episode_provenance(index: int, planned: PlannedEpisode) -> dict[str, Any]:
 
 def _provenance(plan: ConversionPlan, options: ConvertOptions) -> dict[str, Any]:
     return {
-        "format": PROVENANCE_FORMAT, "format_version": 1,
-        "repo_id": options.repo_id, "dataset_version": options.dataset_version.value,
-        "fps": options.fps, "frame_filter": options.frame_filter.value, "video": options.video,
-        "include_failed": options.include_failed, "task_ids": plan.task_ids, "embodiments": plan.embodiments,
+        "format": PROVENANCE_FORMAT,
+        "format_version": 1,
+        "repo_id": options.repo_id,
+        "dataset_version": options.dataset_version.value,
+        "fps": options.fps,
+        "frame_filter": options.frame_filter.value,
+        "video": options.video,
+        "include_failed": options.include_failed,
+        "task_ids": plan.task_ids,
+        "embodiments": plan.embodiments,
         "package_version": pipette_cli.__version__,
         "created_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "sources": sorted({str(e.file.resolve()) for e in plan.episodes} | {s["file"] for s in plan.skipped}),
@@ -325,16 +375,23 @@ def _read_images(planned: PlannedEpisode) -> dict[str, np.ndarray]:
         return {cam: images[cam][planned.steps] for cam in CAMERAS}
 
 
-def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None) -> None:
+def _write(
+    plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None
+) -> None:
     import datasets
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     datasets.disable_progress_bars()  # one "Map" bar per episode otherwise; pipette reports progress itself
     dataset = LeRobotDataset.create(
-        repo_id=options.repo_id, fps=options.fps, root=tmp, robot_type=",".join(plan.embodiments),
-        features=make_features(plan.info, video=options.video, mixed_robots=len(plan.embodiments) > 1), use_videos=options.video,
-        image_writer_threads=options.image_writer_threads, video_backend="pyav",  # decoding is not used here
+        repo_id=options.repo_id,
+        fps=options.fps,
+        root=tmp,
+        robot_type=",".join(plan.embodiments),
+        features=make_features(plan.info, video=options.video, mixed_robots=len(plan.embodiments) > 1),
+        use_videos=options.video,
+        image_writer_threads=options.image_writer_threads,
+        video_backend="pyav",  # decoding is not used here
         rgb_encoder=RGBEncoderConfig(vcodec=options.vcodec) if options.video else None,
     )
     try:
@@ -345,7 +402,9 @@ def _write(plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode:
             actions = arrays["action"][planned.steps].astype(np.float32)
             tasks = _step_instructions(arrays, planned)
             stages = arrays["stage"][planned.steps] if "stage" in arrays else np.zeros(len(planned.steps), np.int64)
-            instruments = arrays["instrument_state"][planned.steps].astype(np.float32) if plan.info.instrument_names else None
+            instruments = (
+                arrays["instrument_state"][planned.steps].astype(np.float32) if plan.info.instrument_names else None
+            )
             for row in range(len(planned.steps)):
                 frame: dict[str, Any] = {image_key(cam): images[cam][row] for cam in CAMERAS}
                 frame["observation.state"] = states[row]
@@ -410,6 +469,11 @@ def convert(
         shutil.rmtree(old, ignore_errors=True)
     provenance = json.loads((root / PROVENANCE_FILE).read_text())
     return ConvertResult(
-        root=root, repo_id=options.repo_id, episodes=len(plan.episodes), frames=plan.num_frames,
-        skipped=len(plan.skipped), seconds=time.perf_counter() - started, provenance=provenance,
+        root=root,
+        repo_id=options.repo_id,
+        episodes=len(plan.episodes),
+        frames=plan.num_frames,
+        skipped=len(plan.skipped),
+        seconds=time.perf_counter() - started,
+        provenance=provenance,
     )

@@ -47,7 +47,9 @@ def select_frames(fresh: np.ndarray, *, control_hz: int, vision_hz: int, fps: in
     fresh = np.asarray(fresh, dtype=bool)
     if mode is FrameFilter.fresh:
         if fps > vision_hz:
-            raise DatasetError(f"--fps {fps} is above the recording's camera rate of {vision_hz} Hz; use --fps {vision_hz} or lower")
+            raise DatasetError(
+                f"--fps {fps} is above the recording's camera rate of {vision_hz} Hz; use --fps {vision_hz} or lower"
+            )
         return np.flatnonzero(fresh)[:: _ratio(vision_hz, fps, "camera rate")]
     if fps > control_hz:
         raise DatasetError(f"--fps {fps} is above the recording's control rate of {control_hz} Hz")

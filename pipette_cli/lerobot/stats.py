@@ -69,11 +69,16 @@ def dataset_stats(root: Path) -> dict[str, Any]:
             entry.update(min=_rounded(lo), max=_rounded(hi), mean=_rounded(np.asarray(stats["mean"]).reshape(lo.shape)))
         features[name] = entry
     report: dict[str, Any] = {
-        "root": str(root), "repo_id": repo_id, "codebase_version": meta.info.get("codebase_version"),
-        "fps": meta.fps, "robot_type": meta.robot_type,
-        "episodes": meta.total_episodes, "frames": meta.total_frames,
+        "root": str(root),
+        "repo_id": repo_id,
+        "codebase_version": meta.info.get("codebase_version"),
+        "fps": meta.fps,
+        "robot_type": meta.robot_type,
+        "episodes": meta.total_episodes,
+        "frames": meta.total_frames,
         "episode_length": {"min": min(lengths, default=0), "max": max(lengths, default=0)},
-        "video": bool(meta.video_keys), "tasks": [str(t) for t in meta.tasks.index],
+        "video": bool(meta.video_keys),
+        "tasks": [str(t) for t in meta.tasks.index],
         "features": features,
     }
     if provenance:
@@ -86,7 +91,8 @@ def dataset_stats(root: Path) -> dict[str, Any]:
         report["provenance"] = {
             "dataset_version": provenance.get("dataset_version"),
             "frame_filter": provenance.get("frame_filter"),
-            "successful": successes, "failed": len(episodes) - successes,
+            "successful": successes,
+            "failed": len(episodes) - successes,
             "failure_reasons": dict(Counter(str(e.get("reason")) for e in episodes if not e.get("success"))),
             "skipped_failed": len(provenance.get("skipped", [])),
             "sources": dict(Counter(str(e.get("source", "?")) for e in episodes)),

@@ -174,7 +174,9 @@ def policy_flags(options: TrainOptions) -> list[str]:
     return flags
 
 
-def train_argv(task_id: str, options: TrainOptions, *, resume: bool = False, executable: str = "lerobot-train") -> list[str]:
+def train_argv(
+    task_id: str, options: TrainOptions, *, resume: bool = False, executable: str = "lerobot-train"
+) -> list[str]:
     """The full ``lerobot-train`` argument list for one task."""
     name = f"{slug(task_id)}_{options.dataset_version.value}"
     output_dir = run_dir(task_id, options.policy, options.dataset_version, options.output_root)
@@ -204,8 +206,15 @@ def missing_datasets(task_ids: Sequence[str], version: DatasetVersion, datasets_
     return [root for root in (dataset_root(t, version, datasets_root) for t in task_ids) if not has_dataset(root)]
 
 
-def resolve_tasks(requested: Sequence[str], registry_ids: Sequence[str], resolve: Callable[[str], str],
-                  version: DatasetVersion, datasets_root: Path, *, allow_missing: bool = False) -> list[str]:
+def resolve_tasks(
+    requested: Sequence[str],
+    registry_ids: Sequence[str],
+    resolve: Callable[[str], str],
+    version: DatasetVersion,
+    datasets_root: Path,
+    *,
+    allow_missing: bool = False,
+) -> list[str]:
     """Task ids to train: ``all`` = every registered task with a dataset of ``version``.
 
     ``allow_missing`` keeps named tasks whose dataset does not exist yet (``--dry-run``: the
@@ -264,16 +273,26 @@ def plan(task_ids: Sequence[str], options: TrainOptions, *, executable: str = "l
             else:
                 action = "continue"
                 if not (output_dir / LAST_CHECKPOINT / "train_config.json").is_file():
-                    problems.append(f"{output_dir}: no checkpoint to continue from ({LAST_CHECKPOINT}/train_config.json)")
-        argv = () if action == "skip" else tuple(
-            train_argv(task_id, options, resume=action == "continue", executable=executable)
+                    problems.append(
+                        f"{output_dir}: no checkpoint to continue from ({LAST_CHECKPOINT}/train_config.json)"
+                    )
+        argv = (
+            ()
+            if action == "skip"
+            else tuple(train_argv(task_id, options, resume=action == "continue", executable=executable))
         )
-        jobs.append(TrainJob(
-            task_id=task_id, dataset=dataset_root(task_id, options.dataset_version, options.datasets_root),
-            repo_id=f"local/{name}", output_dir=output_dir,
-            log_file=options.output_root / options.policy.value / f"{name}.log",
-            action=action, argv=argv, env=env,
-        ))
+        jobs.append(
+            TrainJob(
+                task_id=task_id,
+                dataset=dataset_root(task_id, options.dataset_version, options.datasets_root),
+                repo_id=f"local/{name}",
+                output_dir=output_dir,
+                log_file=options.output_root / options.policy.value / f"{name}.log",
+                action=action,
+                argv=argv,
+                env=env,
+            )
+        )
     if problems:
         raise TrainError("; ".join(problems) + " (use another --if-exists or --output-root)")
     return jobs
@@ -305,7 +324,12 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
         log.write(f"# pipette train {job.task_id}: {' '.join(job.argv)}\n")
         log.flush()
         proc = subprocess.Popen(
-            list(job.argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True, bufsize=1,
+            list(job.argv),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            env=env,
+            text=True,
+            bufsize=1,
         )
         try:
             assert proc.stdout is not None
@@ -323,11 +347,18 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
                 proc.kill()
             raise
     checkpoint = job.output_dir / LAST_CHECKPOINT
-    return JobResult(job.task_id, job.action, code, time.perf_counter() - start,
-                     checkpoint if (checkpoint / "config.json").is_file() else None)
+    return JobResult(
+        job.task_id,
+        job.action,
+        code,
+        time.perf_counter() - start,
+        checkpoint if (checkpoint / "config.json").is_file() else None,
+    )
 
 
-def train_checkpoint(task_id: str, options: TrainOptions, *, on_train: Callable[[TrainJob], None] | None = None) -> Path:
+def train_checkpoint(
+    task_id: str, options: TrainOptions, *, on_train: Callable[[TrainJob], None] | None = None
+) -> Path:
     """Train one task with this environment's ``lerobot-train`` (or reuse its finished run) and
     return the last checkpoint.
 

@@ -78,9 +78,17 @@ def _env_number(name: str, default: float) -> float:
         raise BackendError(f"{name}={raw!r} is not a number") from None
 
 
-def make_client(kind: str, *, base_url: str | None = None, model: str | None = None, api_key: str | None = None,
-                timeout_s: float | None = None, max_attempts: int | None = None, response_format: str | None = None,
-                transport: httpx.BaseTransport | None = None) -> ChatClient:
+def make_client(
+    kind: str,
+    *,
+    base_url: str | None = None,
+    model: str | None = None,
+    api_key: str | None = None,
+    timeout_s: float | None = None,
+    max_attempts: int | None = None,
+    response_format: str | None = None,
+    transport: httpx.BaseTransport | None = None,
+) -> ChatClient:
     """A client configured from the arguments, else the environment.
 
     ``openai``: ``PIPETTE_LLM_BASE_URL`` (or ``OPENAI_BASE_URL``; default ``https://api.openai.com/v1``),
@@ -106,10 +114,15 @@ def make_client(kind: str, *, base_url: str | None = None, model: str | None = N
     form = response_format or env(FORMAT_ENV) or None
     if form is not None and form not in FORMS[kind]:
         raise BackendError(f"response format {form!r} is not one of {', '.join(FORMS[kind])} ({kind} servers)")
-    spec = ServerSpec(cast(Kind, kind), url.rstrip("/"), name, key,  # one of the two, checked above
-                      timeout_s=float(timeout_s if timeout_s is not None else _env_number(TIMEOUT_ENV, 60.0)),
-                      max_attempts=int(max_attempts if max_attempts is not None else _env_number(ATTEMPTS_ENV, 3)),
-                      response_format=form)
+    spec = ServerSpec(
+        cast(Kind, kind),
+        url.rstrip("/"),
+        name,
+        key,  # one of the two, checked above
+        timeout_s=float(timeout_s if timeout_s is not None else _env_number(TIMEOUT_ENV, 60.0)),
+        max_attempts=int(max_attempts if max_attempts is not None else _env_number(ATTEMPTS_ENV, 3)),
+        response_format=form,
+    )
     if spec.max_attempts < 1 or spec.timeout_s <= 0:
         raise BackendError("the LLM timeout must be > 0 s and the attempts >= 1")
     return ChatClient(spec, transport=transport)
@@ -133,8 +146,11 @@ def _check_status(response: httpx.Response, kind: str) -> None:
         raise Retryable(f"server answered HTTP {response.status_code}")
     if response.status_code >= 400:
         body = response.text[:300].replace("\n", " ")
-        hint = {401: " (check the API key)", 403: " (check the API key)",
-                404: " (check the model name and base URL)"}.get(response.status_code, "")
+        hint = {
+            401: " (check the API key)",
+            403: " (check the API key)",
+            404: " (check the model name and base URL)",
+        }.get(response.status_code, "")
         raise BackendError(f"{kind} backend: HTTP {response.status_code}{hint}: {body}")
 
 
@@ -178,8 +194,9 @@ class ChatClient:
         """
         refused: list[str] = []
         for form in self.candidate_forms():
-            response = self.http.post(self._url(), json=self._body(form, messages, schema_name, schema),
-                                      headers=self._headers())
+            response = self.http.post(
+                self._url(), json=self._body(form, messages, schema_name, schema), headers=self._headers()
+            )
             if _says_format(response) and form != "prompt":
                 refused.append(f"{form} (HTTP {response.status_code}: {response.text[:160].strip()})")
                 log.info("%s refused response format %s; trying the next form", self.spec.base_url, form)
@@ -191,7 +208,9 @@ class ChatClient:
         raise FormatRejected(f"{self.spec.base_url} accepted no structured-output form: " + "; ".join(refused))
 
     def _url(self) -> str:
-        return f"{self.spec.base_url}/api/chat" if self.spec.kind == "ollama" else f"{self.spec.base_url}/chat/completions"
+        return (
+            f"{self.spec.base_url}/api/chat" if self.spec.kind == "ollama" else f"{self.spec.base_url}/chat/completions"
+        )
 
     def _headers(self) -> dict[str, str]:
         return {"Authorization": f"Bearer {self.spec.api_key}"} if self.spec.api_key else {}
@@ -199,9 +218,13 @@ class ChatClient:
     def _body(self, form: str, messages: list[dict[str, str]], name: str, schema: dict[str, Any]) -> dict[str, Any]:
         if form not in CARRIES_SCHEMA:  # the schema goes into the instructions instead
             note = "Reply with one JSON object following this JSON schema, nothing else:\n" + json.dumps(
-                schema, separators=(",", ":"))
-            messages = [{"role": "system", "content": note}, *messages] if messages[0]["role"] != "system" else [
-                {"role": "system", "content": messages[0]["content"] + "\n\n" + note}, *messages[1:]]
+                schema, separators=(",", ":")
+            )
+            messages = (
+                [{"role": "system", "content": note}, *messages]
+                if messages[0]["role"] != "system"
+                else [{"role": "system", "content": messages[0]["content"] + "\n\n" + note}, *messages[1:]]
+            )
         body: dict[str, Any] = {"model": self.spec.model, "messages": messages}
         if self.spec.kind == "ollama":
             body.update(stream=False, options={"temperature": 0, "num_predict": self.spec.max_tokens})
@@ -211,8 +234,10 @@ class ChatClient:
         body.update(temperature=0, max_tokens=self.spec.max_tokens)
         if form == "json_schema":
             strict = _is_strict(schema)
-            body["response_format"] = {"type": "json_schema",
-                                       "json_schema": {"name": name, "schema": schema, "strict": strict}}
+            body["response_format"] = {
+                "type": "json_schema",
+                "json_schema": {"name": name, "schema": schema, "strict": strict},
+            }
         elif form == "json_object_schema":
             body["response_format"] = {"type": "json_object", "schema": schema}
         elif form == "json_object":

@@ -44,8 +44,9 @@ def _free_port() -> int:
 
 
 @contextmanager
-def local_llama_server(model: Path | None = None, *, n_ctx: int = 8192, start_timeout_s: float = 180.0,
-                       log: Path | None = None) -> Iterator[str]:
+def local_llama_server(
+    model: Path | None = None, *, n_ctx: int = 8192, start_timeout_s: float = 180.0, log: Path | None = None
+) -> Iterator[str]:
     """Run ``python -m llama_cpp.server`` with ``model`` on 127.0.0.1 and yield its base URL
     (``http://127.0.0.1:PORT/v1``); the server is stopped on exit.
 
@@ -56,8 +57,22 @@ def local_llama_server(model: Path | None = None, *, n_ctx: int = 8192, start_ti
     port = _free_port()
     sink = open(log, "w") if log else subprocess.DEVNULL  # noqa: SIM115 - closed below
     process = subprocess.Popen(
-        [sys.executable, "-m", "llama_cpp.server", "--model", str(model), "--n_ctx", str(n_ctx),
-         "--host", "127.0.0.1", "--port", str(port)], stdout=sink, stderr=subprocess.STDOUT)
+        [
+            sys.executable,
+            "-m",
+            "llama_cpp.server",
+            "--model",
+            str(model),
+            "--n_ctx",
+            str(n_ctx),
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+        ],
+        stdout=sink,
+        stderr=subprocess.STDOUT,
+    )
     url = f"http://127.0.0.1:{port}/v1"
     try:
         deadline = time.monotonic() + start_timeout_s

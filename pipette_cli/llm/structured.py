@@ -37,6 +37,7 @@ def strict_json_schema(model: type[BaseModel]) -> dict[str, Any]:
     Every property is listed as required (optional ones are nullable), objects forbid extra
     keys, and ``default``/``title`` keywords are dropped.
     """
+
     def walk(node: Any) -> Any:
         if isinstance(node, dict):
             out = {k: walk(v) for k, v in node.items() if k not in ("default", "title")}
@@ -83,9 +84,17 @@ def _problems(exc: PipetteError) -> list[str]:
     return list(getattr(exc, "problems", None) or [str(exc)])
 
 
-def ask_structured(client: ChatClient, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
-                   json_schema: dict[str, Any] | None = None, fix_hint: str = "Fix it",
-                   trace: list[str] | None = None) -> T:
+def ask_structured(
+    client: ChatClient,
+    *,
+    system: str,
+    user: str,
+    schema: type[M],
+    accept: Callable[[M], T],
+    json_schema: dict[str, Any] | None = None,
+    fix_hint: str = "Fix it",
+    trace: list[str] | None = None,
+) -> T:
     """Ask ``client`` for a ``schema`` instance and return ``accept(instance)``.
 
     Args:
@@ -130,13 +139,18 @@ def ask_structured(client: ChatClient, *, system: str, user: str, schema: type[M
             instance = schema.model_validate(extract_json(content))
         except json.JSONDecodeError as exc:
             trace.append(f"attempt {attempt}: the reply is not valid JSON ({exc.msg} at character {exc.pos})")
-            feedback = (f"Your reply was not valid JSON: {exc.msg} at character {exc.pos}. "
-                        "Reply with one JSON object matching the schema, nothing else.")
+            feedback = (
+                f"Your reply was not valid JSON: {exc.msg} at character {exc.pos}. "
+                "Reply with one JSON object matching the schema, nothing else."
+            )
         except ValidationError as exc:
             errors = [f"{'.'.join(map(str, e['loc'])) or '<top>'}: {e['msg']}" for e in exc.errors(include_url=False)]
             trace.append(f"attempt {attempt}: the reply does not match the schema: {'; '.join(errors[:8])}")
-            feedback = ("Your JSON does not match the schema:\n- " + "\n- ".join(errors[:12])
-                        + "\nFix these fields and reply with the whole corrected JSON object.")
+            feedback = (
+                "Your JSON does not match the schema:\n- "
+                + "\n- ".join(errors[:12])
+                + "\nFix these fields and reply with the whole corrected JSON object."
+            )
         else:
             try:
                 result = accept(instance)
@@ -146,8 +160,11 @@ def ask_structured(client: ChatClient, *, system: str, user: str, schema: type[M
                     raise
                 problems = _problems(exc)
                 trace.append(f"attempt {attempt}: rejected: {'; '.join(problems[:6])}")
-                feedback = ("This answer cannot be used:\n- " + "\n- ".join(problems[:12])
-                            + f"\n{fix_hint} and reply with the whole corrected JSON object.")
+                feedback = (
+                    "This answer cannot be used:\n- "
+                    + "\n- ".join(problems[:12])
+                    + f"\n{fix_hint} and reply with the whole corrected JSON object."
+                )
             else:
                 trace.append(f"attempt {attempt}: accepted ({client.form_used})")
                 return result

@@ -74,8 +74,12 @@ class PolicyClient:
     """
 
     def __init__(
-        self, endpoint: str = "tcp://127.0.0.1:5555", timeout_ms: int = DEFAULT_TIMEOUT_MS["act"], *,
-        heartbeat_ms: int = DEFAULT_HEARTBEAT_MS, dead_after_s: float = DEFAULT_DEAD_AFTER_S,
+        self,
+        endpoint: str = "tcp://127.0.0.1:5555",
+        timeout_ms: int = DEFAULT_TIMEOUT_MS["act"],
+        *,
+        heartbeat_ms: int = DEFAULT_HEARTBEAT_MS,
+        dead_after_s: float = DEFAULT_DEAD_AFTER_S,
     ) -> None:
         """Connect (lazily: the server may start later; see :meth:`wait_until_up`).
 
@@ -106,7 +110,9 @@ class PolicyClient:
         try:
             return cls(endpoint, DEFAULT_TIMEOUT_MS[policy_type])
         except KeyError:
-            raise ServingError(f"no default timeout for policy type {policy_type!r}; pick one of {sorted(DEFAULT_TIMEOUT_MS)}") from None
+            raise ServingError(
+                f"no default timeout for policy type {policy_type!r}; pick one of {sorted(DEFAULT_TIMEOUT_MS)}"
+            ) from None
 
     def _connect(self) -> None:
         self._close_sockets()
@@ -166,8 +172,10 @@ class PolicyClient:
             now = time.monotonic()
             dead_at = self._down_since + self.dead_after_s
             if now >= dead_at:
-                raise PolicyUnreachable(f"no connection to {self.endpoint} for {now - self._down_since:.0f} s: "
-                                        "the policy server is down or unreachable")
+                raise PolicyUnreachable(
+                    f"no connection to {self.endpoint} for {now - self._down_since:.0f} s: "
+                    "the policy server is down or unreachable"
+                )
             if now >= deadline:
                 raise PolicyTimeout(f"no connection to {self.endpoint} within {self.timeout_ms} ms")
             self._read_events(int(1000 * min(dead_at - now, deadline - now, 0.1)) + 1)
@@ -224,7 +232,12 @@ class PolicyClient:
         return self._checked(self.request({"command": "info"}))["policy"]
 
     def act(
-        self, observation: Mapping[str, np.ndarray], *, task: str = "", reset: bool = False, chunk: bool = False,
+        self,
+        observation: Mapping[str, np.ndarray],
+        *,
+        task: str = "",
+        reset: bool = False,
+        chunk: bool = False,
     ) -> np.ndarray:
         """One action ``(A,)``, or with ``chunk`` an action chunk ``(K, A)``, for an observation.
 

@@ -76,8 +76,11 @@ class PolicySpec:
     def as_dict(self) -> dict[str, Any]:
         """The spec as plain msgpack/JSON types (the ``info`` reply)."""
         return {
-            "policy_type": self.policy_type, "images": {k: list(v) for k, v in self.images.items()},
-            "state_shape": list(self.state_shape), "action_dim": self.action_dim, "chunk_size": self.chunk_size,
+            "policy_type": self.policy_type,
+            "images": {k: list(v) for k, v in self.images.items()},
+            "state_shape": list(self.state_shape),
+            "action_dim": self.action_dim,
+            "chunk_size": self.chunk_size,
         }
 
 
@@ -104,7 +107,8 @@ def _decode_array(obj: dict[str, Any]) -> Any:
     if dtype not in ARRAY_DTYPES:
         raise ProtocolError(ErrorType.BAD_DTYPE, f"array dtype {dtype!r} is not one of {sorted(ARRAY_DTYPES)}")
     if (
-        not isinstance(shape, list) or len(shape) > MAX_DIMS
+        not isinstance(shape, list)
+        or len(shape) > MAX_DIMS
         or not all(type(n) is int and 0 <= n < 2**31 for n in shape)
     ):
         raise ProtocolError(ErrorType.BAD_REQUEST, f"array shape must be at most {MAX_DIMS} non-negative integers")
@@ -135,7 +139,9 @@ def unpack(buf: bytes | memoryview, *, max_bytes: int = DEFAULT_MAX_REQUEST_BYTE
     except ProtocolError:
         raise
     except Exception as exc:  # msgpack raises several unrelated types for garbage input
-        raise ProtocolError(ErrorType.BAD_REQUEST, f"not a msgpack message ({type(exc).__name__}: {exc})"[:300]) from None
+        raise ProtocolError(
+            ErrorType.BAD_REQUEST, f"not a msgpack message ({type(exc).__name__}: {exc})"[:300]
+        ) from None
 
 
 # --------------------------------------------------------------------------- requests
@@ -222,13 +228,17 @@ def check_observation(request: ActRequest, spec: PolicySpec) -> dict[str, np.nda
             if not (math.isfinite(lo) and math.isfinite(hi)):
                 raise ProtocolError(ErrorType.NAN, "NaN or infinite pixel values", key)
             if lo < 0.0 or hi > 1.0:
-                raise ProtocolError(ErrorType.OUT_OF_RANGE, f"float32 images are in [0, 1], got [{lo:.3g}, {hi:.3g}]", key)
+                raise ProtocolError(
+                    ErrorType.OUT_OF_RANGE, f"float32 images are in [0, 1], got [{lo:.3g}, {hi:.3g}]", key
+                )
         out[key] = img
     state = request.state
     if state.dtype not in (np.float32, np.float64):
         raise ProtocolError(ErrorType.BAD_DTYPE, f"state is float32 or float64, not {state.dtype}", STATE_KEY)
     if state.shape != tuple(spec.state_shape):
-        raise ProtocolError(ErrorType.BAD_SHAPE, f"expected shape {tuple(spec.state_shape)}, got {state.shape}", STATE_KEY)
+        raise ProtocolError(
+            ErrorType.BAD_SHAPE, f"expected shape {tuple(spec.state_shape)}, got {state.shape}", STATE_KEY
+        )
     if not np.isfinite(state).all():
         raise ProtocolError(ErrorType.NAN, "NaN or infinite values", STATE_KEY)
     out[STATE_KEY] = state.astype(np.float32, copy=False)

@@ -77,7 +77,9 @@ class LeRobotRunner:
 
         path = Path(path)
         if not (path / "config.json").is_file():
-            raise ServingError(f"{path}: not a LeRobot policy folder (no config.json); pass the pretrained_model folder")
+            raise ServingError(
+                f"{path}: not a LeRobot policy folder (no config.json); pass the pretrained_model folder"
+            )
         if device == "auto":
             device = "cuda" if torch.cuda.is_available() else "cpu"
         printed = io.StringIO()  # LeRobot prints while loading; stdout is for results
@@ -133,7 +135,9 @@ def _load(path: Path, device: str) -> tuple[Any, Any, tuple[Any, Any]]:
     policy = get_policy_class(config.type).from_pretrained(path, config=config, local_files_only=True)
     policy.to(device).eval()
     processors = make_pre_post_processors(
-        config, pretrained_path=str(path), preprocessor_overrides={"device_processor": {"device": device}},
+        config,
+        pretrained_path=str(path),
+        preprocessor_overrides={"device_processor": {"device": device}},
     )
     return config, policy, processors
 
@@ -186,7 +190,11 @@ class PolicyServer:
     """
 
     def __init__(
-        self, runner: PolicyRunner, endpoint: str = DEFAULT_ENDPOINT, *, allow_remote: bool = False,
+        self,
+        runner: PolicyRunner,
+        endpoint: str = DEFAULT_ENDPOINT,
+        *,
+        allow_remote: bool = False,
         max_request_bytes: int = DEFAULT_MAX_REQUEST_BYTES,
     ) -> None:
         """Bind the socket (port 0 asks the OS for a free port; see :attr:`endpoint`).
@@ -223,7 +231,9 @@ class PolicyServer:
         self._socket.close(linger=0)
         self._context.term()
 
-    def serve_forever(self, *, max_requests: int | None = None, on_request: Callable[[ServerStats], None] | None = None) -> ServerStats:
+    def serve_forever(
+        self, *, max_requests: int | None = None, on_request: Callable[[ServerStats], None] | None = None
+    ) -> ServerStats:
         """Answer requests until :meth:`stop` (or ``max_requests``); closes the socket on return.
 
         Args:

@@ -57,7 +57,11 @@ class Zone:
         flags = {}
         for obj in self.objects:
             delta = self._world.position(obj) - sites
-            inside = (np.hypot(delta[:, 0], delta[:, 1]) <= spec.radius) & (delta[:, 2] >= -spec.below) & (delta[:, 2] <= spec.above)
+            inside = (
+                (np.hypot(delta[:, 0], delta[:, 1]) <= spec.radius)
+                & (delta[:, 2] >= -spec.below)
+                & (delta[:, 2] <= spec.above)
+            )
             flags[f"{spec.name}.{obj}"] = 1.0 if bool(np.any(inside)) else 0.0
         return {spec.name: float(sum(flags.values())), **flags}
 
@@ -66,9 +70,25 @@ class Instrument:
     """Runtime of :class:`~pipette_cli.specs.mechanisms.InstrumentSpec` (see the module docstring)."""
 
     MEMORY: ClassVar[tuple[str, ...]] = (
-        "motor_target", "motor_from", "motor_to", "motor_t0", "motor_ramping", "motor_free", "motor_inside",
-        "running", "run_t0", "run_time_s", "runs", "refused", "aborted", "run_inside",
-        "mass_g", "tare_g", "tared", "raw_g", "tare_inside",
+        "motor_target",
+        "motor_from",
+        "motor_to",
+        "motor_t0",
+        "motor_ramping",
+        "motor_free",
+        "motor_inside",
+        "running",
+        "run_t0",
+        "run_time_s",
+        "runs",
+        "refused",
+        "aborted",
+        "run_inside",
+        "mass_g",
+        "tare_g",
+        "tared",
+        "raw_g",
+        "tare_inside",
     )
 
     def __init__(self, spec: InstrumentSpec, world: World) -> None:
@@ -78,8 +98,11 @@ class Instrument:
         m = world.model
         self.closure_joint = world.joint_id(spec.closure.joint) if spec.closure else None
         motor = spec.motor
-        self.servo = (Servo(world, spec.closure.joint, motor.stiffness, motor.damping, motor.max_force)
-                      if motor is not None and spec.closure is not None else None)
+        self.servo = (
+            Servo(world, spec.closure.joint, motor.stiffness, motor.damping, motor.max_force)
+            if motor is not None and spec.closure is not None
+            else None
+        )
         self.motor_button = world.site_id(motor.button) if motor is not None else None
         self.run_button = world.site_id(spec.run.button) if spec.run is not None else None
         self.zones = [Zone(zone, world) for zone in spec.contents]
@@ -133,8 +156,11 @@ class Instrument:
             values.update(zone.values())
         if spec.scale:
             reading = mem["mass_g"] - mem["tare_g"]
-            values.update(mass_g=reading, stable=float(abs(mem["raw_g"] - mem["mass_g"]) <= spec.scale.stable_g),
-                          tared=mem["tared"])
+            values.update(
+                mass_g=reading,
+                stable=float(abs(mem["raw_g"] - mem["mass_g"]) <= spec.scale.stable_g),
+                tared=mem["tared"],
+            )
         return MechanismState(self.running, mem["motor_target"], mem["motor_target"], values)
 
     # ------------------------------------------------------------------ episode

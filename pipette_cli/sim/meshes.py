@@ -116,7 +116,9 @@ def _store(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
             np.savez(f, vertices=vertices, faces=faces)
         os.replace(tmp, path)
     except OSError as exc:  # a read-only home still renders, just without the cache
-        log.warning("cannot cache a simplified mesh in %s (%s); set %s to a writable folder", path.parent, exc, CACHE_ENV)
+        log.warning(
+            "cannot cache a simplified mesh in %s (%s); set %s to a writable folder", path.parent, exc, CACHE_ENV
+        )
 
 
 SUFFIX = "/decimated"
@@ -133,7 +135,9 @@ def _mass_from_geoms(spec: mujoco.MjSpec, geom: mujoco.MjsGeom) -> bool:
     return not body.explicitinertial
 
 
-def visual_geoms(spec: mujoco.MjSpec, model: mujoco.MjModel, decimation: Decimation = FAST) -> dict[str, list[mujoco.MjsGeom]]:
+def visual_geoms(
+    spec: mujoco.MjSpec, model: mujoco.MjModel, decimation: Decimation = FAST
+) -> dict[str, list[mujoco.MjsGeom]]:
     """Heavy, untextured meshes (by name) with the spec geoms that only render them (see the module doc).
 
     A geom qualifies when it is a mesh geom, collides with nothing (``contype = conaffinity = 0``)
@@ -172,7 +176,9 @@ def decimate_visual_meshes(spec: mujoco.MjSpec, model: mujoco.MjModel, decimatio
         mujoco.mju_quat2Mat(rot, model.mesh_quat[mesh])
         local = points.astype(np.float64) @ rot.reshape(3, 3).T + model.mesh_pos[mesh]
         copy = spec.mesh(name + SUFFIX) or spec.add_mesh(
-            name=name + SUFFIX, material=spec.mesh(name).material, uservert=local.ravel().tolist(),
+            name=name + SUFFIX,
+            material=spec.mesh(name).material,
+            uservert=local.ravel().tolist(),
             userface=triangles.ravel().tolist(),
             inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL,  # a simplified mesh need not be watertight
         )

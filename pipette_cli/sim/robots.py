@@ -73,7 +73,9 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
     if config.attach is not None:
         site = spec.site(config.attach.site)
         if site is None:
-            raise SimError(f"robot {name!r}: no site {config.attach.site!r} to attach {config.attach.menagerie.model!r} to")
+            raise SimError(
+                f"robot {name!r}: no site {config.attach.site!r} to attach {config.attach.menagerie.model!r} to"
+            )
         tool = _menagerie_spec(config.attach.menagerie)
         match_options(tool, spec)  # the scene sets them later; attaching raises no conflict
         spec.attach(tool, prefix=config.attach.prefix, site=site)
@@ -100,15 +102,25 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         act.forcerange = [-drive.force, drive.force]
     ee = spec.body(config.end_effector.body)
     if ee is None:
-        raise SimError(f"robot {name!r}: end-effector body {config.end_effector.body!r} not found in the menagerie model")
+        raise SimError(
+            f"robot {name!r}: end-effector body {config.end_effector.body!r} not found in the menagerie model"
+        )
     _stiffen_fingers(ee)
     tcp = config.end_effector.tcp
-    ee.add_site(name="tcp", pos=list(tcp.pos), quat=list(_mat_quat(tcp.rotation())), size=[0.006, 0, 0],
-                rgba=[1, 0.2, 0.2, 0.0], group=4)
+    ee.add_site(
+        name="tcp",
+        pos=list(tcp.pos),
+        quat=list(_mat_quat(tcp.rotation())),
+        size=[0.006, 0, 0],
+        rgba=[1, 0.2, 0.2, 0.0],
+        group=4,
+    )
     return spec, config
 
 
-def wrist_camera_pose(config: RobotSpec, pos: tuple[float, float, float], quat: np.ndarray) -> tuple[list[float], list[float]]:
+def wrist_camera_pose(
+    config: RobotSpec, pos: tuple[float, float, float], quat: np.ndarray
+) -> tuple[list[float], list[float]]:
     """A wrist camera pose given in the canonical hand frame (the tcp frame's axes at the camera
     body's origin; the Panda hand's own frame), expressed in the robot's camera body."""
     rot = config.end_effector.tcp.rotation()

@@ -97,19 +97,35 @@ def _configure(spec: mujoco.MjSpec, task: TaskSpec) -> None:
 
 def _add_room(spec: mujoco.MjSpec) -> None:
     spec.add_texture(
-        name="floor_tex", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-        rgb1=[0.62, 0.64, 0.66], rgb2=[0.55, 0.57, 0.6], width=256, height=256,
+        name="floor_tex",
+        type=mujoco.mjtTexture.mjTEXTURE_2D,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+        rgb1=[0.62, 0.64, 0.66],
+        rgb2=[0.55, 0.57, 0.6],
+        width=256,
+        height=256,
     )
     spec.add_material(name="floor_mat", textures=["", "floor_tex"], texrepeat=[8, 8], reflectance=0.05)
     spec.add_texture(
-        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=[0.93, 0.94, 0.96], rgb2=[0.75, 0.78, 0.82], width=256, height=256,
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.93, 0.94, 0.96],
+        rgb2=[0.75, 0.78, 0.82],
+        width=256,
+        height=256,
     )
     world = spec.worldbody
     world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4, 4, 0.05], material="floor_mat")
-    world.add_light(name="key", pos=[0.3, -0.8, 2.4], dir=[0.15, 0.35, -1.0], diffuse=[0.75, 0.75, 0.72], castshadow=True)
-    world.add_light(name="fill", pos=[1.5, 1.0, 2.2], dir=[-0.5, -0.3, -1.0], diffuse=[0.4, 0.4, 0.42], castshadow=False)
-    world.add_light(name="ceiling", pos=[0.5, 0.0, 2.6], dir=[0.0, 0.0, -1.0], diffuse=[0.3, 0.3, 0.3], castshadow=False)
+    world.add_light(
+        name="key", pos=[0.3, -0.8, 2.4], dir=[0.15, 0.35, -1.0], diffuse=[0.75, 0.75, 0.72], castshadow=True
+    )
+    world.add_light(
+        name="fill", pos=[1.5, 1.0, 2.2], dir=[-0.5, -0.3, -1.0], diffuse=[0.4, 0.4, 0.42], castshadow=False
+    )
+    world.add_light(
+        name="ceiling", pos=[0.5, 0.0, 2.6], dir=[0.0, 0.0, -1.0], diffuse=[0.3, 0.3, 0.3], castshadow=False
+    )
 
 
 def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotSpec:

@@ -51,7 +51,9 @@ class World:
         self.substeps = task.timing.substeps
         self._refs: dict[str, tuple[str, int]] = {}
         m = self.model
-        self.arm_joint_ids = np.array([self._id(mujoco.mjtObj.mjOBJ_JOINT, ROBOT_PREFIX + j) for j in self.robot.arm_joints])
+        self.arm_joint_ids = np.array(
+            [self._id(mujoco.mjtObj.mjOBJ_JOINT, ROBOT_PREFIX + j) for j in self.robot.arm_joints]
+        )
         self.arm_qpos_adr = m.jnt_qposadr[self.arm_joint_ids]
         self.arm_dof_adr = m.jnt_dofadr[self.arm_joint_ids]
         self.arm_actuator_ids = np.array(
@@ -92,7 +94,11 @@ class World:
             found = ("body", self._id(mujoco.mjtObj.mjOBJ_BODY, self.objects[obj].root_body))
         else:
             found = None
-            for kind, obj_type in (("site", mujoco.mjtObj.mjOBJ_SITE), ("body", mujoco.mjtObj.mjOBJ_BODY), ("joint", mujoco.mjtObj.mjOBJ_JOINT)):
+            for kind, obj_type in (
+                ("site", mujoco.mjtObj.mjOBJ_SITE),
+                ("body", mujoco.mjtObj.mjOBJ_BODY),
+                ("joint", mujoco.mjtObj.mjOBJ_JOINT),
+            ):
                 index = mujoco.mj_name2id(self.model, obj_type, ref)
                 if index >= 0:
                     found = (kind, index)
@@ -209,7 +215,9 @@ class World:
         """The ``userdata`` slots reserved for mechanism ``name`` at build time, by slot name."""
         offset, size = self._memory[name]
         if len(slots) != size:
-            raise SimError(f"{self.task.id}: mechanism {name!r} asks for {len(slots)} memory slots, {size} were reserved")
+            raise SimError(
+                f"{self.task.id}: mechanism {name!r} asks for {len(slots)} memory slots, {size} were reserved"
+            )
         return Memory(self, offset, slots)
 
     @cached_property

@@ -59,8 +59,10 @@ def derive_program(task: TaskSpec) -> list[StepSpec]:
 def _steps(task: TaskSpec, spec: ev.EvaluatorSpec) -> list[StepSpec]:
     fn = DERIVERS.find(spec.type)
     if fn is None:
-        raise CannotDerive(f"{task.id}: no expert program can be read off a {spec.type!r} criterion; "
-                           "give the task an 'expert:' section (docs/extending/adding_a_task.md)")
+        raise CannotDerive(
+            f"{task.id}: no expert program can be read off a {spec.type!r} criterion; "
+            "give the task an 'expert:' section (docs/extending/adding_a_task.md)"
+        )
     return fn(task, spec)
 
 
@@ -70,8 +72,9 @@ def _held(task: TaskSpec, name: str) -> str:
 
 @deriver("lift_and_hold")
 def _lift(task: TaskSpec, spec: ev.LiftAndHoldSpec) -> list[StepSpec]:
-    return [PickSpec(object=_held(task, spec.object), lift=max(0.08, spec.min_height_gain + 0.05),
-                     hold_s=spec.hold_s + 0.5)]
+    return [
+        PickSpec(object=_held(task, spec.object), lift=max(0.08, spec.min_height_gain + 0.05), hold_s=spec.hold_s + 0.5)
+    ]
 
 
 @deriver("region_hold", "stable_placement")
@@ -124,8 +127,10 @@ def _near(task: TaskSpec, spec: ev.NearTargetSpec) -> list[StepSpec]:
     obj = _held(task, spec.object)
     point = spec.object if "/" in spec.object else None
     height = max(0.05, (spec.min_z or 0.0) - 0.55 + 0.03)
-    return [PickSpec(object=obj), PositionOverSpec(object=obj, point=point, target=spec.target, height=height,
-                                                   hold_s=spec.hold_s + 0.5)]
+    return [
+        PickSpec(object=obj),
+        PositionOverSpec(object=obj, point=point, target=spec.target, height=height, hold_s=spec.hold_s + 0.5),
+    ]
 
 
 @deriver("displacement")

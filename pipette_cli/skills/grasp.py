@@ -66,9 +66,16 @@ def semantics(ctx: SkillContext, name: str) -> dict:
 FollowThrough = Callable[["Grasp"], list[tuple[np.ndarray, np.ndarray]]]
 
 
-def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
-               height: float | None = None, toward: np.ndarray | None = None,
-               then: FollowThrough | None = None) -> Grasp:
+def plan_grasp(
+    ctx: SkillContext,
+    name: str,
+    *,
+    at: str | None = None,
+    mode: str = "auto",
+    height: float | None = None,
+    toward: np.ndarray | None = None,
+    then: FollowThrough | None = None,
+) -> Grasp:
     """The first reachable grasp of ``name`` (see the module docstring). ``toward`` is the horizontal
     direction the hand should point for what comes next (into an enclosure): pinches and pitched
     grasps try it first. ``then`` gives the tool poses the hand must reach after the grasp, in straight
@@ -85,14 +92,23 @@ def plan_grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str
             raise SkillFailure(f"a side grasp of {name!r} needs a site to grasp at ('at:')")
         return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then=then)
     axis_obj = shape.axes[:, shape.vertical_axis()]
-    lying = abs(axis_obj[2]) < 0.7 or (at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and not low)
+    lying = abs(axis_obj[2]) < 0.7 or (
+        at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and not low
+    )
     point, closing, width = _grasp_point(ctx, name, shape, at, height, lying)
     if width > opening - GRIP_MARGIN:
-        raise SkillFailure(f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
-                           f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm")
+        raise SkillFailure(
+            f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
+            f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
+        )
     round_ = not lying and bool(np.allclose(closing, horizontal(point - ctx.base)))
-    return _first_reachable(ctx, name, _top_candidates(ctx, point, closing, shape, width, lying, round_),
-                            "across" if lying else "axis", then=then)
+    return _first_reachable(
+        ctx,
+        name,
+        _top_candidates(ctx, point, closing, shape, width, lying, round_),
+        "across" if lying else "axis",
+        then=then,
+    )
 
 
 def _fingertips_clear(ctx: SkillContext, name: str, shape: Shape) -> float:
@@ -104,8 +120,9 @@ def _fingertips_clear(ctx: SkillContext, name: str, shape: Shape) -> float:
     return max(shape.bottom, around) + FINGERTIP_LIFT
 
 
-def _grasp_point(ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None,
-                 lying: bool) -> tuple[np.ndarray, np.ndarray, float]:
+def _grasp_point(
+    ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None, lying: bool
+) -> tuple[np.ndarray, np.ndarray, float]:
     """Grasp point, closing direction and the object's width across the fingers there."""
     sem = semantics(ctx, name)
     base = ctx.world.position(name)
@@ -172,7 +189,9 @@ def _narrow_side(shape: Shape, radial: np.ndarray, vertical: int) -> tuple[np.nd
     return horizontal(shape.axes[:, narrow]), widths[narrow]
 
 
-def _grip_geom(ctx: SkillContext, name: str, point: np.ndarray, site: str | None) -> tuple[np.ndarray, np.ndarray] | None:
+def _grip_geom(
+    ctx: SkillContext, name: str, point: np.ndarray, site: str | None
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Centre and half-size of the smallest collision geom of the site's body (of the object, without a
     site) that reaches within a centimetre of ``point``: a grip or a neck, not the lid it sticks out of."""
     w = ctx.world
@@ -192,7 +211,9 @@ def _grip_geom(ctx: SkillContext, name: str, point: np.ndarray, site: str | None
     return None if best is None else (best[1], best[2])
 
 
-def _local_closing(ctx: SkillContext, name: str, point: np.ndarray, shape: Shape, site: str | None = None) -> tuple[np.ndarray, float]:
+def _local_closing(
+    ctx: SkillContext, name: str, point: np.ndarray, shape: Shape, site: str | None = None
+) -> tuple[np.ndarray, float]:
     """At a named site (a handle bar, a neck): close across the grip there (:func:`_grip_geom`)."""
     grip = _grip_geom(ctx, name, point, site)
     radial = horizontal(point - ctx.base)
@@ -231,8 +252,15 @@ def _side_candidates(ctx: SkillContext, name: str, at: str) -> list[Grasp]:
     return out
 
 
-def _top_candidates(ctx: SkillContext, point: np.ndarray, closing: np.ndarray, shape: Shape, width: float,
-                    lying: bool, round_: bool = False) -> list[Grasp]:
+def _top_candidates(
+    ctx: SkillContext,
+    point: np.ndarray,
+    closing: np.ndarray,
+    shape: Shape,
+    width: float,
+    lying: bool,
+    round_: bool = False,
+) -> list[Grasp]:
     """Straight down, then pitched toward the robot (a round object can be taken from any side)."""
     out = []
     above = max(0.10, shape.top - point[2] + 0.06)
@@ -276,8 +304,10 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> 
         # side across it
         across = float(2 * np.abs(np.array([-radial[1], radial[0], 0.0]) @ shape.axes) @ shape.half)
         if across > chord:
-            raise SkillFailure(f"no grasp for {name!r}: it is {across * 1000:.0f} mm across the fingers at its rim; "
-                               f"the {ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm")
+            raise SkillFailure(
+                f"no grasp for {name!r}: it is {across * 1000:.0f} mm across the fingers at its rim; "
+                f"the {ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
+            )
         c, depth = across, 0.0
     height = shape.top - shape.bottom
     out = []
@@ -292,8 +322,14 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> 
     return out
 
 
-def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind: str, touch: AbstractSet[int] = frozenset(),
-                     then: FollowThrough | None = None) -> Grasp:
+def _first_reachable(
+    ctx: SkillContext,
+    name: str,
+    candidates: list[Grasp],
+    kind: str,
+    touch: AbstractSet[int] = frozenset(),
+    then: FollowThrough | None = None,
+) -> Grasp:
     touch = set(touch) | ctx.scene.bodies(name) | _support_of(ctx, name)
 
     def poses(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -304,14 +340,18 @@ def _first_reachable(ctx: SkillContext, name: str, candidates: list[Grasp], kind
     if chosen is not None:
         return chosen
     distance = float(np.linalg.norm(ctx.world.position(name)[:2] - ctx.base[:2]))
-    raise SkillFailure(f"no reachable {kind} grasp of {name!r} ({distance:.2f} m from the {ctx.robot.name}'s base, "
-                       f"reach {ctx.robot.reach:.2f} m)")
+    raise SkillFailure(
+        f"no reachable {kind} grasp of {name!r} ({distance:.2f} m from the {ctx.robot.name}'s base, "
+        f"reach {ctx.robot.reach:.2f} m)"
+    )
 
 
 def _support_of(ctx: SkillContext, name: str) -> set[int]:
     """The body ``name`` rests on (fingertips reaching low may graze it)."""
     shape = ctx.scene.shape(name)
-    _, body = ctx.scene.ray(np.array([shape.center[0], shape.center[1], shape.bottom + 0.002]), -UP, ctx.scene.bodies(name))
+    _, body = ctx.scene.ray(
+        np.array([shape.center[0], shape.center[1], shape.bottom + 0.002]), -UP, ctx.scene.bodies(name)
+    )
     return {body} if body >= 0 else set()
 
 

@@ -52,7 +52,9 @@ class ArmIK:
         self.world = world
         model = world.model
         self.configuration = mink.Configuration(model, world.data.qpos.copy())
-        self.tool = mink.FrameTask(ROBOT_PREFIX + "tcp", "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6)
+        self.tool = mink.FrameTask(
+            ROBOT_PREFIX + "tcp", "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6
+        )
         self.posture = mink.PostureTask(model, cost=POSTURE_COST)
         self.distal, self.proximal = _arm_halves(world)
         self.robot_bodies = {b for b in range(model.nbody) if model.body(b).name.startswith(ROBOT_PREFIX)}
@@ -60,16 +62,30 @@ class ArmIK:
         self.hand_bodies = {b for b in self.robot_bodies if _descends(model, b, ee)}
         self.limits: list[mink.Limit] = [mink.ConfigurationLimit(model)]
         if self.distal and self.proximal:
-            self.limits.append(mink.CollisionAvoidanceLimit(
-                model, geom_pairs=[(self.distal, self.proximal)], minimum_distance_from_collisions=0.005,
-                collision_detection_distance=0.05))
+            self.limits.append(
+                mink.CollisionAvoidanceLimit(
+                    model,
+                    geom_pairs=[(self.distal, self.proximal)],
+                    minimum_distance_from_collisions=0.005,
+                    collision_detection_distance=0.05,
+                )
+            )
         self._adr = world.arm_qpos_adr
         home = world.data.qpos.copy()
         home[self._adr] = world.robot.home()
         self.posture.set_target(home)
 
-    def solve(self, pos: np.ndarray, rot: np.ndarray, q_start: np.ndarray, *, iterations: int = 4,
-              yaw_free: bool = False, dt: float = 0.05, careful: bool = False) -> IKSolution:
+    def solve(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray,
+        q_start: np.ndarray,
+        *,
+        iterations: int = 4,
+        yaw_free: bool = False,
+        dt: float = 0.05,
+        careful: bool = False,
+    ) -> IKSolution:
         """Arm joints putting the tcp at ``pos``/``rot``, starting from arm joints ``q_start``.
 
         ``yaw_free`` leaves the rotation about the tool's approach axis to the posture task. A
@@ -81,7 +97,9 @@ class ArmIK:
         q[self._adr] = np.clip(q_start, self.world.arm_range[:, 0], self.world.arm_range[:, 1])
         self.configuration.update(q)
         self.tool.set_orientation_cost(np.array([1.0, 1.0, 0.02 if yaw_free else 1.0]))
-        self.tool.set_target(mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rot), np.asarray(pos, dtype=float)))
+        self.tool.set_target(
+            mink.SE3.from_rotation_and_translation(mink.SO3.from_matrix(rot), np.asarray(pos, dtype=float))
+        )
         for k in range(iterations):
             velocity = mink.solve_ik(self.configuration, [self.tool, self.posture], dt, SOLVER, DAMPING, limits=limits)
             self.configuration.integrate_inplace(velocity, dt)
@@ -211,7 +229,11 @@ def _arm_halves(world: World) -> tuple[list[int], list[int]]:
     near = {root, *links[:2]}
 
     def geoms(bodies: set[int]) -> list[int]:
-        return [g for g in range(m.ngeom) if int(m.geom_bodyid[g]) in bodies and (m.geom_contype[g] or m.geom_conaffinity[g])]
+        return [
+            g
+            for g in range(m.ngeom)
+            if int(m.geom_bodyid[g]) in bodies and (m.geom_contype[g] or m.geom_conaffinity[g])
+        ]
 
     return geoms(far), geoms(near)
 

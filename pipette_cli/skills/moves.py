@@ -83,7 +83,5 @@ class Held:
     rot: np.ndarray
 
 
-
-
 def fmt(p: np.ndarray) -> str:
     return "(" + ", ".join(f"{v:.3f}" for v in p) + ")"

@@ -75,9 +75,18 @@ class SkillContext:
         self.base = np.asarray(world.task.embodiment.base.pos, dtype=float)
 
     # ------------------------------------------------------------------ moves
-    def move(self, pos: np.ndarray, rot: np.ndarray | None = None, *, gripper: float | None = None,
-             speed: float = TRANSIT_SPEED, seconds: float | None = None, yaw_free: bool = False,
-             what: str = "the tool pose", check: bool = True) -> Move:
+    def move(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray | None = None,
+        *,
+        gripper: float | None = None,
+        speed: float = TRANSIT_SPEED,
+        seconds: float | None = None,
+        yaw_free: bool = False,
+        what: str = "the tool pose",
+        check: bool = True,
+    ) -> Move:
         """Plan a move of the tcp to ``pos``/``rot``: at transit speed through free space (joints
         interpolated; the end pose may be missed by :data:`FREE_TOLERANCE`), slower along a straight
         tool line. Raises :class:`SkillFailure` when the end pose is out of reach."""
@@ -94,18 +103,22 @@ class SkillContext:
             else:
                 solution = self.solve(pos, rot, self.q)
                 if solution.ok():
-                    raise SkillFailure(f"{what} {fmt(pos)}: no straight way there for the {self.robot.name} "
-                                       "that touches nothing but what it works on")
+                    raise SkillFailure(
+                        f"{what} {fmt(pos)}: no straight way there for the {self.robot.name} "
+                        "that touches nothing but what it works on"
+                    )
         elif rot is self.rot:
             solution = self.solve(pos, rot, self.q, yaw_free=yaw_free)
         else:
             rot, solution = self.solve_flip(pos, np.asarray(rot, dtype=float), self.q, yaw_free=yaw_free)
         if not solution.ok(FREE_TOLERANCE if free else 0.004):
             distance = float(np.linalg.norm(pos[:2] - self.base[:2]))
-            raise SkillFailure(f"{what} {fmt(pos)} is out of reach for the {self.robot.name} "
-                               f"({distance:.2f} m from its base, reach {self.robot.reach:.2f} m; "
-                               f"IK misses by {solution.position_error * 1000:.0f} mm, "
-                               f"{np.rad2deg(solution.rotation_error):.0f} deg)")
+            raise SkillFailure(
+                f"{what} {fmt(pos)} is out of reach for the {self.robot.name} "
+                f"({distance:.2f} m from its base, reach {self.robot.reach:.2f} m; "
+                f"IK misses by {solution.position_error * 1000:.0f} mm, "
+                f"{np.rad2deg(solution.rotation_error):.0f} deg)"
+            )
         if check and free and not self.clear_path(self.q, solution.qpos):
             raise SkillFailure(f"{what} {fmt(pos)}: the {self.robot.name} would {self.obstacle(self.q, solution.qpos)}")
         if yaw_free or free:
@@ -131,8 +144,11 @@ class SkillContext:
         :data:`HELD_SPEED` with something in the hand) or its turn, whichever takes longer."""
         if self.held is not None:
             speed = min(speed, HELD_SPEED)
-        return max(MIN_SECONDS, float(np.linalg.norm(np.asarray(pos) - self.pos)) / speed,
-                   rotation_angle(self.rot, rot) / TURN_SPEED)
+        return max(
+            MIN_SECONDS,
+            float(np.linalg.norm(np.asarray(pos) - self.pos)) / speed,
+            rotation_angle(self.rot, rot) / TURN_SPEED,
+        )
 
     def grip(self, gripper: float, seconds: float = 0.5) -> Move:
         """Open (1) or close (0) the gripper where the tool stands."""
@@ -160,8 +176,9 @@ class SkillContext:
                 return again
         return solution
 
-    def solve_flip(self, pos: np.ndarray, rot: np.ndarray, q: np.ndarray, *, yaw_free: bool = False,
-                   best: bool = False) -> tuple[np.ndarray, Any]:
+    def solve_flip(
+        self, pos: np.ndarray, rot: np.ndarray, q: np.ndarray, *, yaw_free: bool = False, best: bool = False
+    ) -> tuple[np.ndarray, Any]:
         """Solve for ``rot`` and (empty hand) its half-turn flip; keep the solution whose joints move
         least from ``q`` among those that reach the pose. With ``best`` (a move through free space) each
         is the most comfortable arm configuration for the pose, not the nearest."""
@@ -187,7 +204,9 @@ class SkillContext:
             p = (1 - t) * start.pos + t * point
             r = slerp(start.rot, rot, t)
             solution = self.ik.solve(p, r, q, iterations=15, dt=0.1, careful=True)
-            if not solution.ok(max(tolerance, 0.006)) or self.ik.collisions(solution.qpos, self.allowed | self.held_bodies()):
+            if not solution.ok(max(tolerance, 0.006)) or self.ik.collisions(
+                solution.qpos, self.allowed | self.held_bodies()
+            ):
                 return None
             q = solution.qpos
         final = self.ik.reachable(point, rot, q)
@@ -227,7 +246,11 @@ class SkillContext:
             q = (1 - t) * q0 + t * q1
             if self.ik.collisions(q, allow):
                 return False
-            if r0 is not None and r1 is not None and rotation_angle(self.ik.tool_pose(q)[1], slerp(r0, r1, t)) > MAX_SWING:
+            if (
+                r0 is not None
+                and r1 is not None
+                and rotation_angle(self.ik.tool_pose(q)[1], slerp(r0, r1, t)) > MAX_SWING
+            ):
                 return False
         return True
 
@@ -241,8 +264,13 @@ class SkillContext:
         ref = self.rot if reference is None else reference
         return flipped if rotation_angle(ref, flipped) < rotation_angle(ref, rot) - 1e-6 else rot
 
-    def margin(self, poses: list[tuple[np.ndarray, np.ndarray]], touch: AbstractSet[int] = frozenset(),
-               start: Leg | None = None, collisions: bool = True) -> float | None:
+    def margin(
+        self,
+        poses: list[tuple[np.ndarray, np.ndarray]],
+        touch: AbstractSet[int] = frozenset(),
+        start: Leg | None = None,
+        collisions: bool = True,
+    ) -> float | None:
         """How comfortably the arm reaches every pose in turn (radians to the nearest joint limit,
         the least over the poses), or ``None`` when one is out of reach or the arm would touch
         something on the way other than ``touch`` (and what it holds or may touch anyway). From
@@ -256,7 +284,9 @@ class SkillContext:
             for pos, rot in poses:
                 if leg is None:
                     rot, solution = self.solve_flip(pos, rot, self.q)
-                    if not solution.ok() or (collisions and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies())):
+                    if not solution.ok() or (
+                        collisions and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies())
+                    ):
                         return None
                     q = solution.qpos
                 else:
@@ -271,9 +301,14 @@ class SkillContext:
             self.allowed = before
         return worst
 
-    def choose(self, candidates: list[Any], poses: Callable[[Any], list[tuple[np.ndarray, np.ndarray]]],
-               comfortable: float = COMFORT, via: Callable[[Any], tuple[Any, ...]] | None = None,
-               touch: AbstractSet[int] = frozenset()) -> Any | None:
+    def choose(
+        self,
+        candidates: list[Any],
+        poses: Callable[[Any], list[tuple[np.ndarray, np.ndarray]]],
+        comfortable: float = COMFORT,
+        via: Callable[[Any], tuple[Any, ...]] | None = None,
+        touch: AbstractSet[int] = frozenset(),
+    ) -> Any | None:
         """The first candidate whose poses the arm reaches with ``comfortable`` radians to spare at
         every joint, else the one with the most to spare; ``None`` when none is reachable. The poses
         may touch ``touch`` (the part being pushed or pressed). With ``via``, the hand first goes to the
@@ -327,7 +362,9 @@ class SkillContext:
         expected = tcp_pos + tcp_rot @ self.held.pos
         slip = float(np.linalg.norm(self.world.position(name) - expected))
         if slip > tolerance:
-            raise SkillFailure(f"the grasp on {name!r} did not hold (it is {slip * 1000:.0f} mm from where it was held)")
+            raise SkillFailure(
+                f"the grasp on {name!r} did not hold (it is {slip * 1000:.0f} mm from where it was held)"
+            )
 
     def tool_for(self, name: str, origin: np.ndarray, rot: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The tcp pose that puts held object ``name``'s origin at ``origin`` (rotation ``rot``, or as held)."""
@@ -347,8 +384,15 @@ class SkillContext:
         return self.scene.bodies(self.held.name) if self.held else set()
 
     # ------------------------------------------------------------------ paths (skills/transit.py)
-    def transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(), radius: float = 0.04,
-                what: str = "the approach") -> Iterator[Move]:
+    def transit(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray,
+        *,
+        exclude: AbstractSet[int] = frozenset(),
+        radius: float = 0.04,
+        what: str = "the approach",
+    ) -> Iterator[Move]:
         """Go to ``pos``/``rot`` over whatever stands in between (see :meth:`plan_transit`)."""
         return transit.transit(self, pos, rot, exclude=exclude, radius=radius, what=what)
 
@@ -356,8 +400,9 @@ class SkillContext:
         """Whether :meth:`transit` finds a path from the hand to ``pos``/``rot``."""
         return transit.can_reach(self, pos, rot, exclude)
 
-    def plan_transit(self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(),
-                     radius: float = 0.04) -> list[Leg] | None:
+    def plan_transit(
+        self, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(), radius: float = 0.04
+    ) -> list[Leg] | None:
         """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything ..."""
         return transit.plan_transit(self, pos, rot, exclude=exclude, radius=radius)
 
@@ -369,7 +414,9 @@ class SkillContext:
         """Back the hand (and what it holds) out of whatever covers it, level, toward the robot."""
         return transit.leave_enclosure(self, exclude)
 
-    def lift_clear(self, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False) -> Iterator[Move]:
+    def lift_clear(
+        self, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False
+    ) -> Iterator[Move]:
         """Lift by ``height``: less where something is overhead or the arm cannot go higher (unless ..."""
         return transit.lift_clear(self, height, exclude, required=required)
 

@@ -25,6 +25,7 @@ FAR = 10.0
 class Shape:
     """An object's collision geometry as an oriented box in the world: ``center``, ``axes`` (columns:
     the object's own x, y, z in the world) and ``half`` extents along them."""
+
     center: np.ndarray
     axes: np.ndarray
     half: np.ndarray
@@ -80,7 +81,9 @@ class SceneQuery:
         return head if head in self.world.objects and head != "bench" else None
 
     # ------------------------------------------------------------------ rays
-    def ray(self, start: np.ndarray, direction: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> tuple[float, int]:
+    def ray(
+        self, start: np.ndarray, direction: np.ndarray, exclude: AbstractSet[int] = frozenset()
+    ) -> tuple[float, int]:
         """Distance along unit ``direction`` to the first collision geom not on the robot or in
         ``exclude`` (bodies), and that geom's body; ``(inf, -1)`` when nothing is hit."""
         m, d = self.world.model, self.world.data
@@ -108,8 +111,9 @@ class SceneQuery:
         """Free height above ``point`` before something covers it (``inf`` under open sky)."""
         return self.ray(point, np.array([0.0, 0.0, 1.0]), exclude)[0]
 
-    def corridor_top(self, a: np.ndarray, b: np.ndarray, radius: float, exclude: AbstractSet[int] = frozenset(),
-                     below: float = 3.0) -> float:
+    def corridor_top(
+        self, a: np.ndarray, b: np.ndarray, radius: float, exclude: AbstractSet[int] = frozenset(), below: float = 3.0
+    ) -> float:
         """Highest surface under a horizontal corridor of half-width ``radius`` from ``a`` to ``b``, looking
         down from height ``below`` (what is higher, an overhang, is not counted). The columns over the
         two ends are the caller's: the hand stands in one and descends the other."""
@@ -125,7 +129,9 @@ class SceneQuery:
         points += [end + r for end in (a2, b2) for r in ring]
         return max(0.0, *(self.surface_below(p[0], p[1], exclude, from_z=below) for p in points))
 
-    def way_out(self, point: np.ndarray, exclude: AbstractSet[int] = frozenset(), prefer: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    def way_out(
+        self, point: np.ndarray, exclude: AbstractSet[int] = frozenset(), prefer: np.ndarray | None = None
+    ) -> tuple[np.ndarray, float]:
         """The horizontal direction out of an enclosure from ``point`` and the distance to its mouth:
         of 24 directions, those that leave the enclosure (no hit within 1.5 m), the one closest to
         ``prefer``; else the longest free one."""
@@ -157,7 +163,13 @@ class SceneQuery:
         up = np.array([0.0, 0.0, 1.0])
         best, best_score = up, -np.inf
         hint = np.zeros(3) if prefer is None else np.asarray(prefer, float) / (np.linalg.norm(prefer) + 1e-12)
-        for direction in (np.array([-1.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0, -1.0, 0]), np.array([0, 1.0, 0]), up):
+        for direction in (
+            np.array([-1.0, 0, 0]),
+            np.array([1.0, 0, 0]),
+            np.array([0, -1.0, 0]),
+            np.array([0, 1.0, 0]),
+            up,
+        ):
             free, _ = self.ray(point + 0.003 * direction, direction)
             behind, body = self.ray(point + 0.003 * direction, -direction)
             solid = np.isfinite(behind) and behind < 0.03 and (owner is None or self.owner(body) == owner)
@@ -187,8 +199,15 @@ class SceneQuery:
         center_local = (lo + hi) / 2
         return Shape(origin + rot @ center_local, rot.copy(), (hi - lo) / 2)
 
-    def free_spot(self, near: np.ndarray, footprint: float, exclude: set[int], reach: tuple[float, float],
-                  base: np.ndarray, bench_top: float) -> np.ndarray | None:
+    def free_spot(
+        self,
+        near: np.ndarray,
+        footprint: float,
+        exclude: set[int],
+        reach: tuple[float, float],
+        base: np.ndarray,
+        bench_top: float,
+    ) -> np.ndarray | None:
         """A point on the bench top near ``near`` with a clear square of half-size ``footprint``
         around it (nothing standing on the bench there), within the robot's ``reach`` band."""
         candidates = []

@@ -31,22 +31,39 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
-def transit(ctx: SkillContext, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(), radius: float = 0.04,
-            what: str = "the approach") -> Iterator[Move]:
+def transit(
+    ctx: SkillContext,
+    pos: np.ndarray,
+    rot: np.ndarray,
+    *,
+    exclude: AbstractSet[int] = frozenset(),
+    radius: float = 0.04,
+    what: str = "the approach",
+) -> Iterator[Move]:
     """Go to ``pos``/``rot`` over whatever stands in between (see :meth:`plan_transit`)."""
     legs = plan_transit(ctx, pos, rot, exclude=exclude, radius=radius)
     if legs is None:
-        raise SkillFailure(f"{what}: no path to {fmt(np.asarray(pos))} within the {ctx.robot.name}'s reach "
-                           "that touches nothing on the way")
+        raise SkillFailure(
+            f"{what}: no path to {fmt(np.asarray(pos))} within the {ctx.robot.name}'s reach "
+            "that touches nothing on the way"
+        )
     for leg in legs:
         yield ctx.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight)
+
 
 def can_reach(ctx: SkillContext, pos: np.ndarray, rot: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> bool:
     """Whether :meth:`transit` finds a path from the hand to ``pos``/``rot``."""
     return plan_transit(ctx, pos, rot, exclude=exclude) is not None
 
-def plan_transit(ctx: SkillContext, pos: np.ndarray, rot: np.ndarray, *, exclude: AbstractSet[int] = frozenset(),
-                 radius: float = 0.04) -> list[Leg] | None:
+
+def plan_transit(
+    ctx: SkillContext,
+    pos: np.ndarray,
+    rot: np.ndarray,
+    *,
+    exclude: AbstractSet[int] = frozenset(),
+    radius: float = 0.04,
+) -> list[Leg] | None:
     """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything
     (dry run of the IK and of the arm's collisions), or ``None``.
 
@@ -95,8 +112,16 @@ def plan_transit(ctx: SkillContext, pos: np.ndarray, rot: np.ndarray, *, exclude
         legs.append(leg)
     return legs
 
-def _reach(ctx: SkillContext, start: Leg, point: np.ndarray, rot: np.ndarray, speed: float, tolerance: float,
-           keep: bool = False) -> Leg | None:
+
+def _reach(
+    ctx: SkillContext,
+    start: Leg,
+    point: np.ndarray,
+    rot: np.ndarray,
+    speed: float,
+    tolerance: float,
+    keep: bool = False,
+) -> Leg | None:
     """The leg from ``start`` to ``point``/``rot`` if the arm reaches it touching nothing: along a
     straight tool line below transit speed (as it will be executed), through joint space above it."""
     if keep:
@@ -114,8 +139,17 @@ def _reach(ctx: SkillContext, start: Leg, point: np.ndarray, rot: np.ndarray, sp
         return Leg(np.asarray(point, float), rot, solution.qpos, speed)
     return None
 
-def _route(ctx: SkillContext, start: Leg, goal: np.ndarray, rot: np.ndarray, skip: set[int], radius: float,
-           hang: float, precise: bool = True) -> list[Leg] | None:
+
+def _route(
+    ctx: SkillContext,
+    start: Leg,
+    goal: np.ndarray,
+    rot: np.ndarray,
+    skip: set[int],
+    radius: float,
+    hang: float,
+    precise: bool = True,
+) -> list[Leg] | None:
     """Legs from ``start`` to ``goal``: straight over the top, at the hand's height, or by a detour to
     either side; the first the arm reaches touching nothing."""
     here = start.pos
@@ -137,8 +171,17 @@ def _route(ctx: SkillContext, start: Leg, goal: np.ndarray, rot: np.ndarray, ski
             return resolved
     return None
 
-def _waypoints(ctx: SkillContext, here: np.ndarray, path: list[np.ndarray], goal: np.ndarray, skip: set[int], radius: float,
-               hang: float, low: bool) -> list[tuple[np.ndarray, bool | None]] | None:
+
+def _waypoints(
+    ctx: SkillContext,
+    here: np.ndarray,
+    path: list[np.ndarray],
+    goal: np.ndarray,
+    skip: set[int],
+    radius: float,
+    hang: float,
+    low: bool,
+) -> list[tuple[np.ndarray, bool | None]] | None:
     """Climb-and-cross waypoints through ``path`` (and whether each is on the last leg): over everything
     under each leg, or (``low``) at the hand's height where that band is free (under an overhang,
     beside an instrument)."""
@@ -167,8 +210,10 @@ def _waypoints(ctx: SkillContext, here: np.ndarray, path: list[np.ndarray], goal
         points.append((goal.copy(), True))
     return points
 
-def _feasible(ctx: SkillContext, start: Leg, points: list[tuple[np.ndarray, bool | None]], rot: np.ndarray,
-              precise: bool = True) -> list[Leg] | None:
+
+def _feasible(
+    ctx: SkillContext, start: Leg, points: list[tuple[np.ndarray, bool | None]], rot: np.ndarray, precise: bool = True
+) -> list[Leg] | None:
     """Legs through ``points`` when the arm reaches each in turn touching nothing, else ``None``. The
     hand keeps its rotation while climbing and crossing and turns on the last leg; it turns earlier
     where keeping it is out of reach up there, and arrives unturned where turning is."""
@@ -180,7 +225,9 @@ def _feasible(ctx: SkillContext, start: Leg, points: list[tuple[np.ndarray, bool
         tolerance = 0.004 if precise and final else FREE_TOLERANCE
         if last is None:  # a straight descent onto the goal, turned to its rotation on the way
             target = current if turned else ctx.nearest_flip(rot, current)
-            reached = ctx.straight_line(Leg(out[-1].pos if out else start.pos, current, q, TRANSIT_SPEED), point, target, tolerance)
+            reached = ctx.straight_line(
+                Leg(out[-1].pos if out else start.pos, current, q, TRANSIT_SPEED), point, target, tolerance
+            )
             if reached is None:
                 return None
             turned, q, current = True, reached, target
@@ -207,9 +254,11 @@ def _feasible(ctx: SkillContext, start: Leg, points: list[tuple[np.ndarray, bool
             return None
     return out
 
+
 def covered(ctx: SkillContext, point: np.ndarray, exclude: set[int], room: float = COVER_ROOM) -> bool:
     """Whether something overhead (a shelf, a roof) is within ``room`` metres above ``point``."""
     return ctx.scene.clearance_above(np.asarray(point, float) + 0.01 * UP, exclude) < room
+
 
 def leave_enclosure(ctx: SkillContext, exclude: set[int]) -> Iterator[Move]:
     """Back the hand (and what it holds) out of whatever covers it, level, toward the robot."""
@@ -224,7 +273,10 @@ def leave_enclosure(ctx: SkillContext, exclude: set[int]) -> Iterator[Move]:
             return
     raise SkillFailure(f"no way out of the enclosure from {fmt(ctx.pos)} that touches nothing")
 
-def lift_clear(ctx: SkillContext, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False) -> Iterator[Move]:
+
+def lift_clear(
+    ctx: SkillContext, height: float, exclude: AbstractSet[int] = frozenset(), *, required: bool = False
+) -> Iterator[Move]:
     """Lift by ``height``: less where something is overhead or the arm cannot go higher (unless
     ``required``, when a lift the arm cannot make fails the skill)."""
     room = ctx.scene.clearance_above(ctx.pos + 0.02 * UP, set(exclude) | ctx.held_bodies()) + 0.02
@@ -240,6 +292,7 @@ def lift_clear(ctx: SkillContext, height: float, exclude: AbstractSet[int] = fro
             continue
         yield move
         return
+
 
 def withdraw(ctx: SkillContext, distance: float) -> Iterator[Move]:
     """Move the empty hand back along its approach axis by up to ``distance`` (less where the arm cannot)."""

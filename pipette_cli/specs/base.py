@@ -132,14 +132,20 @@ class TypeRegistry(Generic[T]):
             name = value.get(self.key)
             if name is None:
                 raise PydanticCustomError(
-                    "spec_type", "missing '{key}'; expected one of: {names}", {"key": self.key, "names": ", ".join(self.names())}
+                    "spec_type",
+                    "missing '{key}'; expected one of: {names}",
+                    {"key": self.key, "names": ", ".join(self.names())},
                 )
             if name not in self._types:
                 raise PydanticCustomError(
                     "spec_type",
                     "unknown {kind}{what} '{name}'; {hint}",
-                    {"kind": self.kind, "what": " type" if self.key == "type" else "", "name": str(name),
-                     "hint": suggest(str(name), self._types.names())},
+                    {
+                        "kind": self.kind,
+                        "what": " type" if self.key == "type" else "",
+                        "name": str(name),
+                        "hint": suggest(str(name), self._types.names()),
+                    },
                 )
             return self._types.get(name).model_validate(value)
 

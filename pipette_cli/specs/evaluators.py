@@ -24,7 +24,8 @@ class EvaluatorSpec(TypedSpec):
 
     timeout_s: PositiveS | None = Field(None, description="episode fails with reason 'timeout' after this")
     instruction: str | None = Field(
-        None, min_length=1, description="as a stage of a sequence: the language instruction for this stage")
+        None, min_length=1, description="as a stage of a sequence: the language instruction for this stage"
+    )
 
 
 EVALUATORS: TypeRegistry[EvaluatorSpec] = TypeRegistry("evaluator", EvaluatorSpec)

@@ -79,7 +79,9 @@ class StepSpec(PluggableSpec):
         """One line naming the step, e.g. ``pick tube`` or ``close_hinge centrifuge/lid_hinge``."""
         if self.label:
             return self.label
-        subject = next((getattr(self, f) for f in ("object", "joint", "button") if isinstance(getattr(self, f, None), str)), "")
+        subject = next(
+            (getattr(self, f) for f in ("object", "joint", "button") if isinstance(getattr(self, f, None), str)), ""
+        )
         return f"{self.skill} {subject}".strip()
 
 
@@ -207,7 +209,9 @@ class PositionOverSpec(StepSpec):
 
     skill: Literal["position_over"] = "position_over"
     object: Name = part_field("the held tool")
-    point: Ref | None = part_field("object/site of the tool that must be over the target (default: its tip)", "site", None)
+    point: Ref | None = part_field(
+        "object/site of the tool that must be over the target (default: its tip)", "site", None
+    )
     target: Target = part_field("what to hold the tool over", "site")
     height: float = Field(0.05, description="metres above the target")
     hold_s: float = Field(1.0, ge=0)
@@ -257,4 +261,3 @@ class WaitSpec(StepSpec):
 
     skill: Literal["wait"] = "wait"
     seconds: float = Field(gt=0)
-

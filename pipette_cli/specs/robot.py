@@ -51,15 +51,22 @@ class ArmSpec(Spec):
     home: list[float] = Field(description="a comfortable configuration facing +x, radians")
     limit_ctrl_to_joint_range: bool = False
     joint_damping: list[Annotated[float, Field(ge=0)]] | None = Field(
-        None, description="passive damping of each arm joint (N m s/rad), overriding menagerie's")
-    kp_scale: float = Field(1.0, gt=0, description="factor on the stiffness kp of menagerie's arm position servos "
-                                                    "(their damping kv kept: the lag kv/kp shrinks)")
+        None, description="passive damping of each arm joint (N m s/rad), overriding menagerie's"
+    )
+    kp_scale: float = Field(
+        1.0,
+        gt=0,
+        description="factor on the stiffness kp of menagerie's arm position servos "
+        "(their damping kv kept: the lag kv/kp shrinks)",
+    )
 
     @model_validator(mode="after")
     def _lengths(self) -> ArmSpec:
         if not len(self.joints) == len(self.actuators) == len(self.home):
-            raise ValueError(f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
-                             f"({len(self.home)}) must have one entry per arm joint")
+            raise ValueError(
+                f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
+                f"({len(self.home)}) must have one entry per arm joint"
+            )
         if self.joint_damping is not None and len(self.joint_damping) != len(self.joints):
             raise ValueError(f"joint_damping has {len(self.joint_damping)} entries for {len(self.joints)} arm joints")
         return self
@@ -82,7 +89,9 @@ class GripperSpec(Spec):
     max_opening: float = Field(gt=0, lt=0.3, description="metres between the fingertips, fully open")
     finger_depth: float = Field(gt=0, lt=0.2, description="metres from the tcp up to the palm")
     fingertip: float = Field(ge=0, lt=0.05, description="metres the fingertips reach beyond the tcp")
-    finger_thickness: float = Field(gt=0, lt=0.05, description="metres across a fingertip, perpendicular to closing and approach")
+    finger_thickness: float = Field(
+        gt=0, lt=0.05, description="metres across a fingertip, perpendicular to closing and approach"
+    )
     drive: DriveSpec | None = None
 
 
@@ -143,10 +152,15 @@ class RobotSpec(Spec):
     wrist_camera: WristCameraSpec
     base_height: float = Field(0.55, description="default base height: the bench top")
     footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
-    reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, the hand "
-                                           "tilted 30 deg from the vertical")
-    top_down_reach: float = Field(gt=0, description="metres from the base axis for a grasp 10 cm over the bench top, "
-                                                    "the hand pointing straight down")
+    reach: float = Field(
+        gt=0,
+        description="metres from the base axis for a grasp 10 cm over the bench top, the hand "
+        "tilted 30 deg from the vertical",
+    )
+    top_down_reach: float = Field(
+        gt=0,
+        description="metres from the base axis for a grasp 10 cm over the bench top, the hand pointing straight down",
+    )
     min_reach: float = Field(ge=0, description="closer than this the arm folds onto itself")
     payload_kg: float = Field(gt=0)
     workspace: WorkspaceSpec
@@ -239,4 +253,6 @@ def robot_spec(name: str) -> RobotSpec:
     keys = [*robots, *(a for s in robots.values() for a in s.aliases)]
     hint = suggest(name, keys)
     known = ", ".join(f"{key} ({robots[key].aliases[0]})" if robots[key].aliases else key for key in sorted(robots))
-    raise SpecError(f"unknown robot {name!r}; {hint}" + ("" if hint.startswith("valid names") else f" (robots: {known})"))
+    raise SpecError(
+        f"unknown robot {name!r}; {hint}" + ("" if hint.startswith("valid names") else f" (robots: {known})")
+    )

@@ -41,10 +41,15 @@ SeedList = Annotated[list[Annotated[int, Field(ge=0)]], Field(min_length=1, max_
 class SuiteTaskSpec(Spec):
     """One task of a suite: which task (full versioned id), its seeds and its instructions."""
 
-    task: str = Field(pattern=TASK_ID_PATTERN, description="full task id with its version, e.g. pipette/PickUpTestTube-v1")
-    seeds: SeedRangeSpec | SeedList | None = Field(None, description="a range {first, count} or a list; default: the suite's")
+    task: str = Field(
+        pattern=TASK_ID_PATTERN, description="full task id with its version, e.g. pipette/PickUpTestTube-v1"
+    )
+    seeds: SeedRangeSpec | SeedList | None = Field(
+        None, description="a range {first, count} or a list; default: the suite's"
+    )
     instructions: list[Annotated[str, Field(min_length=1, max_length=2000)]] = Field(
-        min_length=1, description="instruction variants, used in turn: episode i gets instructions[i mod n]")
+        min_length=1, description="instruction variants, used in turn: episode i gets instructions[i mod n]"
+    )
 
     @model_validator(mode="after")
     def _unique(self) -> SuiteTaskSpec:

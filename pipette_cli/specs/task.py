@@ -172,7 +172,8 @@ class TaskSpec(Spec):
     targets: list[Name] = Field(min_length=1, description="scene objects the task is about")
     success: EvaluatorField
     expert: list[StepField] | None = Field(
-        None, min_length=1, description="the scripted expert: skill steps (default: derived from the success criterion)")
+        None, min_length=1, description="the scripted expert: skill steps (default: derived from the success criterion)"
+    )
     notes: list[NoteSpec] = []
 
     @model_validator(mode="after")
@@ -210,7 +211,10 @@ class TaskSpec(Spec):
             if named not in mechanisms:
                 yield loc, f"mechanism {named!r} is not defined in scene.mechanisms"
         for loc in _misplaced_instructions(self.success, ("success",), stage=False):
-            yield loc, "an instruction is given to the stages of a 'sequence' only; the task's own is 'instruction' at the top"
+            yield (
+                loc,
+                "an instruction is given to the stages of a 'sequence' only; the task's own is 'instruction' at the top",
+            )
         for name, cam in (("top", self.cameras.top), ("main", self.cameras.main), ("wrist", self.cameras.wrist)):
             if cam.mount not in ("world", "end_effector"):
                 yield from check(("cameras", name, "mount"), cam.mount)

@@ -21,8 +21,14 @@ from pipette_cli.lerobot.stats import dataset_stats
 @pytest.mark.slow
 def test_collect_augment_convert_chain_runs_from_one_request(tmp_path: Path) -> None:
     request = "collect 2 demos of PickUpTestTube at 32 px, then augment them with 2 workers and convert the result"
-    result = subprocess.run([sys.executable, "-m", "pipette_cli.cli.main", "agent", request, "--yes"], cwd=tmp_path,
-                            capture_output=True, text=True, timeout=900, env={**os.environ, "COLUMNS": "200"})
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "agent", request, "--yes"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={**os.environ, "COLUMNS": "200"},
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     raw = scan(tmp_path / "data" / "PickUpTestTube.h5")
     assert len(raw.episodes) == 2 and raw.info.image_height == 32 and not raw.pending
@@ -47,8 +53,14 @@ def test_serve_then_evaluate_keeps_the_server_running_beside_the_evaluation(tmp_
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     request = f"serve ckpt/act on port {port}, then evaluate it on the test tube task for 1 episode with 32 px images"
-    result = subprocess.run([sys.executable, "-m", "pipette_cli.cli.main", "agent", request, "--yes"], cwd=tmp_path,
-                            capture_output=True, text=True, timeout=600, env={**os.environ, "COLUMNS": "200"})
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "agent", request, "--yes"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "COLUMNS": "200"},
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads((tmp_path / "evals" / "PickUpTestTube" / "summary.json").read_text())
     assert summary["episodes"] == 1 and summary["policy_type"] == "act"

@@ -18,8 +18,12 @@ runner = CliRunner()
 
 
 def test_list_json_counts_categories() -> None:
-    result = subprocess.run([sys.executable, "-m", "pipette_cli.cli.main", "assets", "list", "--json"],
-                            capture_output=True, text=True, check=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "assets", "list", "--json"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     rows = json.loads(result.stdout)
     assert len(rows) >= 102
     assert {r["category"] for r in rows} == {"tools", "equipment", "consumables", "instruments"}
@@ -65,7 +69,7 @@ def test_validate_reports_every_bad_asset_and_exits_1() -> None:
 
 def _layer(path: Path, body: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text('#usda 1.0\n' + body)
+    path.write_text("#usda 1.0\n" + body)
 
 
 @pytest.fixture()
@@ -74,14 +78,19 @@ def scene_folder(tmp_path: Path) -> Path:
     from pxr import Sdf, UsdUtils
 
     root = tmp_path / "project"
-    _layer(root / "scene" / "props" / "cup.usda", '(\n defaultPrim = "cup"\n)\ndef Xform "cup" {\n def Cube "shape" {}\n}\n')
+    _layer(
+        root / "scene" / "props" / "cup.usda",
+        '(\n defaultPrim = "cup"\n)\ndef Xform "cup" {\n def Cube "shape" {}\n}\n',
+    )
     _layer(root / "scene" / "lights.usda", 'def Xform "lights" {}\n')
     _layer(root / "textures" / "wood_src" / "wood.usda", 'def Xform "w" {}\n')
     (root / "textures" / "wood_src" / "wood.png").write_bytes(b"\x89PNG\r\n\x1a\n")
     pkg_layer = Sdf.Layer.FindOrOpen(str(root / "textures" / "wood_src" / "wood.usda"))
     assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(pkg_layer.identifier), str(root / "textures" / "wood.usdz"))
     old = "/old/workstation/assets"
-    _layer(root / "scene" / "main.usda", f'''(
+    _layer(
+        root / "scene" / "main.usda",
+        f"""(
     subLayers = [@{root}/scene/lights.usda@]
 )
 def Xform "table" (
@@ -99,7 +108,8 @@ def Shader "wood_tex"
     asset inputs:file = @{old}/textures/wood.usdz[wood.png]@
     asset inputs:fallback = @./props/cup.usda@
 }}
-''')
+""",
+    )
     return root
 
 

@@ -50,8 +50,21 @@ def test_small_run_reports_yield_as_json(run_cli, tmp_path_factory, tmp_path: Pa
     raw = raw_demo(tmp_path_factory)
     out, report = tmp_path / "aug.h5", tmp_path / "yield.json"
     result = run_cli(
-        "augment", "PickUpTestTube", "-i", raw, "-o", out, "--variants", "light,speed", "--speed", "6",
-        "--workers", "1", "--json", "--report", report,
+        "augment",
+        "PickUpTestTube",
+        "-i",
+        raw,
+        "-o",
+        out,
+        "--variants",
+        "light,speed",
+        "--speed",
+        "6",
+        "--workers",
+        "1",
+        "--json",
+        "--report",
+        report,
     )
     assert result.exit_code == 0, result.stderr
     data = json.loads(result.stdout)

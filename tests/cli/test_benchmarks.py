@@ -18,8 +18,14 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def bench(script: str, *args: str, timeout: float = 600) -> subprocess.CompletedProcess[str]:
-    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / script), *args], capture_output=True, text=True,
-                            timeout=timeout, cwd=ROOT, env={**os.environ, "HF_HUB_OFFLINE": "1"})
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / script), *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        cwd=ROOT,
+        env={**os.environ, "HF_HUB_OFFLINE": "1"},
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     return result
 
@@ -47,7 +53,19 @@ def test_bench_sim_reports_real_time_factor_per_task(tmp_path) -> None:
 @pytest.mark.render
 def test_bench_render_covers_every_profile_and_size(tmp_path) -> None:
     out, png = tmp_path / "render.json", tmp_path / "profiles.png"
-    bench("bench_render.py", "--sizes", "32,48", "--frames", "2", "--rounds", "1", "--out", str(out), "--picture", str(png))
+    bench(
+        "bench_render.py",
+        "--sizes",
+        "32,48",
+        "--frames",
+        "2",
+        "--rounds",
+        "1",
+        "--out",
+        str(out),
+        "--picture",
+        str(png),
+    )
     data = read(out)
     rows = data["results"]
     profiles = ("fast", "full", "fast-original-meshes")
@@ -64,15 +82,32 @@ def test_bench_render_covers_every_profile_and_size(tmp_path) -> None:
 @pytest.mark.render
 def test_bench_augment_compares_pipelines_floor_and_workers(tmp_path) -> None:
     out = tmp_path / "augment.json"
-    result = bench("bench_augment.py", "--demos", "1", "--variants", "light,speed", "--image-size", "32", "--repeats", "1",
-                   "--workers", "1,2", "--reference", str(ROOT), "--out", str(out))
+    result = bench(
+        "bench_augment.py",
+        "--demos",
+        "1",
+        "--variants",
+        "light,speed",
+        "--image-size",
+        "32",
+        "--repeats",
+        "1",
+        "--workers",
+        "1,2",
+        "--reference",
+        str(ROOT),
+        "--out",
+        str(out),
+    )
     data = read(out)
     runs, summary = data["runs"], data["summary"]
     for name in ("baseline", "ours", "reference", "floor"):
         assert runs[name][0]["kept"] == 2 and len(runs[name][0]["loadavg_before"]) == 3, name
     assert runs["floor"][0]["seconds"] == pytest.approx(runs["floor"][0]["physics_s"] + runs["floor"][0]["render_s"])
     assert summary["ours_over_floor"] == pytest.approx(runs["ours"][0]["seconds"] / runs["floor"][0]["seconds"])
-    assert summary["ours_over_baseline"] == pytest.approx(runs["ours"][0]["kept_per_hour"] / runs["baseline"][0]["kept_per_hour"])
+    assert summary["ours_over_baseline"] == pytest.approx(
+        runs["ours"][0]["kept_per_hour"] / runs["baseline"][0]["kept_per_hour"]
+    )
     assert runs["reference"][0]["package"] == str(ROOT / "pipette_cli" / "__init__.py")  # the tree asked for
     assert [(r["executor"], r["workers"]) for r in data["scaling"]] == [("local", 1), ("local", 2)]
     assert data["scaling"][0]["efficiency"] == pytest.approx(1.0)
@@ -82,9 +117,28 @@ def test_bench_augment_compares_pipelines_floor_and_workers(tmp_path) -> None:
 @pytest.mark.render
 def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
     work, docs = tmp_path / "work", tmp_path / "docs"
-    args = ("--suite", "testlab/ReproSmoke-v1", "--registry-dir", str(ROOT / "tests" / "fixtures" / "reproduce"),
-            "--demos", "2", "--steps", "2", "--batch-size", "2", "--variants", "original,light", "--workers", "1",
-            "--tasks", "pipette/PickUpTestTube-v1", "--work", str(work), "--docs", str(docs))
+    args = (
+        "--suite",
+        "testlab/ReproSmoke-v1",
+        "--registry-dir",
+        str(ROOT / "tests" / "fixtures" / "reproduce"),
+        "--demos",
+        "2",
+        "--steps",
+        "2",
+        "--batch-size",
+        "2",
+        "--variants",
+        "original,light",
+        "--workers",
+        "1",
+        "--tasks",
+        "pipette/PickUpTestTube-v1",
+        "--work",
+        str(work),
+        "--docs",
+        str(docs),
+    )
     bench("reproduce_table.py", *args)
     data = read(docs / "results.json")
     [row] = data["results"]
@@ -112,20 +166,48 @@ def test_reproduce_table_runs_both_versions_and_resumes(tmp_path) -> None:
 @pytest.mark.render
 def test_bench_eval_measures_episodes_per_hour_and_dead_server_detection(tmp_path) -> None:
     out = tmp_path / "eval.json"
-    result = bench("bench_eval.py", "--task", "PickUpTestTube", "--image-size", "24", "--episodes", "1", "--workers", "1",
-                   "--strike-after", "1", "--out", str(out))  # worker counts > 1: tests/sim/test_eval_runs.py
+    result = bench(
+        "bench_eval.py",
+        "--task",
+        "PickUpTestTube",
+        "--image-size",
+        "24",
+        "--episodes",
+        "1",
+        "--workers",
+        "1",
+        "--strike-after",
+        "1",
+        "--out",
+        str(out),
+    )  # worker counts > 1: tests/sim/test_eval_runs.py
     data = read(out)
     assert [r["workers"] for r in data["results"]] == [1]
     for r in data["results"]:
         assert r["episodes"] == 1 and r["episodes_per_hour"] == pytest.approx(3600 / r["wall_s"], rel=0.01)
     dead = {d["server"]: d for d in data["dead_server"]}
     assert set(dead) == {"killed", "stopped"}
-    assert 4 <= dead["killed"]["to_safe_hold_s"] < 10 and dead["stopped"]["to_safe_hold_s"] < 15  # 5 s default (+3 s heartbeats)
+    assert (
+        4 <= dead["killed"]["to_safe_hold_s"] < 10 and dead["stopped"]["to_safe_hold_s"] < 15
+    )  # 5 s default (+3 s heartbeats)
     assert "episodes/h" in result.stdout
+
+
 def test_bench_robots_fills_the_task_by_robot_table(tmp_path) -> None:
     out, md = tmp_path / "robots.json", tmp_path / "robots.md"
-    result = bench("bench_robots.py", "--tasks", "PickUpTestTube", "--robots", "piper,ur5e_2f85", "--episodes", "1",
-                   "--out", str(out), "--markdown", str(md))
+    result = bench(
+        "bench_robots.py",
+        "--tasks",
+        "PickUpTestTube",
+        "--robots",
+        "piper,ur5e_2f85",
+        "--episodes",
+        "1",
+        "--out",
+        str(out),
+        "--markdown",
+        str(md),
+    )
     data = read(out)
     cells = {c["robot"]: c for c in data["cells"]}
     assert set(cells) == {"agilex_piper", "ur5e_robotiq"} and data["robots"] == ["agilex_piper", "ur5e_robotiq"]

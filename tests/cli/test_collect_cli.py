@@ -35,14 +35,17 @@ def test_a_task_without_expert_is_one_clear_error(run_cli, tmp_path: Path, monke
     out = tmp_path / "x.h5"
     result = _collect(run_cli, out, "--episodes", "1")
     assert result.exit_code == 1
-    assert result.stderr.strip().startswith("error: testlab/HoldTube-v1: no expert program can be read off a "
-                                            "'lift_and_hold' criterion")
+    assert result.stderr.strip().startswith(
+        "error: testlab/HoldTube-v1: no expert program can be read off a 'lift_and_hold' criterion"
+    )
     assert "Traceback" not in result.stderr and not out.exists()
 
 
 def test_a_generated_task_is_collected_with_its_family_expert(run_cli, tmp_path: Path) -> None:
     out = tmp_path / "g.h5"
-    result = run_cli("collect", "generated/PickUpConicalTube50mlSkirted-v1", "--out", out, "--episodes", "1", "--image-size", "16")
+    result = run_cli(
+        "collect", "generated/PickUpConicalTube50mlSkirted-v1", "--out", out, "--episodes", "1", "--image-size", "16"
+    )
     assert result.exit_code == 0, result.stderr
     assert "1 episode (1 new, 1 successful" in result.stdout
     report = json.loads(run_cli("data", "inspect", out, "--json").stdout)

@@ -41,7 +41,11 @@ def test_convert_then_stats(run_cli, recording: Path, tmp_path: Path) -> None:
     assert data["provenance"]["successful"] == 1 and data["provenance"]["skipped_failed"] == 1
     assert data["features"]["observation.state"]["shape"] == [8] and len(data["features"]["action"]["min"]) == 8
     text = run_cli("data", "stats", root)
-    assert text.exit_code == 0 and "1 episodes, 5 frames at 10 Hz" in text.stdout and "1 successful, 0 failed" in text.stdout
+    assert (
+        text.exit_code == 0
+        and "1 episodes, 5 frames at 10 Hz" in text.stdout
+        and "1 successful, 0 failed" in text.stdout
+    )
 
 
 def test_errors_are_one_line_and_leave_nothing(run_cli, recording: Path, tmp_path: Path) -> None:

@@ -45,7 +45,9 @@ def test_inspect_lists_episodes(run_cli, copy: Path) -> None:
     assert report["task_id"] == "testlab/HoldTube-v1" and report["image_size"] == [16, 16]
     assert report["num_episodes"] == 3 and report["pending"] == 0 and report["steps"] == 45
     assert [(e["index"], e["seed"], e["success"], e["reason"]) for e in report["episodes"]] == [
-        (0, 0, False, "not_lifted"), (1, 1, False, "not_lifted"), (2, 2, False, "not_lifted")
+        (0, 0, False, "not_lifted"),
+        (1, 1, False, "not_lifted"),
+        (2, 2, False, "not_lifted"),
     ]
     text = run_cli("data", "inspect", copy)
     assert "testlab/HoldTube-v1" in text.stdout and "not_lifted" in text.stdout
@@ -81,7 +83,11 @@ def test_out_of_range_episode_is_a_clear_error_and_the_file_is_unchanged(run_cli
     for args in (("delete-episode", copy, "3"), ("replay", copy, "--episode", "3", "--check")):
         result = run_cli("data", *args)
         assert result.exit_code == 1, args
-        assert "episode" in result.stderr and "out of range" in result.stderr and "has 3 episodes (valid: 0..2)" in result.stderr
+        assert (
+            "episode" in result.stderr
+            and "out of range" in result.stderr
+            and "has 3 episodes (valid: 0..2)" in result.stderr
+        )
     assert copy.read_bytes() == before
 
 
@@ -89,7 +95,9 @@ def test_replay_check_reproduces_the_episode(run_cli, copy: Path) -> None:
     result = run_cli("--registry-dir", REGISTRY, "data", "replay", copy, "--episode", "2", "--check")
     assert result.exit_code == 0, result.stderr
     assert "all 15 states bit-exact; same outcome" in result.stdout
-    report = json.loads(run_cli("--registry-dir", REGISTRY, "data", "replay", copy, "-e", "0", "--check", "--json").stdout)
+    report = json.loads(
+        run_cli("--registry-dir", REGISTRY, "data", "replay", copy, "-e", "0", "--check", "--json").stdout
+    )
     assert report["ok"] and report["states_compared"] == 15 and report["recorded"] == report["replayed"]
 
 

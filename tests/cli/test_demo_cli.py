@@ -18,7 +18,9 @@ def test_fast_demo_runs_every_stage(run_cli, tmp_path) -> None:
     assert report["demos"] == 2 and report["demo_successes"] == 2
     assert report["augmented_attempts"] == 4 and 1 <= report["augmented_kept"] <= 4
     assert report["dataset_mb"] > 0 and report["eval_episodes"] == 2 and 0.0 <= report["success_rate"] <= 1.0
-    assert (out / "train/act/pipette_CloseSpectrophotometerLid-v1_augmented/checkpoints/last/pretrained_model/config.json").is_file()
+    assert (
+        out / "train/act/pipette_CloseSpectrophotometerLid-v1_augmented/checkpoints/last/pretrained_model/config.json"
+    ).is_file()
     assert len(list((out / "eval").glob("episode_*.json"))) == 2
     table = run_cli("eval", "report", out / "eval")
     assert table.exit_code == 0, table.stderr
@@ -36,7 +38,13 @@ def test_fast_demo_runs_every_stage(run_cli, tmp_path) -> None:
 def test_a_policy_below_the_success_bar_is_reported_as_a_failure() -> None:
     from pipette_cli.demo import verdict_line
 
-    report = {"eval_episodes": 10, "eval_successes": 3, "learned": False, "min_success_rate": 0.5,
-              "failures": {"not_closed": 7}, "train_steps": 300}
+    report = {
+        "eval_episodes": 10,
+        "eval_successes": 3,
+        "learned": False,
+        "min_success_rate": 0.5,
+        "failures": {"not_closed": 7},
+        "train_steps": 300,
+    }
     assert "FAILED: only 3/10" in verdict_line(report) and "not_closed" in verdict_line(report)
     assert "works: 8/10" in verdict_line({**report, "eval_successes": 8, "learned": True})

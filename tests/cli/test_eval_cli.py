@@ -30,8 +30,17 @@ def test_eval_report_help_is_the_report_help(run_cli) -> None:
 
 def test_eval_report_tabulates_and_needs_a_folder(run_cli, tmp_path: Path) -> None:
     (tmp_path / "runs" / "act_raw").mkdir(parents=True)
-    (tmp_path / "runs" / "act_raw" / "summary.json").write_text(json.dumps(
-        {"task": "pipette/PickUpTestTube-v1", "policy_type": "act", "dataset_version": "raw", "episodes": 4, "success_rate": 0.5}))
+    (tmp_path / "runs" / "act_raw" / "summary.json").write_text(
+        json.dumps(
+            {
+                "task": "pipette/PickUpTestTube-v1",
+                "policy_type": "act",
+                "dataset_version": "raw",
+                "episodes": 4,
+                "success_rate": 0.5,
+            }
+        )
+    )
     result = run_cli("eval", "report", tmp_path / "runs")
     assert result.exit_code == 0, result.stderr
     assert "| pipette/PickUpTestTube-v1 | act | 2/4 (50 %, 15-85) | - |" in result.stdout  # from the summary alone
@@ -52,8 +61,18 @@ def captured(monkeypatch: pytest.MonkeyPatch) -> dict:
     def fake_evaluate_runs(runs, source, settings, **kwargs):
         seen["policy_type"] = settings.config.policy_type
         task = runs[0].task.id
-        return lerobot_runner.EvalResult({task: {"task": task, "policy_type": settings.config.policy_type, "episodes": 1,
-                                                 "successes": 0, "success_rate": 0.0, "success_ci95": [0.0, 0.79]}})
+        return lerobot_runner.EvalResult(
+            {
+                task: {
+                    "task": task,
+                    "policy_type": settings.config.policy_type,
+                    "episodes": 1,
+                    "successes": 0,
+                    "success_rate": 0.0,
+                    "success_ci95": [0.0, 0.79],
+                }
+            }
+        )
 
     monkeypatch.setattr(lerobot_runner, "evaluate_runs", fake_evaluate_runs)
     return seen
@@ -79,7 +98,9 @@ def test_resolve_policy_type(tmp_path: Path) -> None:
     assert resolve_policy_type(None, None) == "act"  # a server: nothing to read
     assert resolve_policy_type("pi0", None) == "pi0"
     assert resolve_policy_type(None, checkpoint(tmp_path / "p", "pi0")) == "pi0"
-    with pytest.raises(PipetteError, match="policy type 'diffusion' cannot be evaluated; expected one of act, smolvla, pi0"):
+    with pytest.raises(
+        PipetteError, match="policy type 'diffusion' cannot be evaluated; expected one of act, smolvla, pi0"
+    ):
         resolve_policy_type(None, checkpoint(tmp_path / "d", "diffusion"))
     with pytest.raises(PipetteError, match="not a LeRobot policy folder \\(no config.json\\)"):
         resolve_policy_type(None, tmp_path)
@@ -92,11 +113,24 @@ def test_resolve_policy_type(tmp_path: Path) -> None:
 def test_eval_names_what_is_wrong_with_a_suite_request(run_cli, tmp_path: Path) -> None:
     unknown = run_cli("eval", "--suite", "PaperBenchmrk", "--endpoint", "tcp://127.0.0.1:1")
     assert unknown.exit_code == 1 and "unknown suite 'PaperBenchmrk'; did you mean 'PaperBenchmark" in unknown.stderr
-    fixed = run_cli("eval", "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1", "--episodes", "5", "--seed", "3")
+    fixed = run_cli(
+        "eval", "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1", "--episodes", "5", "--seed", "3"
+    )
     assert fixed.exit_code == 1 and "--episodes, --seed: the suite fixes seeds and image size" in fixed.stderr
-    outside = run_cli("--registry-dir", Path(__file__).parents[1] / "fixtures" / "demos" / "registry", "eval", "HoldTube",
-                      "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1")
-    assert outside.exit_code == 1 and "task testlab/HoldTube-v1 is not in suite pipette/PaperBenchmark-v1" in outside.stderr
+    outside = run_cli(
+        "--registry-dir",
+        Path(__file__).parents[1] / "fixtures" / "demos" / "registry",
+        "eval",
+        "HoldTube",
+        "--suite",
+        "PaperBenchmark",
+        "--endpoint",
+        "tcp://127.0.0.1:1",
+    )
+    assert (
+        outside.exit_code == 1
+        and "task testlab/HoldTube-v1 is not in suite pipette/PaperBenchmark-v1" in outside.stderr
+    )
     nothing = run_cli("eval", "--endpoint", "tcp://127.0.0.1:1")
     assert nothing.exit_code == 1 and "name a task or a suite" in nothing.stderr
 
@@ -108,10 +142,21 @@ def test_eval_gives_up_on_a_server_that_never_answers(run_cli, tmp_path: Path) -
     probe.bind(("127.0.0.1", 0))
     port = probe.getsockname()[1]
     probe.close()
-    result = run_cli("eval", "PickUpTestTube", "--endpoint", f"tcp://127.0.0.1:{port}", "--connect-timeout", "0.5",
-                     "--out", tmp_path / "run")
+    result = run_cli(
+        "eval",
+        "PickUpTestTube",
+        "--endpoint",
+        f"tcp://127.0.0.1:{port}",
+        "--connect-timeout",
+        "0.5",
+        "--out",
+        tmp_path / "run",
+    )
     assert result.exit_code == 1
-    assert f"no policy server answers at tcp://127.0.0.1:{port} (waited 0.5 s); start `pipette serve` first" in result.stderr
+    assert (
+        f"no policy server answers at tcp://127.0.0.1:{port} (waited 0.5 s); start `pipette serve` first"
+        in result.stderr
+    )
 
 
 def test_tasks_suites_lists_the_frozen_suites(run_cli) -> None:

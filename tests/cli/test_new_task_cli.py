@@ -29,8 +29,16 @@ def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
 
 
 def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", "Close the lid of the thermal cycler", "--check", "--episodes", "2", "--dry-run",
-                     "--id", "mylab/ShutCycler-v1")
+    result = run_cli(
+        "new-task",
+        "Close the lid of the thermal cycler",
+        "--check",
+        "--episodes",
+        "2",
+        "--dry-run",
+        "--id",
+        "mylab/ShutCycler-v1",
+    )
     assert result.exit_code == 0, result.stderr
     text = " ".join(result.stderr.split())
     assert "check: ok" in text and "expert 'program' solved 2/2 episodes (needs 2)" in text
@@ -51,15 +59,28 @@ def test_check_failure_names_the_stage_and_writes_nothing_without_force(run_cli,
 
 
 def test_json_has_the_plan_and_the_check(run_cli) -> None:
-    data = json.loads(run_cli("new-task", "Close the spectrophotometer lid", "--check", "--episodes", "1", "--dry-run",
-                              "--json", "--id", "mylab/ShutSpectro-v1").stdout)
+    data = json.loads(
+        run_cli(
+            "new-task",
+            "Close the spectrophotometer lid",
+            "--check",
+            "--episodes",
+            "1",
+            "--dry-run",
+            "--json",
+            "--id",
+            "mylab/ShutSpectro-v1",
+        ).stdout
+    )
     assert data["id"] == "mylab/ShutSpectro-v1" and data["check"]["ok"] is True
     assert data["steps"] == ["close spectrophotometer"] and data["plan"]["steps"][0]["action"] == "close"
     assert data["check"]["idle_steps"] > 0
 
 
 def test_multi_step_description_becomes_a_sequence_task(run_cli, tmp_path) -> None:
-    result = run_cli("new-task", "Open the PCR machine, load the PCR plate, and then close the lid", "--out", tmp_path, "--yes")
+    result = run_cli(
+        "new-task", "Open the PCR machine, load the PCR plate, and then close the lid", "--out", tmp_path, "--yes"
+    )
     assert result.exit_code == 0, result.stderr
     path = next(tmp_path.iterdir())
     spec = load_task_file(path)
@@ -68,12 +89,15 @@ def test_multi_step_description_becomes_a_sequence_task(run_cli, tmp_path) -> No
     assert run_cli("tasks", "validate", path).exit_code == 0
 
 
-@pytest.mark.parametrize(("text", "message"), [
-    ("Put the 15 mL tube in the autoclave", "unknown object 'autoclave'; nearest:"),
-    ("Pour the buffer into the beaker", "liquids are not simulated"),
-    ("Unscrew the cap of the falcon tube", "screwing caps on or off is not supported"),
-    ("Pick up the 1000 mL beaker", "the franka_panda's gripper opens 80 mm"),
-])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("Put the 15 mL tube in the autoclave", "unknown object 'autoclave'; nearest:"),
+        ("Pour the buffer into the beaker", "liquids are not simulated"),
+        ("Unscrew the cap of the falcon tube", "screwing caps on or off is not supported"),
+        ("Pick up the 1000 mL beaker", "the franka_panda's gripper opens 80 mm"),
+    ],
+)
 def test_refusals_exit_1_with_one_line_and_write_nothing(run_cli, tmp_path, text, message) -> None:
     result = run_cli("new-task", text, "--out", tmp_path, "--yes")
     assert result.exit_code == 1 and message in " ".join(result.stderr.split())
@@ -114,7 +138,10 @@ def test_assets_new_knows_what_the_library_already_has(run_cli, tmp_path) -> Non
     assert not list(tmp_path.iterdir())
 
 
-@pytest.mark.parametrize(("text", "message"), [("a flux capacitor", "no parametric generator"), ("a 90000 mL beaker", "less than or equal to 5000")])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [("a flux capacitor", "no parametric generator"), ("a 90000 mL beaker", "less than or equal to 5000")],
+)
 def test_assets_new_rejects_what_it_cannot_make(run_cli, tmp_path, text, message) -> None:
     result = run_cli("assets", "new", text, "--out", tmp_path, "--yes")
     assert result.exit_code == 1 and message in result.stderr and not list(tmp_path.iterdir())

@@ -42,7 +42,9 @@ def test_serve_answers_a_client_then_stops_after_max_requests(run_cli, tmp_path)
 
     thread = threading.Thread(target=client, daemon=True)
     thread.start()
-    result = run_cli("serve", "--policy", policy, "--bind", endpoint, "--device", "cpu", "--max-requests", "3", "--json")
+    result = run_cli(
+        "serve", "--policy", policy, "--bind", endpoint, "--device", "cpu", "--max-requests", "3", "--json"
+    )
     thread.join(10)
     assert result.exit_code == 0, result.stderr
     decoder, text, docs = json.JSONDecoder(), result.stdout.strip(), []
@@ -52,7 +54,13 @@ def test_serve_answers_a_client_then_stops_after_max_requests(run_cli, tmp_path)
         text = text[end:].strip()
     ready, stopped = docs
     assert ready["event"] == "ready" and ready["endpoint"] == endpoint and ready["policy"]["policy_type"] == "act"
-    assert stopped == {"event": "stopped", "requests": 3, "actions": 1, "errors": 1, "mean_inference_ms": stopped["mean_inference_ms"]}
+    assert stopped == {
+        "event": "stopped",
+        "requests": 3,
+        "actions": 1,
+        "errors": 1,
+        "mean_inference_ms": stopped["mean_inference_ms"],
+    }
     assert answers["info"]["images"]["observation.images.wrist"] == [3, 24, 24]
     assert answers["action"].shape == (8,) and np.isfinite(answers["action"]).all()
     assert answers["error"] == "bad_shape"

@@ -40,12 +40,34 @@ def test_unknown_task_and_no_display(run_cli, monkeypatch) -> None:
 
 def test_render_on_another_robot_and_an_unknown_one(run_cli, tmp_path: Path) -> None:
     out = tmp_path / "ur5e.png"
-    result = run_cli("sim", "render", "PickUpTestTube", "--robot", "ur5e_2f85", "--image-size", "32", "--profile", "fast",
-                     "--out", out)
+    result = run_cli(
+        "sim",
+        "render",
+        "PickUpTestTube",
+        "--robot",
+        "ur5e_2f85",
+        "--image-size",
+        "32",
+        "--profile",
+        "fast",
+        "--out",
+        out,
+    )
     assert result.exit_code == 0, result.stderr
     assert np.asarray(Image.open(out))[:, -32:].std() > 5  # the UR5e's wrist camera sees something
-    moved = run_cli("sim", "render", "PlaceTubeOnBalance", "--robot", "piper", "--image-size", "32", "--profile", "fast",
-                    "--out", tmp_path / "piper.png")
+    moved = run_cli(
+        "sim",
+        "render",
+        "PlaceTubeOnBalance",
+        "--robot",
+        "piper",
+        "--image-size",
+        "32",
+        "--profile",
+        "fast",
+        "--out",
+        tmp_path / "piper.png",
+    )
     assert moved.exit_code == 0, moved.stderr
     assert "agilex_piper: base moved from (0.00, 0.00) to (" in moved.stderr
     bad = run_cli("sim", "render", "PickUpTestTube", "--robot", "kuka")

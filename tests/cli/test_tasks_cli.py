@@ -48,10 +48,15 @@ def test_show_prints_the_file_with_comments_and_json(run_cli) -> None:
 def test_show_and_list_give_a_protocols_stages_with_their_instructions(run_cli) -> None:
     result = run_cli("tasks", "show", "protocols/SpinMicrotube-v1")
     assert result.exit_code == 0, result.stderr
-    assert "# 4 stages" in result.stdout and "#   4. Press the start button to spin the tube.  [instrument_state]" in result.stdout
+    assert (
+        "# 4 stages" in result.stdout
+        and "#   4. Press the start button to spin the tube.  [instrument_state]" in result.stdout
+    )
     data = json.loads(run_cli("tasks", "show", "protocols/SpinMicrotube-v1", "--json").stdout)
     assert [s["instruction"] for s in data["stages"]][:2] == [
-        "Press the release button to open the microcentrifuge lid.", "Put the microtube in a rotor well."]
+        "Press the release button to open the microcentrifuge lid.",
+        "Put the microtube in a rotor well.",
+    ]
     rows = json.loads(run_cli("tasks", "list", "--tag", "protocol", "--json").stdout)
     assert len(rows) >= 5 and all(len(r["stages"]) >= 3 for r in rows)
     assert json.loads(run_cli("tasks", "show", "PickUpTestTube", "--json").stdout)["stages"] == []

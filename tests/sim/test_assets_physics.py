@@ -28,11 +28,14 @@ def test_free_objects_settle_without_jitter() -> None:
     assert report.metrics["penetration"] < 1e-3
 
 
-@pytest.mark.parametrize(("name", "expected"), [
-    ("broken_syntax.usda", "cannot parse USD (line 68"),
-    ("missing_reference.usda", "does_not_exist.usda"),
-    ("exploding_dish.usda", "physics:"),
-])
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        ("broken_syntax.usda", "cannot parse USD (line 68"),
+        ("missing_reference.usda", "does_not_exist.usda"),
+        ("exploding_dish.usda", "physics:"),
+    ],
+)
 def test_bad_assets_are_reported_not_fixed(name: str, expected: str) -> None:
     path = FIXTURES / name
     before = path.read_bytes()

@@ -23,7 +23,9 @@ from raw_demo import TASK, raw_demo  # noqa: E402
 SPEC = AugmentSpec(
     variants=[
         VariantSpec(name="original"),
-        VariantSpec(name="light+cam", perturbations=[LightingSpec(scale=0.5), CameraPoseSpec(camera="top", radius=0.2)]),
+        VariantSpec(
+            name="light+cam", perturbations=[LightingSpec(scale=0.5), CameraPoseSpec(camera="top", radius=0.2)]
+        ),
         VariantSpec(name="speed", perturbations=[SpeedSpec()]),
         VariantSpec(name="destroy", perturbations=[JointNoiseSpec(sigma=0.5, bound=0.5)]),  # deliberately destructive
     ]
@@ -155,8 +157,12 @@ def test_batch_rollout_screening_agrees_with_step_by_step(task, tmp_path_factory
     assert [(v.success, v.failed) for v in batch] == [(v.success, v.failed) for v in serial]
     assert batch[0].success and not batch[1].success
 
-    spec_on = AugmentSpec(variants=[VariantSpec(name="speed", perturbations=[SpeedSpec()]),
-                                    VariantSpec(name="destroy", perturbations=[JointNoiseSpec(sigma=0.5, bound=0.5)])])
+    spec_on = AugmentSpec(
+        variants=[
+            VariantSpec(name="speed", perturbations=[SpeedSpec()]),
+            VariantSpec(name="destroy", perturbations=[JointNoiseSpec(sigma=0.5, bound=0.5)]),
+        ]
+    )
     spec_off = spec_on.model_copy(update={"batch": False})
     folder = tmp_path_factory.mktemp("batch")
     on = augment(task, raw, folder / "on.h5", spec_on, workers=1)
@@ -176,7 +182,9 @@ def test_views_shared_by_variants_of_the_same_physics_are_rendered_once(task, tm
     raw = raw_demo(tmp_path_factory)
     folder = tmp_path_factory.mktemp("reuse")
     light = VariantSpec(name="light", perturbations=[LightingSpec(scale=0.6)])
-    moved = VariantSpec(name="light+cam", perturbations=[LightingSpec(scale=0.6), CameraPoseSpec(camera="top", radius=0.2)])
+    moved = VariantSpec(
+        name="light+cam", perturbations=[LightingSpec(scale=0.6), CameraPoseSpec(camera="top", radius=0.2)]
+    )
     rendered: list[str] = []
     real_render = CameraRig.render
 

@@ -48,8 +48,21 @@ def test_killed_augment_leaves_readable_output_and_resumes(tmp_path) -> None:
     task = load_registry([]).get("PickUpTestTube")
     raw, out = tmp_path / "raw.h5", tmp_path / "aug.h5"
     assert len(collect(task, raw, episodes=3, seed=3, image_size=16).added) == 3
-    command = [sys.executable, "-m", "pipette_cli.cli.main", "augment", "PickUpTestTube", "-i", str(raw), "-o", str(out),
-               "--variants", "original,speed,light", "--workers", "1"]
+    command = [
+        sys.executable,
+        "-m",
+        "pipette_cli.cli.main",
+        "augment",
+        "PickUpTestTube",
+        "-i",
+        str(raw),
+        "-o",
+        str(out),
+        "--variants",
+        "original,speed,light",
+        "--workers",
+        "1",
+    ]
     proc = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env={**os.environ})
     deadline = time.time() + 120
     while time.time() < deadline and proc.poll() is None:
@@ -69,4 +82,6 @@ def test_killed_augment_leaves_readable_output_and_resumes(tmp_path) -> None:
     assert f"{done} demos already augmented" in " ".join(rerun.stderr.split())
     episodes = scan(out).episodes
     assert len(episodes) == 3 * 3
-    assert sorted(read_episode(ref).attrs["augment_variant"] for ref in episodes) == sorted(["original", "speed", "light"] * 3)
+    assert sorted(read_episode(ref).attrs["augment_variant"] for ref in episodes) == sorted(
+        ["original", "speed", "light"] * 3
+    )

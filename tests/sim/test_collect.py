@@ -102,13 +102,29 @@ def _cli_subprocess(out: Path, episodes: int) -> subprocess.Popen:
         "from pipette_cli.cli.main import run; sys.argv = ['pipette', *sys.argv[2:]]; run()"
     )
     args = [
-        sys.executable, "-c", code, str(FIXTURES), "--registry-dir", str(REGISTRY), "collect", TASK_ID,
-        "--episodes", str(episodes), "--out", str(out), "--image-size", "16",
+        sys.executable,
+        "-c",
+        code,
+        str(FIXTURES),
+        "--registry-dir",
+        str(REGISTRY),
+        "collect",
+        TASK_ID,
+        "--episodes",
+        str(episodes),
+        "--out",
+        str(out),
+        "--image-size",
+        "16",
     ]
-    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env={**os.environ, "MUJOCO_GL": "egl"})
+    return subprocess.Popen(
+        args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env={**os.environ, "MUJOCO_GL": "egl"}
+    )
 
 
-def _wait_for_parts(out: Path, count: int, process: subprocess.Popen, *, writing: bool = False, timeout: float = 120.0) -> None:
+def _wait_for_parts(
+    out: Path, count: int, process: subprocess.Popen, *, writing: bool = False, timeout: float = 120.0
+) -> None:
     """Wait until ``count`` finished parts exist (and, with ``writing``, the next one is being written)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

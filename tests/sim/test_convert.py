@@ -81,7 +81,10 @@ def converted(recording: Path, tmp_path_factory) -> dict[str, object]:
     both loaded back by one fresh Python process."""
     base = tmp_path_factory.mktemp("datasets")
     results = {
-        "images": convert([recording], ConvertOptions(repo_id="local/tube_raw", root=base / "images", video=False, include_failed=True)),
+        "images": convert(
+            [recording],
+            ConvertOptions(repo_id="local/tube_raw", root=base / "images", video=False, include_failed=True),
+        ),
         "video": convert([recording], ConvertOptions(repo_id="local/tube_video", root=base / "video", video=True)),
     }
     args = [str(x) for kind, r in results.items() for x in (r.repo_id, r.root, base / f"{kind}.npz")]
@@ -113,14 +116,19 @@ def test_images_dataset_loads_in_a_fresh_process_with_exact_values(recording: Pa
     assert (result.episodes, result.frames) == (2, 10)
     want = expected(recording, [0, 1])
     assert int(loaded["episodes"]) == 2 and int(loaded["frames"]) == 10 and int(loaded["fps"]) == 10
-    assert loaded["episode_index"].tolist() == [0] * 5 + [1] * 5 and loaded["frame_index"].tolist() == [0, 1, 2, 3, 4] * 2
+    assert (
+        loaded["episode_index"].tolist() == [0] * 5 + [1] * 5 and loaded["frame_index"].tolist() == [0, 1, 2, 3, 4] * 2
+    )
     np.testing.assert_allclose(loaded["timestamp"], np.tile(np.arange(5) / 10, 2), atol=1e-6)
     np.testing.assert_array_equal(loaded["observation.state"], want["state"])
     np.testing.assert_array_equal(loaded["action"], want["action"].astype(np.float32))
     for cam in CAMERAS:
         np.testing.assert_array_equal(loaded[cam], want[cam])
     assert set(loaded["task"]) == {"Hold still next to the test tube."}
-    assert sorted(p.name for p in converted["base"].iterdir() if p.is_dir()) == ["images", "video"]  # no temporary folder left
+    assert sorted(p.name for p in converted["base"].iterdir() if p.is_dir()) == [
+        "images",
+        "video",
+    ]  # no temporary folder left
 
 
 def test_video_dataset_matches_within_codec_tolerance(recording: Path, converted) -> None:
@@ -141,13 +149,19 @@ def test_video_dataset_matches_within_codec_tolerance(recording: Path, converted
 
 def test_stride_filter_and_provenance(recording: Path, tmp_path: Path) -> None:
     root = tmp_path / "ds"
-    options = ConvertOptions(repo_id="local/s", root=root, video=False, fps=15, frame_filter=FrameFilter.stride, include_failed=True)
+    options = ConvertOptions(
+        repo_id="local/s", root=root, video=False, fps=15, frame_filter=FrameFilter.stride, include_failed=True
+    )
     result = convert([recording], options)
     assert result.frames == 16  # steps 0, 2, ..., 14 of two 15-step episodes
     provenance = json.loads((root / PROVENANCE_FILE).read_text())
     first = provenance["episodes"][0]
-    assert first["steps"] == list(range(0, 15, 2)) and first["stale_frames"] == 5  # steps 2, 4, 8, 10, 14 repeat a frame
-    assert [e["success"] for e in provenance["episodes"]] == [True, False] and provenance["episodes"][1]["reason"] == "not_lifted"
+    assert (
+        first["steps"] == list(range(0, 15, 2)) and first["stale_frames"] == 5
+    )  # steps 2, 4, 8, 10, 14 repeat a frame
+    assert [e["success"] for e in provenance["episodes"]] == [True, False] and provenance["episodes"][1][
+        "reason"
+    ] == "not_lifted"
     assert [e["seed"] for e in provenance["episodes"]] == [0, 1] and provenance["dataset_version"] == "raw"
     report = dataset_stats(root)
     assert (report["episodes"], report["frames"], report["fps"]) == (2, 16, 15)
@@ -168,11 +182,16 @@ def test_raw_and_augmented_episodes_go_to_separate_datasets(recording: Path, tmp
     from pipette_cli.lerobot.convert import DatasetVersion
 
     root = tmp_path / "aug"
-    convert([augmented], ConvertOptions(repo_id="local/a", root=root, video=False, dataset_version=DatasetVersion.augmented))
+    convert(
+        [augmented], ConvertOptions(repo_id="local/a", root=root, video=False, dataset_version=DatasetVersion.augmented)
+    )
     report = dataset_stats(root)
     assert report["provenance"]["dataset_version"] == "augmented" and report["provenance"]["perturbed"] == 1
     with pytest.raises(DatasetError, match="--dataset-version raw"):
-        convert([recording], ConvertOptions(repo_id="local/a", root=tmp_path / "a2", dataset_version=DatasetVersion.augmented))
+        convert(
+            [recording],
+            ConvertOptions(repo_id="local/a", root=tmp_path / "a2", dataset_version=DatasetVersion.augmented),
+        )
 
 
 def test_bad_inputs_leave_nothing_behind(recording: Path, tmp_path: Path) -> None:
@@ -191,19 +210,28 @@ def test_bad_inputs_leave_nothing_behind(recording: Path, tmp_path: Path) -> Non
     with pytest.raises(DatasetError, match="one image size"):
         convert([recording, small], ConvertOptions(repo_id="local/m", root=root, video=False))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["other.h5", "robot.h5", "small.h5"]
-    mixed = convert([recording, other_task], ConvertOptions(repo_id="local/m", root=root, video=False, allow_mixed=True))
-    assert mixed.episodes == 2 and dataset_stats(root)["provenance"]["task_ids"] == ["testlab/HoldTube-v1", "testlab/Other-v1"]
+    mixed = convert(
+        [recording, other_task], ConvertOptions(repo_id="local/m", root=root, video=False, allow_mixed=True)
+    )
+    assert mixed.episodes == 2 and dataset_stats(root)["provenance"]["task_ids"] == [
+        "testlab/HoldTube-v1",
+        "testlab/Other-v1",
+    ]
     features = json.loads((root / "meta" / "info.json").read_text())["features"]
     assert features["observation.state"]["names"] == [*PANDA_JOINTS, "gripper"]  # one robot: its joints
     assert features["action"]["names"] == [f"{j}_target" for j in PANDA_JOINTS] + ["gripper_open"]
     both = tmp_path / "both"
-    convert([recording, other_robot], ConvertOptions(repo_id="local/r", root=both, video=False, allow_mixed_robots=True))
+    convert(
+        [recording, other_robot], ConvertOptions(repo_id="local/r", root=both, video=False, allow_mixed_robots=True)
+    )
     info = json.loads((both / "meta" / "info.json").read_text())
     assert info["robot_type"] == "franka_panda,ur5e_robotiq"
     assert info["features"]["observation.state"]["names"][:2] == ["joint_1", "joint_2"]  # robots mixed: by position
 
 
-def test_existing_dataset_needs_overwrite_and_a_failed_write_keeps_the_old_one(recording: Path, tmp_path: Path, monkeypatch) -> None:
+def test_existing_dataset_needs_overwrite_and_a_failed_write_keeps_the_old_one(
+    recording: Path, tmp_path: Path, monkeypatch
+) -> None:
     root = tmp_path / "ds"
     convert([recording], ConvertOptions(repo_id="local/o", root=root, video=False))
     with pytest.raises(DatasetError, match="--overwrite"):
@@ -215,7 +243,9 @@ def test_existing_dataset_needs_overwrite_and_a_failed_write_keeps_the_old_one(r
 
     monkeypatch.setattr(module, "_read_images", broken)
     with pytest.raises(DatasetError, match="disk full"):
-        convert([recording], ConvertOptions(repo_id="local/o", root=root, video=False, include_failed=True, overwrite=True))
+        convert(
+            [recording], ConvertOptions(repo_id="local/o", root=root, video=False, include_failed=True, overwrite=True)
+        )
     assert dataset_stats(root)["episodes"] == 1  # the old dataset is intact
     assert sorted(p.name for p in tmp_path.iterdir()) == ["ds"]  # the partial one is gone
     monkeypatch.undo()

@@ -34,7 +34,9 @@ ACT = DecodeConfig.for_policy("act")
 
 
 def suite_runs(out: Path) -> list[TaskRun]:
-    return [TaskRun(REGISTRY.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in episode_plan(SUITE.spec).items()]
+    return [
+        TaskRun(REGISTRY.get(t), out / t.replace("/", "_"), tuple(eps)) for t, eps in episode_plan(SUITE.spec).items()
+    ]
 
 
 def logs(folder: Path) -> list[dict]:
@@ -55,18 +57,43 @@ def test_a_suite_runs_the_same_episodes_with_one_or_two_workers(tmp_path) -> Non
     hold = two.summaries["testlab/HoldTube-v1"]
     assert hold["suite"] == {"id": "testlab/Tiny-v1", "version": 1, "sha256": SUITE.sha256}
     assert [x["instruction"] for x in logs(tmp_path / "two" / "testlab_HoldTube-v1")] == [
-        "Hold still next to the test tube.", "Stay beside the tube."] * 2
+        "Hold still next to the test tube.",
+        "Stay beside the tube.",
+    ] * 2
     env = hold["environments"][0]
-    assert env["gl_backend"] == os.environ["MUJOCO_GL"] and env["mujoco"] and (env["git_commit"] == "unknown" or len(env["git_commit"]) == 40)
+    assert (
+        env["gl_backend"] == os.environ["MUJOCO_GL"]
+        and env["mujoco"]
+        and (env["git_commit"] == "unknown" or len(env["git_commit"]) == 40)
+    )
     assert env["gl_renderer"] != "unknown"
     staged = two.summaries["testlab/StagedHoldTube-v1"]
     assert staged["mean_progress"] == 0.5 and staged["final_stage_counts"] == {"1": 3}
-    assert all(x["progress"] == 0.5 and x["metrics"]["stages"] == 2 for x in logs(tmp_path / "two" / "testlab_StagedHoldTube-v1"))
+    assert all(
+        x["progress"] == 0.5 and x["metrics"]["stages"] == 2
+        for x in logs(tmp_path / "two" / "testlab_StagedHoldTube-v1")
+    )
 
 
 def _eval_command(endpoint: str, out: Path, episodes: int) -> list[str]:
-    return [sys.executable, "-m", "pipette_cli.cli.main", "--registry-dir", str(DIRS[0]), "eval", "HoldTube",
-            "--endpoint", endpoint, "--image-size", "24", "--episodes", str(episodes), "--out", str(out), "--json"]
+    return [
+        sys.executable,
+        "-m",
+        "pipette_cli.cli.main",
+        "--registry-dir",
+        str(DIRS[0]),
+        "eval",
+        "HoldTube",
+        "--endpoint",
+        endpoint,
+        "--image-size",
+        "24",
+        "--episodes",
+        str(episodes),
+        "--out",
+        str(out),
+        "--json",
+    ]
 
 
 def test_a_killed_evaluation_resumes_without_losing_or_repeating_an_episode(tmp_path) -> None:
@@ -88,16 +115,29 @@ def test_a_killed_evaluation_resumes_without_losing_or_repeating_an_episode(tmp_
     assert f"{len(before)} episodes already logged; {24 - len(before)} to go" in " ".join(rerun.stderr.split())
     final = logs(out)
     assert [x["episode"] for x in final] == list(range(24)) and [x["seed"] for x in final] == list(range(24))
-    assert {p.name: p.stat().st_mtime_ns for p in out.glob("episode_*.json") if p.name in before} == before  # none rewritten
-    assert runner.calls - calls_before == sum(x["policy_queries"] for x in final[len(before):])  # none played twice
+    assert {
+        p.name: p.stat().st_mtime_ns for p in out.glob("episode_*.json") if p.name in before
+    } == before  # none rewritten
+    assert runner.calls - calls_before == sum(x["policy_queries"] for x in final[len(before) :])  # none played twice
     assert not list(out.glob("*.tmp"))
     summary = json.loads(rerun.stdout)
     assert summary["episodes"] == summary["planned"] == 24 and summary["complete"]
 
 
 def _serve_in_process(tmp_path: Path, *extra: str) -> tuple[subprocess.Popen, str]:
-    proc = subprocess.Popen([sys.executable, str(FIXTURES / "policy" / "serve_fixed.py"), "--action", ",".join(map(str, HOLD)),
-                             "--image-size", "24", *extra], stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            str(FIXTURES / "policy" / "serve_fixed.py"),
+            "--action",
+            ",".join(map(str, HOLD)),
+            "--image-size",
+            "24",
+            *extra,
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     endpoint = proc.stdout.readline().strip()
     assert endpoint.startswith("tcp://"), endpoint
     return proc, endpoint
@@ -116,8 +156,20 @@ def test_a_killed_server_stops_the_run_within_seconds_with_a_partial_summary(run
 
     threading.Thread(target=kill_after_three_episodes, daemon=True).start()
     try:
-        result = run_cli("--registry-dir", DIRS[0], "eval", "HoldTube", "--endpoint", endpoint, "--image-size", "24",
-                         "--episodes", "200", "--out", out)
+        result = run_cli(
+            "--registry-dir",
+            DIRS[0],
+            "eval",
+            "HoldTube",
+            "--endpoint",
+            endpoint,
+            "--image-size",
+            "24",
+            "--episodes",
+            "200",
+            "--out",
+            out,
+        )
         ended = time.time()
     finally:
         server.kill()
@@ -140,7 +192,9 @@ def test_a_killed_server_stops_the_run_within_seconds_with_a_partial_summary(run
 def test_a_slow_server_is_not_declared_dead(tmp_path) -> None:
     server, endpoint = _serve_in_process(tmp_path, "--slow-every", "4", "--slow-s", "2.0")
     try:
-        run = TaskRun(REGISTRY.get("HoldTube"), tmp_path / "run", tuple(episode_plan(SUITE.spec)["testlab/HoldTube-v1"][:1]))
+        run = TaskRun(
+            REGISTRY.get("HoldTube"), tmp_path / "run", tuple(episode_plan(SUITE.spec)["testlab/HoldTube-v1"][:1])
+        )
         source = PolicySource(endpoints=(endpoint,), dead_after_s=0.5)  # far below the 2 s the policy takes
         started = time.monotonic()
         result = evaluate_runs([run], source, EvalSettings(ACT, 24), workers=1)
@@ -167,10 +221,21 @@ def test_server_lost_is_raised_by_the_library_with_the_record(tmp_path) -> None:
 def test_pipette_eval_suite_end_to_end_then_report(run_cli, tmp_path) -> None:
     registry_args = ("--registry-dir", DIRS[0], "--registry-dir", DIRS[1])
     with serving_in_thread(PolicyServer(FixedRunner(HOLD, image_size=32), "tcp://127.0.0.1:0")) as wrong:
-        refused = run_cli(*registry_args, "eval", "--suite", "Tiny-v1", "--endpoint", wrong.endpoint, "--out", tmp_path / "x")
+        refused = run_cli(
+            *registry_args, "eval", "--suite", "Tiny-v1", "--endpoint", wrong.endpoint, "--out", tmp_path / "x"
+        )
     assert refused.exit_code == 1 and "reads top images of 32x32, but this evaluation renders 24x24" in refused.stderr
     with serving_in_thread(PolicyServer(FixedRunner(HOLD, image_size=24), "tcp://127.0.0.1:0")) as server:
-        args = (*registry_args, "eval", "--suite", "Tiny-v1", "--endpoint", server.endpoint, "--out", tmp_path / "evals")
+        args = (
+            *registry_args,
+            "eval",
+            "--suite",
+            "Tiny-v1",
+            "--endpoint",
+            server.endpoint,
+            "--out",
+            tmp_path / "evals",
+        )
         result = run_cli(*args, "--json")
         again = run_cli(*args)
     assert result.exit_code == 0, result.stderr

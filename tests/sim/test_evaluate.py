@@ -84,8 +84,19 @@ def test_served_policy_two_episodes_with_json_logs(run_cli, tiny_act, tmp_path) 
     from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread
 
     with serving_in_thread(PolicyServer(LeRobotRunner(tiny_act, device="cpu"), "tcp://127.0.0.1:0")) as server:
-        result = run_cli("eval", "PickUpTestTube", "--endpoint", server.endpoint, "--episodes", "2", "--image-size", "32",
-                         "--out", tmp_path / "act_raw", "--json")
+        result = run_cli(
+            "eval",
+            "PickUpTestTube",
+            "--endpoint",
+            server.endpoint,
+            "--episodes",
+            "2",
+            "--image-size",
+            "32",
+            "--out",
+            tmp_path / "act_raw",
+            "--json",
+        )
     assert result.exit_code == 0, result.stderr
     summary = json.loads(result.stdout)
     assert summary["episodes"] == 2 and summary["success_rate"] == summary["successes"] / 2
@@ -99,18 +110,49 @@ def test_served_policy_two_episodes_with_json_logs(run_cli, tiny_act, tmp_path) 
 
 
 def test_in_process_mode_and_report(run_cli, tiny_act, tmp_path) -> None:
-    result = run_cli("eval", "PickUpTestTube", "--policy", tiny_act, "--device", "cpu", "--episodes", "1", "--image-size", "32",
-                     "--out", tmp_path / "runs" / "act_aug", "--dataset-version", "augmented")
+    result = run_cli(
+        "eval",
+        "PickUpTestTube",
+        "--policy",
+        tiny_act,
+        "--device",
+        "cpu",
+        "--episodes",
+        "1",
+        "--image-size",
+        "32",
+        "--out",
+        tmp_path / "runs" / "act_aug",
+        "--dataset-version",
+        "augmented",
+    )
     assert result.exit_code == 0, result.stderr
     assert "SR = 0/1 = 0.0 % (95 % CI 0.0-79.3)" in result.stdout  # an untrained policy lifts nothing
     (tmp_path / "runs" / "act_aug" / "summary.json").unlink()  # the report reads the episode logs
     (tmp_path / "runs" / "act_raw").mkdir()
-    (tmp_path / "runs" / "act_raw" / "summary.json").write_text(json.dumps(
-        {"task": "pipette/PickUpTestTube-v1", "policy_type": "act", "dataset_version": "raw", "episodes": 4, "success_rate": 0.75}))
+    (tmp_path / "runs" / "act_raw" / "summary.json").write_text(
+        json.dumps(
+            {
+                "task": "pipette/PickUpTestTube-v1",
+                "policy_type": "act",
+                "dataset_version": "raw",
+                "episodes": 4,
+                "success_rate": 0.75,
+            }
+        )
+    )
     report = run_cli("eval", "report", tmp_path / "runs", "--out", tmp_path / "table")
     assert report.exit_code == 0, report.stderr
-    assert "| pipette/PickUpTestTube-v1 | act | 3/4 (75 %, 30-95) | 0/1 (0 %, 0-79) | -75 pt | Fisher p = 0.4 (Holm 0.4) | no |" in report.stdout
-    assert (tmp_path / "table.csv").read_text().splitlines()[1].startswith("pipette/PickUpTestTube-v1,act,augmented,1,0,0.0000,0.0000,0.79")
+    assert (
+        "| pipette/PickUpTestTube-v1 | act | 3/4 (75 %, 30-95) | 0/1 (0 %, 0-79) | -75 pt | Fisher p = 0.4 (Holm 0.4) | no |"
+        in report.stdout
+    )
+    assert (
+        (tmp_path / "table.csv")
+        .read_text()
+        .splitlines()[1]
+        .startswith("pipette/PickUpTestTube-v1,act,augmented,1,0,0.0000,0.0000,0.79")
+    )
     data = json.loads((tmp_path / "table.json").read_text())
     assert data["comparisons"][0]["test"] == "fisher_exact" and data["comparisons"][0]["p_value"] == pytest.approx(0.4)
     assert (tmp_path / "table.png").stat().st_size > 1000 and (tmp_path / "table.md").read_text().startswith("| task |")

@@ -69,13 +69,15 @@ def test_a_skill_that_cannot_do_its_job_stops_the_expert_with_one_line() -> None
     world = World(REGISTRY.get("PickUpTestTube"))
     world.reset(0)
     adr = world.model.jnt_qposadr[world.model.body_jntadr[world.body_id("tube")]]
-    world.data.qpos[adr:adr + 3] = (1.35, 0.0, 0.56)  # far beyond the arm's reach
+    world.data.qpos[adr : adr + 3] = (1.35, 0.0, 0.56)  # far beyond the arm's reach
     mujoco.mj_forward(world.model, world.data)
     expert = ProgramExpert([PickSpec(object="tube")])
     expert.reset(world, np.random.default_rng(0))
     for _ in range(3):
         world.step(expert.act(world))
-    assert expert.failure is not None and expert.failure.startswith("step 1 (pick tube): no reachable axis grasp of 'tube'")
+    assert expert.failure is not None and expert.failure.startswith(
+        "step 1 (pick tube): no reachable axis grasp of 'tube'"
+    )
     assert "\n" not in expert.failure
 
 

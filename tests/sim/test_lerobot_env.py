@@ -50,16 +50,32 @@ def test_lerobot_eval_runs_a_lerobot_policy_in_a_pipette_task(tmp_path) -> None:
     from lerobot.policies.factory import make_pre_post_processors
 
     size = 32
-    inputs = {f"observation.images.{c}": PolicyFeature(FeatureType.VISUAL, (3, size, size)) for c in ("top", "main", "wrist")}
+    inputs = {
+        f"observation.images.{c}": PolicyFeature(FeatureType.VISUAL, (3, size, size)) for c in ("top", "main", "wrist")
+    }
     inputs["observation.state"] = PolicyFeature(FeatureType.STATE, (8,))
     outputs = {"action": PolicyFeature(FeatureType.ACTION, (8,))}
     config = ACTConfig(
-        input_features=inputs, output_features=outputs, pretrained_backbone_weights=None, chunk_size=5,
-        n_action_steps=5, dim_model=32, dim_feedforward=64, n_encoder_layers=1, n_decoder_layers=1, n_heads=2,
-        push_to_hub=False, device="cpu",
+        input_features=inputs,
+        output_features=outputs,
+        pretrained_backbone_weights=None,
+        chunk_size=5,
+        n_action_steps=5,
+        dim_model=32,
+        dim_feedforward=64,
+        n_encoder_layers=1,
+        n_decoder_layers=1,
+        n_heads=2,
+        push_to_hub=False,
+        device="cpu",
     )
     stats = {
-        key: {"mean": torch.zeros(f.shape), "std": torch.ones(f.shape), "min": torch.zeros(f.shape), "max": torch.ones(f.shape)}
+        key: {
+            "mean": torch.zeros(f.shape),
+            "std": torch.ones(f.shape),
+            "min": torch.zeros(f.shape),
+            "max": torch.ones(f.shape),
+        }
         for key, f in {**inputs, **outputs}.items()
     }
     policy_dir = tmp_path / "policy"
@@ -69,10 +85,21 @@ def test_lerobot_eval_runs_a_lerobot_policy_in_a_pipette_task(tmp_path) -> None:
     out = tmp_path / "eval"
     cli = os.path.join(os.path.dirname(sys.executable), "lerobot-eval")
     result = subprocess.run(
-        [cli, f"--policy.path={policy_dir}", "--env.type=pipette", "--env.task=pipette/CloseCentrifugeLid-v1",
-         f"--env.image_size={size}", "--eval.n_episodes=1", "--eval.batch_size=1", "--policy.device=cpu",
-         f"--output_dir={out}"],
-        capture_output=True, text=True, timeout=600, env={**os.environ, "HF_HUB_OFFLINE": "1"},
+        [
+            cli,
+            f"--policy.path={policy_dir}",
+            "--env.type=pipette",
+            "--env.task=pipette/CloseCentrifugeLid-v1",
+            f"--env.image_size={size}",
+            "--eval.n_episodes=1",
+            "--eval.batch_size=1",
+            "--policy.device=cpu",
+            f"--output_dir={out}",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "HF_HUB_OFFLINE": "1"},
     )
     assert result.returncode == 0, result.stderr[-3000:]
     info = json.loads((out / "eval_info.json").read_text())

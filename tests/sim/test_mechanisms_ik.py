@@ -63,10 +63,13 @@ def test_pressing_the_button_opens_the_centrifuge_lid() -> None:
     assert world.joint("centrifuge/lid_hinge") == pytest.approx(-40.0, abs=3.0)
 
 
-@pytest.mark.parametrize(("task_id", "joint", "sign"), [
-    ("CloseCentrifugeLid", "centrifuge/lid_hinge", -1.0),
-    ("CloseSpectrophotometerLid", "spectro/lid_hinge", 1.0),
-])
+@pytest.mark.parametrize(
+    ("task_id", "joint", "sign"),
+    [
+        ("CloseCentrifugeLid", "centrifuge/lid_hinge", -1.0),
+        ("CloseSpectrophotometerLid", "spectro/lid_hinge", 1.0),
+    ],
+)
 def test_open_lids_stay_open_and_contact_closes_them(task_id: str, joint: str, sign: float) -> None:
     world = World(REGISTRY.get(task_id))
     world.reset(0)

@@ -70,7 +70,9 @@ def test_decimated_meshes_leave_the_physics_bit_identical(robot: str) -> None:
         np.testing.assert_array_equal(getattr(fast.model, name), getattr(full.model, name), err_msg=name)
     colliding = (full.model.geom_contype != 0) | (full.model.geom_conaffinity != 0)
     for name in ("geom_size", "geom_pos", "geom_quat", "geom_type", "geom_dataid"):
-        np.testing.assert_array_equal(getattr(fast.model, name)[colliding], getattr(full.model, name)[colliding], err_msg=name)
+        np.testing.assert_array_equal(
+            getattr(fast.model, name)[colliding], getattr(full.model, name)[colliding], err_msg=name
+        )
     rng = np.random.default_rng(0)
     full.reset(5)
     fast.reset(5)

@@ -38,7 +38,9 @@ def test_another_robot_gets_its_home_pose_wrist_camera_and_a_base_that_reaches()
 
 
 def test_an_unknown_robot_is_one_line_listing_the_robots() -> None:
-    with pytest.raises(SimError, match=r"unknown robot 'kuka'.*robots: agilex_piper \(piper\), franka_panda \(panda\), ur5e_robotiq"):
+    with pytest.raises(
+        SimError, match=r"unknown robot 'kuka'.*robots: agilex_piper \(piper\), franka_panda \(panda\), ur5e_robotiq"
+    ):
         on_robot(REGISTRY.get("PickUpTestTube"), "kuka")
 
 

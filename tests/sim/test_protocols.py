@@ -29,8 +29,14 @@ def test_start_pressed_before_the_lid_is_closed_does_not_count() -> None:
     """The wrong order, done by the skills: press start while the lid is open, then close the lid."""
     world = World(REGISTRY.get(RUN))
     world.reset(0)
-    expert = ProgramExpert([PressSpec(button="centrifuge/start_button"), WaitSpec(seconds=0.5),
-                            CloseHingeSpec(joint="centrifuge/lid_hinge"), WaitSpec(seconds=1.0)])
+    expert = ProgramExpert(
+        [
+            PressSpec(button="centrifuge/start_button"),
+            WaitSpec(seconds=0.5),
+            CloseHingeSpec(joint="centrifuge/lid_hinge"),
+            WaitSpec(seconds=1.0),
+        ]
+    )
     expert.reset(world, np.random.default_rng(0))
     refused_while_open = False
     while not (expert.done or expert.failure or world.verdict.done):

@@ -70,8 +70,11 @@ def test_home_is_inside_the_joint_limits_and_free_of_self_collision(robot: str) 
         if model.jnt_limited[j.id]:
             low, high = j.range
             assert low <= value <= high, f"{joint}: home {value} outside [{low}, {high}]"
-    penetrating = [(model.body(model.geom_bodyid[c.geom1]).name, model.body(model.geom_bodyid[c.geom2]).name)
-                   for c in data.contact[: data.ncon] if c.dist < -1e-3]
+    penetrating = [
+        (model.body(model.geom_bodyid[c.geom1]).name, model.body(model.geom_bodyid[c.geom2]).name)
+        for c in data.contact[: data.ncon]
+        if c.dist < -1e-3
+    ]
     assert not penetrating, penetrating
 
 

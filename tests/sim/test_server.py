@@ -54,7 +54,9 @@ def test_a_lerobot_policy_answers_actions_and_chunks(tiny_act) -> None:
         # the queue of ACT's select_action: the next steps of the same chunk, then a fresh one after reset
         client.act(obs_u8, reset=True)
         assert np.allclose(client.act(observation(seed=2)), chunk[1], atol=1e-5)
-        assert np.allclose(client.act(observation(seed=2), reset=True), client.act(observation(seed=2), chunk=True)[0], atol=1e-5)
+        assert np.allclose(
+            client.act(observation(seed=2), reset=True), client.act(observation(seed=2), chunk=True)[0], atol=1e-5
+        )
     assert server.stats.errors == 0 and server.stats.actions == 7
 
 
@@ -170,9 +172,14 @@ def _fuzz_messages(rng: np.random.Generator, n: int) -> Iterator[bytes]:
             yield bytes(buf)
         elif kind == 3:  # well-formed msgpack, wrong types
             values = [None, 1, -1.5, "x", b"y", [1, 2], {"a": 1}, True, 2**63 - 1, float("nan")]
-            obj = {str(k): values[int(rng.integers(len(values)))] for k in
-                   rng.choice(["observation.state", "observation.images.top", "task", "reset_policy", "chunk",
-                               "command", "zzz"], size=int(rng.integers(0, 4)), replace=False)}
+            obj = {
+                str(k): values[int(rng.integers(len(values)))]
+                for k in rng.choice(
+                    ["observation.state", "observation.images.top", "task", "reset_policy", "chunk", "command", "zzz"],
+                    size=int(rng.integers(0, 4)),
+                    replace=False,
+                )
+            }
             yield msgpack.packb(obj if rng.random() < 0.8 else list(obj.values()))
         elif kind == 4:  # arrays with random shapes, dtypes and NaNs
             obs = observation(seed=i)
@@ -186,8 +193,16 @@ def _fuzz_messages(rng: np.random.Generator, n: int) -> Iterator[bytes]:
             except TypeError:
                 yield b"\x80"
         else:  # array maps lying about their buffers
-            yield msgpack.packb({"observation.state": {"__ndarray__": True, "dtype": str(rng.choice(["<f4", "|O", "<u8"])),
-                                                       "shape": [int(rng.integers(-2, 10**9))], "data": rng.bytes(16)}})
+            yield msgpack.packb(
+                {
+                    "observation.state": {
+                        "__ndarray__": True,
+                        "dtype": str(rng.choice(["<f4", "|O", "<u8"])),
+                        "shape": [int(rng.integers(-2, 10**9))],
+                        "data": rng.bytes(16),
+                    }
+                }
+            )
 
 
 def test_the_server_survives_fuzzing() -> None:
@@ -224,5 +239,7 @@ def test_a_message_over_the_hard_cap_drops_that_peer_only() -> None:
             with pytest.raises(PolicyTimeout):  # 1 MB > 2 x 10 kB: ZeroMQ cuts the connection, no reply
                 client.request({"blob": b"\0" * 1_000_000})
             client.timeout_ms = 5000
-            assert client.request({"blob": b"\0" * 15_000})["error"]["type"] == "too_large"  # over the limit, under the cap
+            assert (
+                client.request({"blob": b"\0" * 15_000})["error"]["type"] == "too_large"
+            )  # over the limit, under the cap
             assert client.act(observation()).tolist() == [1.0] * 8

@@ -32,8 +32,13 @@ FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "skills"
 REGISTRY = load_registry([FIXTURES])
 
 
-def run(task_id: str, steps: list[StepSpec] | None = None, seed: int = 0, seconds: float = 25.0,
-        watch: Callable[[World], None] | None = None) -> tuple[World, ProgramExpert]:
+def run(
+    task_id: str,
+    steps: list[StepSpec] | None = None,
+    seed: int = 0,
+    seconds: float = 25.0,
+    watch: Callable[[World], None] | None = None,
+) -> tuple[World, ProgramExpert]:
     """Run a program (the task's own by default) to its end, whatever the evaluator says; `watch` sees every step."""
     task = REGISTRY.get(task_id)
     world = World(task)
@@ -58,11 +63,14 @@ def upright(world: World, name: str) -> float:
     return float(np.rad2deg(np.arccos(np.clip(world.rotation(name)[2, 2], -1.0, 1.0))))
 
 
-@pytest.mark.parametrize(("task_id", "name", "lift"), [
-    ("PickUpTestTube", "tube", 0.1),                        # upright tube, about its axis
-    ("PlacePetriDishInIncubator", "dish", 0.05),            # flat dish, pinched at the rim
-    ("PipetteToPetriDish", "pipette", 0.1),                 # lying tool, across its body
-])
+@pytest.mark.parametrize(
+    ("task_id", "name", "lift"),
+    [
+        ("PickUpTestTube", "tube", 0.1),  # upright tube, about its axis
+        ("PlacePetriDishInIncubator", "dish", 0.05),  # flat dish, pinched at the rim
+        ("PipetteToPetriDish", "pipette", 0.1),  # lying tool, across its body
+    ],
+)
 def test_pick_lifts_objects_of_every_shape(task_id: str, name: str, lift: float) -> None:
     world = World(REGISTRY.get(task_id))
     world.reset(0)
@@ -75,7 +83,9 @@ def test_pick_lifts_objects_of_every_shape(task_id: str, name: str, lift: float)
 def test_place_on_sets_a_tube_on_a_pan_and_a_dish_on_a_shelf() -> None:
     world, _ = run("PlaceTubeOnBalance")
     pan = world.position("balance/pan_center")
-    assert np.linalg.norm(world.position("tube")[:2] - pan[:2]) < 0.02 and abs(world.position("tube")[2] - pan[2]) < 0.01
+    assert (
+        np.linalg.norm(world.position("tube")[:2] - pan[:2]) < 0.02 and abs(world.position("tube")[2] - pan[2]) < 0.01
+    )
     assert upright(world, "tube") < 8
     world, _ = run("PlacePetriDishInIncubator")
     shelf = world.position("incubator/shelf_0_center")
@@ -87,7 +97,10 @@ def test_place_on_sets_a_tube_on_a_pan_and_a_dish_on_a_shelf() -> None:
 def test_insert_into_a_rack_hole_and_a_pipette_stand() -> None:
     world, _ = run("skills/TubeIntoRack-v1")
     slot = world.position("rack/slot_5")
-    assert np.linalg.norm(world.position("tube")[:2] - slot[:2]) < 0.006 and abs(world.position("tube")[2] - slot[2]) < 0.01
+    assert (
+        np.linalg.norm(world.position("tube")[:2] - slot[:2]) < 0.006
+        and abs(world.position("tube")[2] - slot[2]) < 0.01
+    )
     world, _ = run("PlacePipetteInRack", seconds=30)
     slot = world.position("rack/slot_1")
     tip = world.position("pipette/tip")
@@ -102,24 +115,31 @@ def test_remove_from_a_balance_to_the_bench_and_out_of_an_incubator() -> None:
     world, _ = run("RemoveTubeFromBalance")
     end = world.position("tube")
     assert end[1] - start[1] > 0.25 and abs(end[2] - 0.55) < 0.01 and upright(world, "tube") < 10
-    world, _ = run("RemovePetriDishFromIncubator", [RemoveFromSpec(object="dish", source="incubator", to="hold", hold_s=0.5)])
+    world, _ = run(
+        "RemovePetriDishFromIncubator", [RemoveFromSpec(object="dish", source="incubator", to="hold", hold_s=0.5)]
+    )
     dish = world.position("dish")
     assert dish[0] < 0.55 and dish[2] > 0.6  # out in front, held clear
 
 
-@pytest.mark.parametrize(("task_id", "joint"), [
-    ("CloseCentrifugeLid", "centrifuge/lid_hinge"),                      # heavy lid, opens toward the robot
-    ("CloseSpectrophotometerLid", "spectro/lid_hinge"),                  # light lid leaning back past upright
-    ("generated/CloseThermalCyclerLid-v1", "cycler/lid_hinge"),
-])
+@pytest.mark.parametrize(
+    ("task_id", "joint"),
+    [
+        ("CloseCentrifugeLid", "centrifuge/lid_hinge"),  # heavy lid, opens toward the robot
+        ("CloseSpectrophotometerLid", "spectro/lid_hinge"),  # light lid leaning back past upright
+        ("generated/CloseThermalCyclerLid-v1", "cycler/lid_hinge"),
+    ],
+)
 def test_close_hinge_shuts_lids(task_id: str, joint: str) -> None:
     world, _ = run(task_id, [CloseHingeSpec(joint=joint, hold_s=0.3)])
     assert abs(world.joint(joint)) < 4
 
 
 def test_press_fires_the_release_of_two_centrifuges() -> None:
-    for task_id, button, mechanism in (("OpenCentrifugeLid", "centrifuge/button", "lid_release"),
-                                       ("generated/PressMicrocentrifugeButton-v1", "microcentrifuge/button", "release")):
+    for task_id, button, mechanism in (
+        ("OpenCentrifugeLid", "centrifuge/button", "lid_release"),
+        ("generated/PressMicrocentrifugeButton-v1", "microcentrifuge/button", "release"),
+    ):
         world, _ = run(task_id, [PressSpec(button=button), WaitSpec(seconds=0.3)])
         assert world.mechanism(mechanism).triggered, task_id
 
@@ -130,8 +150,10 @@ def test_slide_pulls_a_drawer_out() -> None:
 
 
 def test_position_over_holds_a_tool_tip_over_a_target() -> None:
-    world, _ = run("PipetteToPetriDish", [PickSpec(object="pipette"),
-                                          PositionOverSpec(object="pipette", target="dish/center", height=0.1, hold_s=0.5)])
+    world, _ = run(
+        "PipetteToPetriDish",
+        [PickSpec(object="pipette"), PositionOverSpec(object="pipette", target="dish/center", height=0.1, hold_s=0.5)],
+    )
     tip, dish = world.position("pipette/tip"), world.position("dish/center")
     assert np.linalg.norm(tip[:2] - dish[:2]) < 0.02 and abs(tip[2] - dish[2] - 0.1) < 0.02
 
@@ -141,10 +163,15 @@ def test_tilt_and_move_carry_a_tube_and_tilt_it_back() -> None:
     world.reset(0)
     start = world.position("tube")
     leans: list[float] = []
-    world, _ = run("PickUpTestTube", [PickSpec(object="tube", lift=0.08),
-                                      MoveSpec(by=(0.0, 0.05, 0.0)),
-                                      TiltSpec(object="tube", angle_deg=30, hold_s=0.3)],
-                   watch=lambda w: leans.append(upright(w, "tube")))
+    world, _ = run(
+        "PickUpTestTube",
+        [
+            PickSpec(object="tube", lift=0.08),
+            MoveSpec(by=(0.0, 0.05, 0.0)),
+            TiltSpec(object="tube", angle_deg=30, hold_s=0.3),
+        ],
+        watch=lambda w: leans.append(upright(w, "tube")),
+    )
     assert world.position("tube")[1] - start[1] > 0.035  # carried sideways
     assert max(leans) > 20  # tilted on the way
     assert upright(world, "tube") < 8  # and back upright at the end

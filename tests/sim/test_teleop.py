@@ -94,7 +94,12 @@ def test_gripper_toggle_events_and_unknown_keys(env: PipetteEnv) -> None:
     np.testing.assert_array_equal(action[:-1], targets)
     for key in ("Enter", "Delete", "Home"):
         teleop.on_key(glfw_key(key))
-    assert [teleop.pop_event(), teleop.pop_event(), teleop.pop_event(), teleop.pop_event()] == ["save", "discard", "reset", None]
+    assert [teleop.pop_event(), teleop.pop_event(), teleop.pop_event(), teleop.pop_event()] == [
+        "save",
+        "discard",
+        "reset",
+        None,
+    ]
 
 
 def _script(teleop: KeyboardTeleop, plan: dict[int, list[str]]):
@@ -139,7 +144,13 @@ def test_a_finished_episode_waits_for_the_operator(env: PipetteEnv, tmp_path: Pa
     writer = EpisodeWriter(tmp_path / "e.h5", DatasetInfo.from_env(env), index=0, seed=0, source="teleop")
     decided = []
     outcome = teleop_episode(
-        env, teleop, writer, max_steps=300, sync=_script(teleop, {40: ["Enter"]}), realtime=False, on_done=decided.append
+        env,
+        teleop,
+        writer,
+        max_steps=300,
+        sync=_script(teleop, {40: ["Enter"]}),
+        realtime=False,
+        on_done=decided.append,
     )
     assert outcome.event == "save" and len(decided) == 1 and decided[0].reason == "not_lifted"
     assert outcome.summary.num_steps == 15 and outcome.summary.reason == "not_lifted"  # no steps after the verdict

@@ -22,25 +22,53 @@ import demo_experts  # noqa: E402
 
 TASK = "testlab/HoldTube-v1"
 TINY_ACT = [
-    "--policy.dim_model=32", "--policy.dim_feedforward=64", "--policy.n_heads=2", "--policy.n_encoder_layers=1",
-    "--policy.n_vae_encoder_layers=1", "--policy.latent_dim=8", "--policy.chunk_size=4", "--policy.n_action_steps=4",
-    "--num_workers=0", "--log_freq=1",
+    "--policy.dim_model=32",
+    "--policy.dim_feedforward=64",
+    "--policy.n_heads=2",
+    "--policy.n_encoder_layers=1",
+    "--policy.n_vae_encoder_layers=1",
+    "--policy.latent_dim=8",
+    "--policy.chunk_size=4",
+    "--policy.n_action_steps=4",
+    "--num_workers=0",
+    "--log_freq=1",
 ]
 
 
 def test_tiny_act_trains_offline_and_writes_a_checkpoint(tmp_path: Path, run_cli, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     rec = tmp_path / "rec.h5"
-    collect(load_registry([FIXTURES / "registry"]).get(TASK), rec, episodes=1, seed=0, image_size=32,
-            expert_factory=demo_experts.Wiggle)
+    collect(
+        load_registry([FIXTURES / "registry"]).get(TASK),
+        rec,
+        episodes=1,
+        seed=0,
+        image_size=32,
+        expert_factory=demo_experts.Wiggle,
+    )
     with h5py.File(rec, "r+") as f:  # Wiggle never lifts the tube; the verdict is not under test
         f["episodes/episode_000000"].attrs.update(success=True, failed=False, reason="")
     root = default_root(TASK, DatasetVersion.raw)
     convert([rec], ConvertOptions(repo_id="local/testlab_HoldTube-v1_raw", root=root, video=False))
 
-    args = ["--registry-dir", str(FIXTURES / "registry"), "train", "--tasks", "HoldTube", "--policy", "act",
-            "--steps", "2", "--batch-size", "2", "--device", "cpu", "--offline", "--json",
-            *(f"--extra={a}" for a in TINY_ACT)]
+    args = [
+        "--registry-dir",
+        str(FIXTURES / "registry"),
+        "train",
+        "--tasks",
+        "HoldTube",
+        "--policy",
+        "act",
+        "--steps",
+        "2",
+        "--batch-size",
+        "2",
+        "--device",
+        "cpu",
+        "--offline",
+        "--json",
+        *(f"--extra={a}" for a in TINY_ACT),
+    ]
     result = run_cli(*args)
     run_dir = Path("outputs/train/act/testlab_HoldTube-v1_raw")
     log = Path("outputs/train/act/testlab_HoldTube-v1_raw.log")
@@ -65,8 +93,21 @@ def test_tiny_act_trains_offline_and_writes_a_checkpoint(tmp_path: Path, run_cli
     from pipette_cli.serving.server import LeRobotRunner, PolicyServer, serving_in_thread
 
     with serving_in_thread(PolicyServer(LeRobotRunner(checkpoint, device="cpu"), "tcp://127.0.0.1:0")) as server:
-        evaluation = run_cli("--registry-dir", str(FIXTURES / "registry"), "eval", "HoldTube", "--endpoint", server.endpoint,
-                             "--episodes", "2", "--image-size", "32", "--out", "evals/act_raw", "--json")
+        evaluation = run_cli(
+            "--registry-dir",
+            str(FIXTURES / "registry"),
+            "eval",
+            "HoldTube",
+            "--endpoint",
+            server.endpoint,
+            "--episodes",
+            "2",
+            "--image-size",
+            "32",
+            "--out",
+            "evals/act_raw",
+            "--json",
+        )
     assert evaluation.exit_code == 0, evaluation.stderr
     summary = json.loads(evaluation.stdout)
     assert summary["episodes"] == 2 and summary["task"] == TASK and summary["dataset_version"] == "raw"

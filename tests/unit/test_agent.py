@@ -51,6 +51,7 @@ def test_dev_set_is_large_and_covers_every_kind() -> None:
 
 # -- the catalog is the typer app ---------------------------------------------------------------
 
+
 def test_catalog_lists_every_leaf_command_of_the_cli() -> None:
     from pipette_cli.cli.main import app
 
@@ -63,8 +64,11 @@ def test_catalog_lists_every_leaf_command_of_the_cli() -> None:
     cli = set(leaves(typer.main.get_command(app))) - {"agent"}
     assert cli == {n for n in CATALOG.commands if not n.startswith("answer ")}
     collect = CATALOG.get("collect")
-    assert (collect.params["episodes"].kind, collect.params["episodes"].default, collect.params["episodes"].minimum) == (
-        "int", 10, 0)
+    assert (
+        collect.params["episodes"].kind,
+        collect.params["episodes"].default,
+        collect.params["episodes"].minimum,
+    ) == ("int", 10, 0)
     assert collect.params["source"].choices == ("scripted", "teleop") and collect.params["out"].writes
     assert CATALOG.get("train").params["policy"].choices == ("act", "smolvla", "pi0")
     assert CATALOG.get("convert").params["video"].off_flag == "--images"
@@ -101,12 +105,19 @@ def test_an_option_added_to_the_cli_is_understood_by_its_own_words() -> None:
     catalog = read_catalog((app, ()))
     assert catalog.get("collect").params["robot"].choices == ("panda", "ur5e", "piper")
     plan = OfflineAgent(catalog, REGISTRY).plan("collect 7 demos of the test tube task on the ur5e with suite size 4")
-    assert plan.steps[0].args == {"task_id": "pipette/PickUpTestTube-v1", "episodes": 7, "robot": "ur5e",
-                                  "suite_size": 4, "out": "data/PickUpTestTube.h5"}
+    assert plan.steps[0].args == {
+        "task_id": "pipette/PickUpTestTube-v1",
+        "episodes": 7,
+        "robot": "ur5e",
+        "suite_size": 4,
+        "out": "data/PickUpTestTube.h5",
+    }
     with pytest.raises(AgentError, match="must be one of panda, ur5e, piper, not 'kuka'"):
         Validator(catalog, REGISTRY, load_vocabulary()).check(
-            PlanSpec.model_validate({"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube",
-                                                                               "robot": "kuka"}}]}))
+            PlanSpec.model_validate(
+                {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "robot": "kuka"}}]}
+            )
+        )
 
 
 def test_every_vocabulary_entry_names_a_command_or_option_of_the_cli() -> None:
@@ -134,22 +145,32 @@ def check(*steps: dict):
 
 def test_validator_types_values_and_resolves_task_names() -> None:
     plan = check({"command": "collect", "args": {"task_id": "PickUpTestTube", "--episodes": "20", "image-size": 64.0}})
-    assert plan.steps[0].args == {"task_id": "pipette/PickUpTestTube-v1", "episodes": 20, "image_size": 64,
-                                  "out": "data/PickUpTestTube.h5"}
+    assert plan.steps[0].args == {
+        "task_id": "pipette/PickUpTestTube-v1",
+        "episodes": 20,
+        "image_size": 64,
+        "out": "data/PickUpTestTube.h5",
+    }
     assert plan.steps[0].product == "data/PickUpTestTube.h5" and plan.runnable
 
 
-@pytest.mark.parametrize(("step", "message"), [
-    ({"command": "shell", "args": {}}, "no command 'pipette shell'"),
-    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "cmd": "rm -rf /"}}, "has no parameter 'cmd'"),
-    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": "lots"}}, "takes an int, not 'lots'"),
-    ({"command": "collect", "args": {"task_id": "PickUpTestTube", "image_size": 4}}, "must be >= 16"),
-    ({"command": "collect", "args": {"task_id": "PickUpTestTub"}}, "unknown task 'PickUpTestTub'"),
-    ({"command": "train", "args": {"tasks": "all", "policy": "diffusion"}}, "Diffusion Policy is not supported"),
-    ({"command": "eval", "args": {"task_id": "all", "endpoint": "tcp://h:1"}}, "runs one task at a time"),
-    ({"command": "augment", "args": {"task_id": "PickUpTestTube", "input": {"from_step": 1}}},
-     "can only use an earlier step's output"),
-], ids=["command", "parameter", "type", "range", "task", "policy", "all", "reference"])
+@pytest.mark.parametrize(
+    ("step", "message"),
+    [
+        ({"command": "shell", "args": {}}, "no command 'pipette shell'"),
+        ({"command": "collect", "args": {"task_id": "PickUpTestTube", "cmd": "rm -rf /"}}, "has no parameter 'cmd'"),
+        ({"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": "lots"}}, "takes an int, not 'lots'"),
+        ({"command": "collect", "args": {"task_id": "PickUpTestTube", "image_size": 4}}, "must be >= 16"),
+        ({"command": "collect", "args": {"task_id": "PickUpTestTub"}}, "unknown task 'PickUpTestTub'"),
+        ({"command": "train", "args": {"tasks": "all", "policy": "diffusion"}}, "Diffusion Policy is not supported"),
+        ({"command": "eval", "args": {"task_id": "all", "endpoint": "tcp://h:1"}}, "runs one task at a time"),
+        (
+            {"command": "augment", "args": {"task_id": "PickUpTestTube", "input": {"from_step": 1}}},
+            "can only use an earlier step's output",
+        ),
+    ],
+    ids=["command", "parameter", "type", "range", "task", "policy", "all", "reference"],
+)
 def test_validator_refuses_with_one_clear_line(step, message) -> None:
     with pytest.raises(AgentError, match=message):
         check(step)
@@ -157,23 +178,29 @@ def test_validator_refuses_with_one_clear_line(step, message) -> None:
 
 def test_unsupported_is_final_and_lists_what_is_supported() -> None:
     with pytest.raises(Unsupported) as info:
-        check({"command": "eval", "args": {"task_id": "PickUpTestTube", "endpoint": "tcp://h:1", "policy_type": "VQ-BeT"}})
+        check(
+            {"command": "eval", "args": {"task_id": "PickUpTestTube", "endpoint": "tcp://h:1", "policy_type": "VQ-BeT"}}
+        )
     assert str(info.value) == "VQ-BeT is not supported; supported are ACT, SmolVLA, pi0" and info.value.final
 
 
 def test_validator_links_outputs_carries_values_and_lists_missing() -> None:
-    plan = check({"command": "collect", "args": {"task_id": "OpenWaterBathLid", "image_size": 32}},
-                 {"command": "augment", "args": {}},
-                 {"command": "convert", "args": {}},
-                 {"command": "train", "args": {"policy": "act"}},
-                 {"command": "eval", "args": {"episodes": 5}},
-                 {"command": "data stats", "args": {}})
+    plan = check(
+        {"command": "collect", "args": {"task_id": "OpenWaterBathLid", "image_size": 32}},
+        {"command": "augment", "args": {}},
+        {"command": "convert", "args": {}},
+        {"command": "train", "args": {"policy": "act"}},
+        {"command": "eval", "args": {"episodes": 5}},
+        {"command": "data stats", "args": {}},
+    )
     s = plan.steps
     assert s[1].args["input"] == StepRef(from_step=1) and s[2].args["inputs"] == [StepRef(from_step=2)]
     assert s[2].args["dataset_version"] == "augmented" and s[3].args["dataset_version"] == "augmented"
     assert s[3].product == "outputs/train/act/pipette_OpenWaterBathLid-v1_augmented/checkpoints/last/pretrained_model"
     assert s[4].args["policy"] == StepRef(from_step=4) and s[4].args["image_size"] == 32
-    assert s[5].args["root"] == StepRef(from_step=3) and s[2].product == "datasets/pipette_OpenWaterBathLid-v1/augmented"
+    assert (
+        s[5].args["root"] == StepRef(from_step=3) and s[2].product == "datasets/pipette_OpenWaterBathLid-v1/augmented"
+    )
     assert plan.runnable and plan.resolved_args(s[1])["input"] == "data/OpenWaterBathLid.h5"
     incomplete = check({"command": "augment", "args": {"input": "runs/x.h5"}}, {"command": "serve", "args": {}})
     assert incomplete.missing == {1: ["task_id", "output"], 2: ["policy"]}
@@ -196,6 +223,7 @@ def test_canonical_form_ignores_defaults_and_option_order() -> None:
 
 # -- the LLM path: same plan model, same validator -----------------------------------------------
 
+
 def llm_agent(replies: list[dict], seen: list[dict]) -> LLMAgent:
     forget_formats()
 
@@ -204,21 +232,36 @@ def llm_agent(replies: list[dict], seen: list[dict]) -> LLMAgent:
         content = json.dumps(replies[min(len(seen), len(replies)) - 1])
         return httpx.Response(200, json={"choices": [{"message": {"role": "assistant", "content": content}}]})
 
-    return LLMAgent("openai", CATALOG, REGISTRY, base_url="http://llm.test/v1", model="m", max_attempts=3,
-                    transport=httpx.MockTransport(reply))
+    return LLMAgent(
+        "openai",
+        CATALOG,
+        REGISTRY,
+        base_url="http://llm.test/v1",
+        model="m",
+        max_attempts=3,
+        transport=httpx.MockTransport(reply),
+    )
 
 
 def test_llm_plan_is_validated_and_re_asked_with_the_error() -> None:
     seen: list[dict] = []
-    agent = llm_agent([
-        {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "demos": 5}}]},
-        {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": 5}},
-                   {"command": "augment", "args": {"input": {"from_step": 1}}}]},
-    ], seen)
+    agent = llm_agent(
+        [
+            {"steps": [{"command": "collect", "args": {"task_id": "PickUpTestTube", "demos": 5}}]},
+            {
+                "steps": [
+                    {"command": "collect", "args": {"task_id": "PickUpTestTube", "episodes": 5}},
+                    {"command": "augment", "args": {"input": {"from_step": 1}}},
+                ]
+            },
+        ],
+        seen,
+    )
     plan = agent.plan("record five demos of the test tube task and augment them")
     assert step_lines(plan, CATALOG) == [
         "collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 5",
-        "augment pipette/PickUpTestTube-v1 --input @1 --output data/PickUpTestTube_augmented.h5"]
+        "augment pipette/PickUpTestTube-v1 --input @1 --output data/PickUpTestTube_augmented.h5",
+    ]
     assert len(seen) == 2 and "has no parameter 'demos'" in seen[1]["messages"][-1]["content"]
     schema = seen[0]["response_format"]["json_schema"]["schema"]
     shapes = schema["properties"]["steps"]["items"]["anyOf"]
@@ -231,7 +274,8 @@ def test_llm_unsupported_policy_ends_at_once_and_bad_plans_never_pass() -> None:
     seen: list[dict] = []
     with pytest.raises(Unsupported, match="Diffusion Policy is not supported"):
         llm_agent([{"steps": [{"command": "train", "args": {"tasks": "all", "policy": "diffusion"}}]}], seen).plan(
-            "train diffusion on everything")
+            "train diffusion on everything"
+        )
     assert len(seen) == 1
     seen = []
     with pytest.raises(BackendError) as info:
@@ -249,6 +293,7 @@ def test_llm_schema_narrows_parameters_of_the_commands_the_request_points_to() -
 
 # -- answers from the data --------------------------------------------------------------------------
 
+
 def record(path: Path, task_id: str, outcomes: list[bool]) -> None:
     """A real episode file written by the project's recorder (synthetic content, no simulation)."""
     from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
@@ -256,15 +301,27 @@ def record(path: Path, task_id: str, outcomes: list[bool]) -> None:
     from pipette_cli.evaluators.base import Verdict
     from pipette_cli.sim.env import Observation
 
-    info = DatasetInfo(task_id=task_id, embodiment="franka_panda", instruction="x", image_height=4, image_width=4,
-                       cameras=("top",), physics_hz=600, control_hz=30, vision_hz=10, state_dim=8, action_dim=8,
-                       sim_state_size=3)
+    info = DatasetInfo(
+        task_id=task_id,
+        embodiment="franka_panda",
+        instruction="x",
+        image_height=4,
+        image_width=4,
+        cameras=("top",),
+        physics_hz=600,
+        control_hz=30,
+        vision_hz=10,
+        state_dim=8,
+        action_dim=8,
+        sim_state_size=3,
+    )
     for i, ok in enumerate(outcomes):
         writer = EpisodeWriter(part_path(path, i), info, index=i, seed=i, source="scripted")
         obs = Observation({"top": np.zeros((4, 4, 3), np.uint8)}, np.zeros(8, np.float32), True, 0, 0.0, 0.0, 1, "x")
         writer.add(obs, np.zeros(8), np.zeros(3))
-        writer.close(Verdict(success=ok, failed=not ok, reason=None if ok else "dropped", metrics={}), np.zeros(8),
-                     np.zeros(3))
+        writer.close(
+            Verdict(success=ok, failed=not ok, reason=None if ok else "dropped", metrics={}), np.zeros(8), np.zeros(3)
+        )
         writer.commit()
     pack(path)
 
@@ -288,19 +345,45 @@ def test_answers_read_the_last_evaluation(tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     old, new = Path("evals/old"), Path("evals/PickUpTestTube")
     old.mkdir(parents=True)
-    (old / "summary.json").write_text(json.dumps({"task": "pipette/OpenWaterBathLid-v1", "policy_type": "act",
-                                                  "episodes": 4, "successes": 1, "success_rate": 0.25,
-                                                  "dataset_version": "raw"}))
+    (old / "summary.json").write_text(
+        json.dumps(
+            {
+                "task": "pipette/OpenWaterBathLid-v1",
+                "policy_type": "act",
+                "episodes": 4,
+                "successes": 1,
+                "success_rate": 0.25,
+                "dataset_version": "raw",
+            }
+        )
+    )
     os.utime(old / "summary.json", (1, 1))
     new.mkdir(parents=True)
     for i, ok in enumerate([True, False, True]):  # an interrupted run: episode files, no summary yet
-        log = EpisodeLog(task="pipette/PickUpTestTube-v1", episode=i, seed=i, instruction="Pick up the test tube.", success=ok, failure_reason=None,
-                         runtime_s=1.0, sim_time_s=1.0, control_steps=30, control_hz=30.0, policy_queries=10,
-                         policy_hz=10.0, failed_queries=0, safe_hold=False, policy_type="smolvla",
-                         gripper_thresholds={})
+        log = EpisodeLog(
+            task="pipette/PickUpTestTube-v1",
+            episode=i,
+            seed=i,
+            instruction="Pick up the test tube.",
+            success=ok,
+            failure_reason=None,
+            runtime_s=1.0,
+            sim_time_s=1.0,
+            control_steps=30,
+            control_hz=30.0,
+            policy_queries=10,
+            policy_hz=10.0,
+            failed_queries=0,
+            safe_hold=False,
+            policy_type="smolvla",
+            gripper_thresholds={},
+        )
         (new / f"episode_{i:04d}.json").write_text(json.dumps(asdict(log)))
     last = answer("answer score", AGENT.plan("what did the last eval score").steps[0].args)
-    assert last.text.startswith("evals/PickUpTestTube: pipette/PickUpTestTube-v1 with smolvla") and "2/3 = 67 %" in last.text
+    assert (
+        last.text.startswith("evals/PickUpTestTube: pipette/PickUpTestTube-v1 with smolvla")
+        and "2/3 = 67 %" in last.text
+    )
     water = answer("answer score", AGENT.plan("how did the last evaluation of the water bath task go").steps[0].args)
     assert water.data["last"]["success_rate"] == 0.25
     with pytest.raises(AgentError):
@@ -317,6 +400,7 @@ def test_answers_list_tasks_from_the_registry() -> None:
 
 # -- the command -------------------------------------------------------------------------------
 
+
 def test_cli_json_prints_the_plan_and_the_missing_values(run_cli) -> None:
     result = run_cli("agent", "collect demos", "--json")
     assert result.exit_code == 0, result.stderr
@@ -327,9 +411,14 @@ def test_cli_json_prints_the_plan_and_the_missing_values(run_cli) -> None:
     assert chained["steps"][1]["command_line"].startswith("pipette augment pipette/PickUpTestTube-v1 --input data/")
 
 
-@pytest.mark.parametrize("case", [next(c for c in CASES if c.kind == kind) for kind in
-                                  ("single", "chained", "inspection", "unsupported", "missing", "error")],
-                         ids=lambda c: c.kind)
+@pytest.mark.parametrize(
+    "case",
+    [
+        next(c for c in CASES if c.kind == kind)
+        for kind in ("single", "chained", "inspection", "unsupported", "missing", "error")
+    ],
+    ids=lambda c: c.kind,
+)
 def test_cli_answers_every_kind_of_request_without_a_traceback(run_cli, case, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     result = run_cli("agent", case.request, "--json")
@@ -345,7 +434,9 @@ def test_cli_answers_from_the_registry_the_command_was_given(run_cli, fixtures_d
     from pipette_cli.cli.common import STATE
 
     monkeypatch.setattr(STATE, "registry_dirs", [])
-    result = run_cli("--registry-dir", fixtures_dir / "demos" / "registry", "agent", "how many tasks are there", "--json")
+    result = run_cli(
+        "--registry-dir", fixtures_dir / "demos" / "registry", "agent", "how many tasks are there", "--json"
+    )
     assert result.exit_code == 0, result.stderr
     extra = len(load_registry([fixtures_dir / "demos" / "registry"]).ids())
     assert json.loads(result.stdout)["steps"][0]["answer"]["count"] == extra > len(REGISTRY.ids())
@@ -365,8 +456,9 @@ def test_cli_answers_questions_without_running_anything(run_cli) -> None:
 def test_cli_runs_steps_and_stops_at_the_first_failure(run_cli, tmp_path, monkeypatch) -> None:
     monkeypatch.chdir(tmp_path)
     record(Path("data/tube.h5"), "pipette/PickUpTestTube-v1", [True])
-    ok = run_cli("agent", "inspect data/tube.h5 then validate registry/none.yaml and then show the water bath task",
-                 "--yes")
+    ok = run_cli(
+        "agent", "inspect data/tube.h5 then validate registry/none.yaml and then show the water bath task", "--yes"
+    )
     assert ok.exit_code == 1
     assert "step 2 (pipette tasks validate registry/none.yaml) failed with exit code 1" in ok.stderr
     assert "steps 3-3 did not run" in ok.stderr and "pipette/PickUpTestTube-v1" in ok.stdout  # step 1 ran
@@ -374,11 +466,19 @@ def test_cli_runs_steps_and_stops_at_the_first_failure(run_cli, tmp_path, monkey
 
 
 def test_interactive_session_asks_for_missing_values_and_keeps_context(tmp_path) -> None:
-    lines = ("evaluate the policy for 10 episodes\nPickUpTestTube\nserver\npolicy\nckpt/act\nn\n"
-             "collect 4 demos of the water bath task\nn\nnow render it with seed 3\nn\nquit\n")
-    result = subprocess.run([sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"], input=lines,
-                            capture_output=True, text=True, timeout=180, env={**os.environ, "COLUMNS": "200"},
-                            cwd=tmp_path)
+    lines = (
+        "evaluate the policy for 10 episodes\nPickUpTestTube\nserver\npolicy\nckpt/act\nn\n"
+        "collect 4 demos of the water bath task\nn\nnow render it with seed 3\nn\nquit\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "agent", "--interactive"],
+        input=lines,
+        capture_output=True,
+        text=True,
+        timeout=180,
+        env={**os.environ, "COLUMNS": "200"},
+        cwd=tmp_path,
+    )
     assert result.returncode == 0, result.stderr
     assert result.stdout.count("needs one of endpoint, policy; which") == 2  # "server" is asked again
     out = " ".join(result.stdout.split())

@@ -63,8 +63,14 @@ def test_llama_cpp_python_refuses_json_schema_and_takes_json_object_with_schema(
     client = make_client("openai", base_url=server, model="smollm2", max_attempts=3, timeout_s=300, transport=transport)
     trace: list[str] = []
     try:
-        result = ask_structured(client, system="Answer with JSON.", user="Name one colour and a number.",
-                                schema=Colour, accept=lambda c: c, trace=trace)
+        result = ask_structured(
+            client,
+            system="Answer with JSON.",
+            user="Name one colour and a number.",
+            schema=Colour,
+            accept=lambda c: c,
+            trace=trace,
+        )
         assert isinstance(result, Colour)
     except BackendError as exc:  # the model may fail the schema 3 times; then each attempt says why
         assert len(exc.problems) == 4
@@ -73,16 +79,27 @@ def test_llama_cpp_python_refuses_json_schema_and_takes_json_object_with_schema(
     assert {kind for kind, _ in transport.calls[1:]} == {"json_object+schema"} and len(transport.calls) <= 4
 
 
-@pytest.mark.parametrize("request_text", [
-    "collect 30 demos of the test tube task",
-    "record 20 demos of the water bath task, augment them, convert and train ACT",
-    "which tasks use the piper arm",
-])
+@pytest.mark.parametrize(
+    "request_text",
+    [
+        "collect 30 demos of the test tube task",
+        "record 20 demos of the water bath task, augment them, convert and train ACT",
+        "which tasks use the piper arm",
+    ],
+)
 def test_every_request_ends_in_a_checked_plan_or_one_clear_error(server, request_text) -> None:
     forget_formats()
     transport = Recording()
-    agent = LLMAgent("openai", load_catalog(), load_registry(), base_url=server, model="smollm2", max_attempts=2,
-                     timeout_s=300, transport=transport)
+    agent = LLMAgent(
+        "openai",
+        load_catalog(),
+        load_registry(),
+        base_url=server,
+        model="smollm2",
+        max_attempts=2,
+        timeout_s=300,
+        transport=transport,
+    )
     try:
         plan = agent.plan(request_text)
         assert isinstance(plan, CheckedPlan) and agent.trace[-1].endswith("accepted (json_object_schema)")
@@ -91,4 +108,6 @@ def test_every_request_ends_in_a_checked_plan_or_one_clear_error(server, request
     answered = [status for kind, status in transport.calls if kind == "json_object+schema"]
     assert answered and set(answered) == {200} and len(answered) == len(agent.trace) <= 2
     # every attempt but the last was refused for a reason that went back to the model
-    assert all(any(why in line for why in ("rejected", "does not match", "not valid JSON")) for line in agent.trace[:-1])
+    assert all(
+        any(why in line for why in ("rejected", "does not match", "not valid JSON")) for line in agent.trace[:-1]
+    )

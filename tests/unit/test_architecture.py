@@ -65,8 +65,10 @@ def test_imports_point_down_the_layers() -> None:
         own = _package(path)
         for line, target in _imports(path):
             if target != own and target in LAYER and LAYER[target] >= LAYER[own]:
-                wrong.append(f"{path.relative_to(ROOT.parent)}:{line}: {own} (layer {LAYER[own]}) imports "
-                             f"{target} (layer {LAYER[target]})")
+                wrong.append(
+                    f"{path.relative_to(ROOT.parent)}:{line}: {own} (layer {LAYER[own]}) imports "
+                    f"{target} (layer {LAYER[target]})"
+                )
     assert wrong == []
 
 

@@ -16,11 +16,21 @@ from pipette_cli.errors import AssetError
 
 MINIMUM = {"tools": 12, "equipment": 26, "consumables": 55, "instruments": 9}
 BENCHMARK = {
-    "lab_bench": "equipment", "test_tube_16x150": "consumables", "pipette_single_channel": "tools",
-    "petri_dish_90mm": "consumables", "incubator_benchtop": "instruments", "centrifuge_benchtop": "instruments",
-    "water_bath": "instruments", "water_bath_lid": "instruments", "spectrophotometer": "instruments",
-    "conical_tube_50ml_skirted": "consumables", "electronic_balance": "instruments", "balance_table": "equipment",
-    "pipette_stand_linear": "equipment", "erlenmeyer_flask_250ml": "consumables", "orbital_shaker": "instruments",
+    "lab_bench": "equipment",
+    "test_tube_16x150": "consumables",
+    "pipette_single_channel": "tools",
+    "petri_dish_90mm": "consumables",
+    "incubator_benchtop": "instruments",
+    "centrifuge_benchtop": "instruments",
+    "water_bath": "instruments",
+    "water_bath_lid": "instruments",
+    "spectrophotometer": "instruments",
+    "conical_tube_50ml_skirted": "consumables",
+    "electronic_balance": "instruments",
+    "balance_table": "equipment",
+    "pipette_stand_linear": "equipment",
+    "erlenmeyer_flask_250ml": "consumables",
+    "orbital_shaker": "instruments",
 }
 
 
@@ -28,7 +38,7 @@ def signed_volume(mesh: g.Mesh) -> float:
     """Volume by the divergence theorem: positive iff faces point outward."""
     total, start = 0.0, 0
     for count in mesh.counts:
-        face = mesh.points[mesh.indices[start:start + count]]
+        face = mesh.points[mesh.indices[start : start + count]]
         for k in range(1, count - 1):
             total += np.dot(face[0], np.cross(face[k], face[k + 1])) / 6
         start += count
@@ -66,7 +76,9 @@ def test_rotated_box_gets_principal_axes() -> None:
     quat = (np.cos(np.pi / 8), 0.0, 0.0, np.sin(np.pi / 8))  # 45 deg about z
     body = Body("b", 1.0, colliders=[Collider("c", "box", (0.2, 0.01, 0.01), (0, 0, 0), quat)])
     _, moments, axes = body.mass_properties()
-    assert sorted(moments) == pytest.approx(sorted([1 / 12 * 0.0008, 1 / 12 * (0.16 + 0.0004), 1 / 12 * (0.16 + 0.0004)]), rel=1e-6)
+    assert sorted(moments) == pytest.approx(
+        sorted([1 / 12 * 0.0008, 1 / 12 * (0.16 + 0.0004), 1 / 12 * (0.16 + 0.0004)]), rel=1e-6
+    )
     assert axes != (1.0, 0.0, 0.0, 0.0)
 
 

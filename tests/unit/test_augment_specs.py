@@ -30,9 +30,15 @@ def test_paper_defaults() -> None:
 
 @pytest.mark.parametrize(
     ("atom", "field", "value", "needle"),
-    [("speed", "factor", 0.0, "factor"), ("speed", "factor", -1.0, "factor"), ("cam", "radius", -0.1, "radius"),
-     ("cam", "wrist_radius", -1e-3, "wrist_radius"), ("light", "scale", 0.0, "scale"), ("noise", "sigma", -1, "sigma"),
-     ("speed", "interpolation", "cubic", "interpolation")],
+    [
+        ("speed", "factor", 0.0, "factor"),
+        ("speed", "factor", -1.0, "factor"),
+        ("cam", "radius", -0.1, "radius"),
+        ("cam", "wrist_radius", -1e-3, "wrist_radius"),
+        ("light", "scale", 0.0, "scale"),
+        ("noise", "sigma", -1, "sigma"),
+        ("speed", "interpolation", "cubic", "interpolation"),
+    ],
 )
 def test_impossible_parameters_are_refused(atom: str, field: str, value: object, needle: str) -> None:
     with pytest.raises(SpecError) as info:
@@ -42,14 +48,24 @@ def test_impossible_parameters_are_refused(atom: str, field: str, value: object,
 
 def test_variant_grid_and_physics_flags() -> None:
     variants = make_variants(["paper", "original"], default_atoms())
-    assert [v.name for v in variants] == ["light", "speed", "light+speed", "light+cam", "speed+cam", "light+speed+cam", "original"]
+    assert [v.name for v in variants] == [
+        "light",
+        "speed",
+        "light+speed",
+        "light+cam",
+        "speed+cam",
+        "light+speed+cam",
+        "original",
+    ]
     assert [v.physics for v in variants] == [False, True, True, False, True, True, False]
     with pytest.raises(SpecError, match="unknown perturbation 'spede'"):
         make_variants(["spede"], default_atoms())
 
 
 def test_specs_dispatch_on_type_and_scale_down() -> None:
-    v = VariantSpec.model_validate({"name": "x", "perturbations": [{"type": "speed", "factor": 2.0}, {"type": "lighting"}]})
+    v = VariantSpec.model_validate(
+        {"name": "x", "perturbations": [{"type": "speed", "factor": 2.0}, {"type": "lighting"}]}
+    )
     assert isinstance(v.perturbations[0], SpeedSpec) and isinstance(v.perturbations[1], LightingSpec)
     half = v.scaled(0.5)
     assert half.perturbations[0].factor == 1.5 and half.perturbations[1].scale == pytest.approx(0.9)
@@ -61,8 +77,14 @@ def test_specs_dispatch_on_type_and_scale_down() -> None:
 def test_yield_report_counts_attempts_kept_and_reasons() -> None:
     outcome = lambda v, m, kept, reason="": {"variant": v, "magnitude": m, "kept": kept, "reason": reason}
     demos = {
-        "a": {"status": "ok", "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", False, "dropped")]},
-        "b": {"status": "ok", "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", True)]},
+        "a": {
+            "status": "ok",
+            "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", False, "dropped")],
+        },
+        "b": {
+            "status": "ok",
+            "outcomes": [outcome("light", "s_I=0.8", True), outcome("light+speed", "s_I=0.8;s_v=3", True)],
+        },
         "c": {"status": "replay_failed", "outcomes": []},
     }
     report = yield_report(demos)
@@ -74,12 +96,20 @@ def test_yield_report_counts_attempts_kept_and_reasons() -> None:
 
 
 def test_yield_report_says_at_which_stage_rejected_variants_of_a_protocol_failed() -> None:
-    outcome = lambda kept, stage, reason="": {"variant": "object", "magnitude": "xy=0.02", "kept": kept,
-                                              "reason": reason, "stage": stage}
+    outcome = lambda kept, stage, reason="": {
+        "variant": "object",
+        "magnitude": "xy=0.02",
+        "kept": kept,
+        "reason": reason,
+        "stage": stage,
+    }
     demos = {
         "a": {"status": "ok", "outcomes": [outcome(False, 0, "rotor_loaded.tube_unmet"), outcome(True, 4)]},
         "b": {"status": "ok", "outcomes": [outcome(False, 2, "run_time_s_unmet"), outcome(False, 0, "undecided")]},
-        "old": {"status": "ok", "outcomes": [{"variant": "object", "magnitude": "xy=0.02", "kept": False, "reason": "dropped"}]},
+        "old": {
+            "status": "ok",
+            "outcomes": [{"variant": "object", "magnitude": "xy=0.02", "kept": False, "reason": "dropped"}],
+        },
     }
     row = yield_report(demos)["variants"][0]
     assert (row["attempts"], row["kept"]) == (5, 1)

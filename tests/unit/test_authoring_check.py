@@ -55,7 +55,9 @@ def test_a_drafted_task_passes_the_idle_checks(no_program) -> None:
 
 
 def test_a_task_solved_by_doing_nothing_is_refused(plate_task) -> None:
-    trivial = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.5, "timeout_s": 5})
+    trivial = with_changes(
+        plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.5, "timeout_s": 5}
+    )
     report = check_task(trivial, episodes=1, solve=False)
     assert not report.ok and "the task is trivial" in report.problems[0]
 
@@ -70,10 +72,14 @@ def test_solve_check_runs_the_tasks_expert(plate_task, monkeypatch) -> None:
     monkeypatch.setitem(experts._CUSTOM, plate_task.id.rsplit("-v", 1)[0], StandStill)
     report = solve_check(plate_task, episodes=2)
     assert report.status == "unsolved" and report.expert.endswith("StandStill") and report.successes == 0
-    assert report.reasons == ["seed 0: the criterion not met; evaluator: out_of_region",
-                              "seed 1: the criterion not met; evaluator: out_of_region"]
+    assert report.reasons == [
+        "seed 0: the criterion not met; evaluator: out_of_region",
+        "seed 1: the criterion not met; evaluator: out_of_region",
+    ]
     assert "seeds 0, 1: the criterion not met" in report.summary()
-    easy = with_changes(plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3})
+    easy = with_changes(
+        plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3}
+    )
     solved = solve_check(easy, episodes=2)
     assert solved.status == "solved" and solved.successes == 2
 

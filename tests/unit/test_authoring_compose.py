@@ -106,7 +106,7 @@ def test_llm_schema_is_strict() -> None:
     assert len(found) >= 3
     for node in found:
         assert node["additionalProperties"] is False and set(node["required"]) == set(node["properties"])
-    assert '\'default\':' not in str(schema)
+    assert "'default':" not in str(schema)
 
 
 @pytest.mark.parametrize(

@@ -19,14 +19,19 @@ from pipette_cli.authoring.workflow import draft_task, plan_summary
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.yaml_io import parse_yaml
 
-CASES = YAML(typ="safe").load((Path(__file__).parents[1] / "fixtures" / "authoring" / "descriptions.yaml").read_text())["cases"]
+CASES = YAML(typ="safe").load((Path(__file__).parents[1] / "fixtures" / "authoring" / "descriptions.yaml").read_text())[
+    "cases"
+]
 TASKS = [c for c in CASES if "steps" in c]
 REFUSALS = [c for c in CASES if "refuse" in c]
 KNOWN_GAPS = {
     # the incubator's open door needs room in front of the robot's home pose that its shelves' reach
     # does not leave on the Panda's bench (the registry's hand-made incubator tasks sit closer)
-    "Place the petri dish on the top shelf of the incubator", "Put the 60 mm dish in the incubator",
-    "Close the door of the incubator", "Close the incubator door", "Take the petri dish out of the incubator",
+    "Place the petri dish on the top shelf of the incubator",
+    "Put the 60 mm dish in the incubator",
+    "Close the door of the incubator",
+    "Close the incubator door",
+    "Take the petri dish out of the incubator",
     "Open the incubator and put the petri dish on the shelf",
     "First open the incubator door and then put the petri dish on the top shelf",
 }

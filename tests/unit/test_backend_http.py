@@ -27,7 +27,13 @@ GOOD_DRAFT = {
     "steps": [{"action": "place", "object": "tube", "target": "balance", "source": None, "part": None}],
     "robot": None,
     "instruction": "Put the tube on the balance.",
-    "thresholds": {"lift_height_m": None, "hold_s": None, "timeout_s": None, "max_tilt_deg": None, "xy_tolerance_m": None},
+    "thresholds": {
+        "lift_height_m": None,
+        "hold_s": None,
+        "timeout_s": None,
+        "max_tilt_deg": None,
+        "xy_tolerance_m": None,
+    },
 }
 
 
@@ -82,7 +88,13 @@ def server() -> Iterator[FakeServer]:
 
 
 def openai(server: FakeServer, **kw):
-    options = {"base_url": server.url + "/v1", "model": "test-model", "api_key": "sk-test", "timeout_s": 2.0, "max_attempts": 3}
+    options = {
+        "base_url": server.url + "/v1",
+        "model": "test-model",
+        "api_key": "sk-test",
+        "timeout_s": 2.0,
+        "max_attempts": 3,
+    }
     options.update(kw)
     return make_backend("openai", **options)
 
@@ -105,8 +117,10 @@ def test_valid_structured_reply_becomes_a_built_task(server) -> None:
 
 
 def test_malformed_json_is_reasked_with_the_parse_error(server) -> None:
-    server.script = [(200, chat_reply('{"steps": [{"action": "place", "objects": [ oops'), 0.0),
-                     (200, chat_reply("```json\n" + json.dumps(GOOD_DRAFT) + "\n```"), 0.0)]
+    server.script = [
+        (200, chat_reply('{"steps": [{"action": "place", "objects": [ oops'), 0.0),
+        (200, chat_reply("```json\n" + json.dumps(GOOD_DRAFT) + "\n```"), 0.0),
+    ]
     drafted = draft_task("Put the tube on the balance", openai(server))
     assert drafted.spec.id.endswith("OnElectronicBalance-v1")
     second = server.requests[1]["body"]["messages"]
@@ -115,8 +129,11 @@ def test_malformed_json_is_reasked_with_the_parse_error(server) -> None:
 
 
 def test_schema_violation_is_reasked_with_the_field_errors(server) -> None:
-    bad = dict(GOOD_DRAFT, steps=[dict(GOOD_DRAFT["steps"][0], action="juggle")],
-               thresholds=dict(GOOD_DRAFT["thresholds"], timeout_s=-3))
+    bad = dict(
+        GOOD_DRAFT,
+        steps=[dict(GOOD_DRAFT["steps"][0], action="juggle")],
+        thresholds=dict(GOOD_DRAFT["thresholds"], timeout_s=-3),
+    )
     server.script = [(200, chat_reply(json.dumps(bad)), 0.0), (200, chat_reply(json.dumps(GOOD_DRAFT)), 0.0)]
     draft_task("Put the tube on the balance", openai(server))
     reask = server.requests[1]["body"]["messages"][-1]["content"]
@@ -210,12 +227,25 @@ def test_ollama_native_chat_with_format_schema(server) -> None:
     drafted = draft_task("Put the tube on the balance", backend)
     body = server.requests[0]["body"]
     assert server.requests[0]["path"] == "/api/chat" and body["stream"] is False
-    assert body["format"]["$defs"]["PlanStepSpec"]["properties"]["action"]["enum"][0] == "pick" and drafted.backend == "ollama"
+    assert (
+        body["format"]["$defs"]["PlanStepSpec"]["properties"]["action"]["enum"][0] == "pick"
+        and drafted.backend == "ollama"
+    )
 
 
 def test_asset_generation_through_the_llm_backend(server) -> None:
-    server.script = [(200, chat_reply(json.dumps({"generator": "beaker", "volume_ml": 99999, "diameter_mm": None, "length_mm": None})), 0.0),
-                     (200, chat_reply(json.dumps({"generator": "beaker", "volume_ml": 300, "diameter_mm": None, "length_mm": None})), 0.0)]
+    server.script = [
+        (
+            200,
+            chat_reply(json.dumps({"generator": "beaker", "volume_ml": 99999, "diameter_mm": None, "length_mm": None})),
+            0.0,
+        ),
+        (
+            200,
+            chat_reply(json.dumps({"generator": "beaker", "volume_ml": 300, "diameter_mm": None, "length_mm": None})),
+            0.0,
+        ),
+    ]
     drafted = draft_asset("a 300 mL beaker", openai(server))
     assert drafted.asset_id == "beaker_300ml" and drafted.reference == "beaker_250ml"
     assert "volume_ml" in server.requests[1]["body"]["messages"][-1]["content"]

@@ -25,7 +25,9 @@ def test_fresh_filter_downsamples_faster_cameras_to_fps() -> None:
     every_step = np.ones(30, dtype=bool)  # cameras at the 30 Hz control rate
     steps = select_frames(every_step, control_hz=30, vision_hz=30, fps=10, mode=FrameFilter.fresh)
     assert steps.tolist() == list(range(0, 30, 3))
-    assert select_frames(FRESH_EVERY_3, control_hz=30, vision_hz=10, fps=5, mode=FrameFilter.fresh).tolist() == list(range(0, 30, 6))
+    assert select_frames(FRESH_EVERY_3, control_hz=30, vision_hz=10, fps=5, mode=FrameFilter.fresh).tolist() == list(
+        range(0, 30, 6)
+    )
 
 
 def test_fresh_filter_ignores_irregular_fresh_flags_when_picking() -> None:
@@ -35,14 +37,24 @@ def test_fresh_filter_ignores_irregular_fresh_flags_when_picking() -> None:
 
 
 def test_stride_filter_keeps_every_kth_step() -> None:
-    assert select_frames(FRESH_EVERY_3, control_hz=30, vision_hz=10, fps=15, mode=FrameFilter.stride).tolist() == list(range(0, 30, 2))
-    assert select_frames(FRESH_EVERY_3[:7], control_hz=30, vision_hz=10, fps=10, mode=FrameFilter.stride).tolist() == [0, 3, 6]
+    assert select_frames(FRESH_EVERY_3, control_hz=30, vision_hz=10, fps=15, mode=FrameFilter.stride).tolist() == list(
+        range(0, 30, 2)
+    )
+    assert select_frames(FRESH_EVERY_3[:7], control_hz=30, vision_hz=10, fps=10, mode=FrameFilter.stride).tolist() == [
+        0,
+        3,
+        6,
+    ]
 
 
 @pytest.mark.parametrize(
     ("mode", "fps", "message"),
-    [(FrameFilter.fresh, 30, "above the recording's camera rate"), (FrameFilter.fresh, 3, "does not divide"),
-     (FrameFilter.stride, 7, "does not divide"), (FrameFilter.stride, 60, "above the recording's control rate")],
+    [
+        (FrameFilter.fresh, 30, "above the recording's camera rate"),
+        (FrameFilter.fresh, 3, "does not divide"),
+        (FrameFilter.stride, 7, "does not divide"),
+        (FrameFilter.stride, 60, "above the recording's control rate"),
+    ],
 )
 def test_unreachable_rates_are_errors(mode: FrameFilter, fps: int, message: str) -> None:
     with pytest.raises(DatasetError, match=message):
@@ -52,19 +64,45 @@ def test_unreachable_rates_are_errors(mode: FrameFilter, fps: int, message: str)
 def test_features_are_uint8_hwc_cameras_state_and_action() -> None:
     info = DatasetInfo("lab/T-v1", "piper", "do it", 48, 64, ("top", "main", "wrist"), 600, 30, 10, 7, 7, 100)
     features = make_features(info, video=False)
-    assert set(features) == {"observation.images.top", "observation.images.main", "observation.images.wrist", "observation.state",
-                             "action", "stage"}
-    assert features["observation.images.wrist"]["shape"] == (48, 64, 3) and features["observation.images.top"]["dtype"] == "image"
+    assert set(features) == {
+        "observation.images.top",
+        "observation.images.main",
+        "observation.images.wrist",
+        "observation.state",
+        "action",
+        "stage",
+    }
+    assert (
+        features["observation.images.wrist"]["shape"] == (48, 64, 3)
+        and features["observation.images.top"]["dtype"] == "image"
+    )
     assert features["observation.state"]["shape"] == (7,) and features["observation.state"]["names"][-1] == "gripper"
     assert len(features["action"]["names"]) == 7
     assert make_features(info, video=True)["observation.images.main"]["dtype"] == "video"
 
 
 def test_instrument_values_are_named_columns() -> None:
-    info = DatasetInfo("lab/T-v1", "piper", "do it", 48, 64, ("top", "main", "wrist"), 600, 30, 10, 7, 7, 100,
-                       ("centrifuge.closed", "centrifuge.run_time_s"))
+    info = DatasetInfo(
+        "lab/T-v1",
+        "piper",
+        "do it",
+        48,
+        64,
+        ("top", "main", "wrist"),
+        600,
+        30,
+        10,
+        7,
+        7,
+        100,
+        ("centrifuge.closed", "centrifuge.run_time_s"),
+    )
     features = make_features(info, video=False)
-    assert features["instrument_state"] == {"dtype": "float32", "shape": (2,), "names": ["centrifuge.closed", "centrifuge.run_time_s"]}
+    assert features["instrument_state"] == {
+        "dtype": "float32",
+        "shape": (2,),
+        "names": ["centrifuge.closed", "centrifuge.run_time_s"],
+    }
     assert "observation.instrument_state" not in features  # LeRobot would feed observation.* keys to policies
 
 

@@ -54,16 +54,46 @@ def test_stage_progress_comes_from_a_sequence_criterion_only() -> None:
     assert stage_progress({"height_gain": 0.01}) is None and stage_progress({"stage": 1.0}) is None
 
 
-def episode(index: int, seed: int, success: bool, *, instruction: str = TASK.instruction, stage: int | None = None) -> EpisodeLog:
+def episode(
+    index: int, seed: int, success: bool, *, instruction: str = TASK.instruction, stage: int | None = None
+) -> EpisodeLog:
     metrics = {"stage": float(stage), "stages": 3.0} if stage is not None else {}
-    return EpisodeLog(TASK.id, index, seed, instruction, success, None if success else "not_lifted", 1.0, 7.0, 210, 30.0, 70,
-                      10.0, 0, False, "act", {"open": 0.5, "stay_open": 0.5}, metrics, stage_progress(metrics))
+    return EpisodeLog(
+        TASK.id,
+        index,
+        seed,
+        instruction,
+        success,
+        None if success else "not_lifted",
+        1.0,
+        7.0,
+        210,
+        30.0,
+        70,
+        10.0,
+        0,
+        False,
+        "act",
+        {"open": 0.5, "stay_open": 0.5},
+        metrics,
+        stage_progress(metrics),
+    )
 
 
-def run_folder(folder: Path, outcomes: list[bool], *, version: str = "raw", seed: int = 100, stages: list[int] | None = None) -> Path:
+def run_folder(
+    folder: Path, outcomes: list[bool], *, version: str = "raw", seed: int = 100, stages: list[int] | None = None
+) -> Path:
     plan = adhoc_plan(TASK, len(outcomes), seed)
-    manifest = make_manifest(TASK, plan, suite=None, image_size=64, render_profile="fast", policy={"kind": "server", "endpoints": ["tcp://a:1"]},
-                             config=DecodeConfig.for_policy("act"), dataset_version=version)
+    manifest = make_manifest(
+        TASK,
+        plan,
+        suite=None,
+        image_size=64,
+        render_profile="fast",
+        policy={"kind": "server", "endpoints": ["tcp://a:1"]},
+        config=DecodeConfig.for_policy("act"),
+        dataset_version=version,
+    )
     prepare_folder(folder, manifest)
     for e, ok in zip(plan, outcomes, strict=True):
         write_episode(folder, episode(e.index, e.seed, ok, stage=None if stages is None else stages[e.index]))
@@ -75,8 +105,14 @@ def test_a_run_folder_resumes_only_the_same_plan(tmp_path) -> None:
     plan = adhoc_plan(TASK, 3, 100)
 
     def manifest(**change):
-        base = dict(suite=None, image_size=64, render_profile="fast", policy={"kind": "server", "endpoints": ["tcp://b:2"]},
-                    config=DecodeConfig.for_policy("act"), dataset_version="raw")
+        base = dict(
+            suite=None,
+            image_size=64,
+            render_profile="fast",
+            policy={"kind": "server", "endpoints": ["tcp://b:2"]},
+            config=DecodeConfig.for_policy("act"),
+            dataset_version="raw",
+        )
         return make_manifest(TASK, change.pop("plan", plan), **{**base, **change})
 
     assert sorted(prepare_folder(folder, manifest())) == [0, 1, 2]  # another endpoint serving the same policy: fine
@@ -89,7 +125,7 @@ def test_a_run_folder_resumes_only_the_same_plan(tmp_path) -> None:
         prepare_folder(folder, manifest(plan=adhoc_plan(TASK, 5, 200)))
     with pytest.raises(DatasetError, match="other settings \\(decode\\."):
         prepare_folder(folder, manifest(config=DecodeConfig.for_policy("pi0")))
-    (folder / "episode_0001.json.tmp").write_text("{\"torn")  # a write cut short by a crash
+    (folder / "episode_0001.json.tmp").write_text('{"torn')  # a write cut short by a crash
     stray = json.loads((folder / "episode_0002.json").read_text())
     (folder / "episode_0009.json").write_text(json.dumps({**stray, "episode": 9, "seed": 7}))
     with pytest.raises(DatasetError, match="episode_0009.json is not episode 0009 of this run's plan"):
@@ -124,7 +160,10 @@ def test_report_pairs_runs_on_the_same_seeds_and_reads_logs_without_summaries(tm
     assert comparison["test"] == "mcnemar_exact" and comparison["only_a"] == 0 and comparison["only_b"] == 6
     assert comparison["p_value"] == pytest.approx(2 / 64) and comparison["significant_holm"]
     text = markdown(report)
-    assert "| 3/10 (30 %, 11-60) | 9/10 (90 %, 60-98) | +60 pt | McNemar p = 0.0312 (Holm 0.0312), 0 vs 6 discordant | yes |" in text
+    assert (
+        "| 3/10 (30 %, 11-60) | 9/10 (90 %, 60-98) | +60 pt | McNemar p = 0.0312 (Holm 0.0312), 0 vs 6 discordant | yes |"
+        in text
+    )
     bar_chart(report, tmp_path / "chart.png")
     assert (tmp_path / "chart.png").stat().st_size > 0
 
@@ -148,7 +187,16 @@ def test_an_incomplete_run_is_marked_in_the_report(tmp_path) -> None:
 def test_logs_written_before_run_json_keep_their_summary_label(tmp_path) -> None:
     folder = run_folder(tmp_path / "old", [True, True, False])
     (folder / "run.json").unlink()
-    (folder / "summary.json").write_text(json.dumps({"task": TASK.id, "policy_type": "act", "dataset_version": "augmented",
-                                                     "episodes": 3, "success_rate": 2 / 3}))
+    (folder / "summary.json").write_text(
+        json.dumps(
+            {
+                "task": TASK.id,
+                "policy_type": "act",
+                "dataset_version": "augmented",
+                "episodes": 3,
+                "success_rate": 2 / 3,
+            }
+        )
+    )
     [run] = load_runs([tmp_path])
     assert run.key == (TASK.id, "act", "augmented") and run.summary["successes"] == 2 and run.outcomes is not None

@@ -13,8 +13,11 @@ from pipette_cli.evaluators.base import MechanismState
 from pipette_cli.evaluators.testing import ScriptedWorld, first_done, run
 from pipette_cli.specs.evaluators import InstrumentStateSpec, SequenceSpec
 
-SPUN = {"type": "instrument_state", "mechanism": "centrifuge",
-        "values": {"run_time_s": {"min": 2}, "rotor.tube": {"min": 1}, "closed": {"min": 1}}}
+SPUN = {
+    "type": "instrument_state",
+    "mechanism": "centrifuge",
+    "values": {"run_time_s": {"min": 2}, "rotor.tube": {"min": 1}, "closed": {"min": 1}},
+}
 
 
 def centrifuge(closed: float, run_time_s: float, loaded: float) -> MechanismState:
@@ -59,10 +62,19 @@ def test_instrument_state_names_an_unknown_value() -> None:
 
 def test_each_stage_hands_out_its_own_instruction() -> None:
     w = world(centrifuge(0.0, 0.0, 0.0))
-    spec = SequenceSpec.model_validate({"of": [
-        {"type": "instrument_state", "mechanism": "centrifuge", "values": {"closed": {"min": 1}}, "instruction": "Close the lid."},
-        {**SPUN, "instruction": "Press start."},
-    ]})
+    spec = SequenceSpec.model_validate(
+        {
+            "of": [
+                {
+                    "type": "instrument_state",
+                    "mechanism": "centrifuge",
+                    "values": {"closed": {"min": 1}},
+                    "instruction": "Close the lid.",
+                },
+                {**SPUN, "instruction": "Press start."},
+            ]
+        }
+    )
     evaluator = make_evaluator(spec)
     evaluator.reset(w)
     assert (evaluator.stage, evaluator.stage_instruction()) == (0, "Close the lid.")
@@ -79,8 +91,12 @@ def test_start_before_the_lid_is_closed_does_not_count() -> None:
     """A run that started with the lid open (refused, never running) leaves the protocol at the
     'press start' stage even after the lid is closed."""
     w = world(centrifuge(0.0, 0.0, 1.0))
-    spec = SequenceSpec.model_validate({"timeout_s": 2.0, "of": [
-        {"type": "instrument_state", "mechanism": "centrifuge", "values": {"closed": {"min": 1}}}, SPUN]})
+    spec = SequenceSpec.model_validate(
+        {
+            "timeout_s": 2.0,
+            "of": [{"type": "instrument_state", "mechanism": "centrifuge", "values": {"closed": {"min": 1}}}, SPUN],
+        }
+    )
     evaluator = make_evaluator(spec)
     evaluator.reset(w)
 

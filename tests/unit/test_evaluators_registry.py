@@ -74,9 +74,7 @@ def _minimal(spec_cls: type[EvaluatorSpec]) -> EvaluatorSpec:
 
 
 def test_unknown_type_is_an_error_with_a_suggestion() -> None:
-    with pytest.raises(
-        EvaluatorError, match="unknown evaluator runtime 'lift_and_hol'; did you mean 'lift_and_hold'"
-    ):
+    with pytest.raises(EvaluatorError, match="unknown evaluator runtime 'lift_and_hol'; did you mean 'lift_and_hold'"):
         make_evaluator(EvaluatorSpec(type="lift_and_hol"))
 
 

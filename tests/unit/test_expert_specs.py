@@ -21,7 +21,7 @@ def with_program(program: str) -> tuple[str, int]:
     """The balance task's YAML with its ``expert:`` section replaced, and the line the section starts on."""
     text = BALANCE.read_text(encoding="utf-8")
     head, _, rest = text.partition("expert:\n")
-    tail = rest[rest.index("notes:"):] if "notes:" in rest else ""
+    tail = rest[rest.index("notes:") :] if "notes:" in rest else ""
     return head + "expert:\n" + program + tail, head.count("\n") + 1
 
 
@@ -33,7 +33,9 @@ def problems(program: str) -> tuple[list[str], int]:
 
 
 def test_the_shipped_program_validates() -> None:
-    text, _ = with_program("  - {skill: pick, object: tube}\n  - {skill: place_on, object: tube, target: balance/pan_center}\n")
+    text, _ = with_program(
+        "  - {skill: pick, object: tube}\n  - {skill: place_on, object: tube, target: balance/pan_center}\n"
+    )
     spec = validate_task_document(parse_yaml(text, "task.yaml"), "task.yaml")
     assert [s.skill for s in spec.expert or []] == ["pick", "place_on"]
 
@@ -44,14 +46,20 @@ def test_an_unknown_skill_names_the_line_and_a_close_one() -> None:
 
 
 def test_an_unknown_object_names_the_line_and_a_close_one() -> None:
-    found, line = problems("  - {skill: pick, object: tube}\n  - {skill: place_on, object: tbe, target: balance/pan_center}\n")
+    found, line = problems(
+        "  - {skill: pick, object: tube}\n  - {skill: place_on, object: tbe, target: balance/pan_center}\n"
+    )
     assert found == [f"task.yaml:{line + 2}: expert.1.object: 'tbe' names no scene object; did you mean 'tube'?"]
 
 
 def test_an_unknown_site_names_the_asset_and_its_sites() -> None:
-    found, line = problems("  - {skill: pick, object: tube}\n  - {skill: place_on, object: tube, target: balance/pan_centre}\n")
-    assert found == [f"task.yaml:{line + 2}: expert.1.target: asset 'electronic_balance' of 'balance' has no site "
-                     "'pan_centre'; did you mean 'pan_center'?"]
+    found, line = problems(
+        "  - {skill: pick, object: tube}\n  - {skill: place_on, object: tube, target: balance/pan_centre}\n"
+    )
+    assert found == [
+        f"task.yaml:{line + 2}: expert.1.target: asset 'electronic_balance' of 'balance' has no site "
+        "'pan_centre'; did you mean 'pan_center'?"
+    ]
 
 
 def test_an_unknown_joint_names_the_asset() -> None:
@@ -65,8 +73,21 @@ def test_an_unknown_key_of_a_step_is_refused_with_its_fields() -> None:
 
 
 def test_every_documented_skill_is_registered() -> None:
-    assert set(skill_names()) >= {"pick", "place_on", "insert_into", "remove_from", "open_hinge", "close_hinge",
-                                  "slide", "press", "position_over", "tilt", "retreat", "move", "wait"}
+    assert set(skill_names()) >= {
+        "pick",
+        "place_on",
+        "insert_into",
+        "remove_from",
+        "open_hinge",
+        "close_hinge",
+        "slide",
+        "press",
+        "position_over",
+        "tilt",
+        "retreat",
+        "move",
+        "wait",
+    }
 
 
 def test_programs_derived_from_criteria() -> None:
@@ -82,8 +103,14 @@ def test_programs_derived_from_criteria() -> None:
     assert [type(s) for s in press] == [PressSpec] and press[0].button == "centrifuge/button"
     # a bound away from the closed angle opens
     cycler = no_program["generated/CloseThermalCyclerLid-v1"]
-    opening = cycler.model_copy(update={"success": cycler.success.model_copy(update={"bound": cycler.success.bound.model_copy(
-        update={"min": 80.0, "max": None})}), "scene": cycler.scene.model_copy(update={"joint_states": []})})
+    opening = cycler.model_copy(
+        update={
+            "success": cycler.success.model_copy(
+                update={"bound": cycler.success.bound.model_copy(update={"min": 80.0, "max": None})}
+            ),
+            "scene": cycler.scene.model_copy(update={"joint_states": []}),
+        }
+    )
     assert [type(s) for s in derive_program(opening)] == [OpenHingeSpec]
 
 

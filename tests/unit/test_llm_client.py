@@ -18,10 +18,15 @@ from pipette_cli.errors import BackendError, PipetteError
 from pipette_cli.llm import FORMS, FormatRejected, ask_structured, extract_json, forget_formats, make_client
 from pipette_cli.llm.client import _is_strict
 
-LLAMA_CPP_PYTHON_REFUSAL = {"error": {
-    "message": "1 validation error:\n  {'type': 'literal_error', 'loc': ('body', 'response_format', 'type'), "
-               "'msg': \"Input should be 'text' or 'json_object'\", 'input': 'json_schema'}",
-    "type": "internal_server_error", "param": None, "code": None}}
+LLAMA_CPP_PYTHON_REFUSAL = {
+    "error": {
+        "message": "1 validation error:\n  {'type': 'literal_error', 'loc': ('body', 'response_format', 'type'), "
+        "'msg': \"Input should be 'text' or 'json_object'\", 'input': 'json_schema'}",
+        "type": "internal_server_error",
+        "param": None,
+        "code": None,
+    }
+}
 
 
 class Answer(BaseModel):
@@ -37,8 +42,12 @@ def chat(content: str) -> dict:
 class Imitation:
     """A server kind: ``accepts(body) -> None`` or ``(status, body)`` for a refusal."""
 
-    def __init__(self, accepts: Callable[[dict], tuple[int, object] | None], replies: list[str] | None = None,
-                 ollama: bool = False) -> None:
+    def __init__(
+        self,
+        accepts: Callable[[dict], tuple[int, object] | None],
+        replies: list[str] | None = None,
+        ollama: bool = False,
+    ) -> None:
         self.accepts = accepts
         self.replies = list(replies or ['{"word": "ok", "count": 1}'])
         self.bodies: list[dict] = []
@@ -50,10 +59,16 @@ class Imitation:
         refusal = self.accepts(body)
         if refusal is not None:
             status, payload = refusal
-            return httpx.Response(status, json=payload) if not isinstance(payload, str) else httpx.Response(status, text=payload)
+            return (
+                httpx.Response(status, json=payload)
+                if not isinstance(payload, str)
+                else httpx.Response(status, text=payload)
+            )
         content = self.replies.pop(0) if len(self.replies) > 1 else self.replies[0]
-        return httpx.Response(200, json={"message": {"role": "assistant", "content": content}, "done": True}
-                              if self.ollama else chat(content))
+        return httpx.Response(
+            200,
+            json={"message": {"role": "assistant", "content": content}, "done": True} if self.ollama else chat(content),
+        )
 
     def forms(self) -> list[str]:
         out = []
@@ -64,8 +79,11 @@ class Imitation:
             elif not fmt:
                 out.append("prompt")
             else:
-                out.append({"json_schema": "json_schema"}.get(fmt["type"], "json_object_schema" if "schema" in fmt
-                                                                                      else "json_object"))
+                out.append(
+                    {"json_schema": "json_schema"}.get(
+                        fmt["type"], "json_object_schema" if "schema" in fmt else "json_object"
+                    )
+                )
         return out
 
 
@@ -116,14 +134,18 @@ def ask(c, accept=lambda a: a, trace=None):
     return ask_structured(c, system="Answer.", user="hi", schema=Answer, accept=accept, trace=trace)
 
 
-@pytest.mark.parametrize(("server", "kind", "tried"), [
-    (openai_like, "openai", ["json_schema"]),
-    (llama_cpp_python, "openai", ["json_schema", "json_object_schema"]),
-    (json_mode_only, "openai", ["json_schema", "json_object_schema", "json_object"]),
-    (no_response_format, "openai", ["json_schema", "json_object_schema", "json_object", "prompt"]),
-    (openai_like, "ollama", ["schema"]),
-    (old_ollama, "ollama", ["schema", "json"]),
-], ids=["openai", "llama-cpp-python", "json-mode-only", "no-response-format", "ollama", "old-ollama"])
+@pytest.mark.parametrize(
+    ("server", "kind", "tried"),
+    [
+        (openai_like, "openai", ["json_schema"]),
+        (llama_cpp_python, "openai", ["json_schema", "json_object_schema"]),
+        (json_mode_only, "openai", ["json_schema", "json_object_schema", "json_object"]),
+        (no_response_format, "openai", ["json_schema", "json_object_schema", "json_object", "prompt"]),
+        (openai_like, "ollama", ["schema"]),
+        (old_ollama, "ollama", ["schema", "json"]),
+    ],
+    ids=["openai", "llama-cpp-python", "json-mode-only", "no-response-format", "ollama", "old-ollama"],
+)
 def test_each_server_kind_gets_the_form_it_accepts(server, kind, tried) -> None:
     imitation = Imitation(server, ollama=kind == "ollama")
     c = client(imitation, kind, url="http://127.0.0.1:11434" if kind == "ollama" else "http://llm.test/v1")
@@ -170,8 +192,9 @@ def test_a_plain_server_error_is_retried_not_taken_for_a_refused_form() -> None:
 
 
 def test_invalid_answers_are_sent_back_with_the_errors_and_attempts_are_bounded() -> None:
-    imitation = Imitation(openai_like, replies=['Sure! {"word": "x"}', '{"word": "x", "count": "many"}',
-                                                'not json at all'])
+    imitation = Imitation(
+        openai_like, replies=['Sure! {"word": "x"}', '{"word": "x", "count": "many"}', "not json at all"]
+    )
     trace: list[str] = []
     with pytest.raises(BackendError) as info:
         ask(client(imitation, max_attempts=3), trace=trace)
@@ -181,7 +204,9 @@ def test_invalid_answers_are_sent_back_with_the_errors_and_attempts_are_bounded(
     assert "count: Field required" in second[-1]["content"]
     assert "count: Input should be a valid integer" in third[-1]["content"]
     assert len(third) == 4  # only the last exchange goes back: small contexts stay small
-    assert "no valid answer after 3 attempt(s)" in info.value.problems[0] and "not valid JSON" in info.value.problems[-1]
+    assert (
+        "no valid answer after 3 attempt(s)" in info.value.problems[0] and "not valid JSON" in info.value.problems[-1]
+    )
 
 
 def test_a_rejection_by_accept_is_sent_back_and_a_final_one_is_not() -> None:
@@ -230,7 +255,12 @@ def test_json_is_found_in_fences_and_prose() -> None:
 
 
 def test_strict_mode_only_for_closed_schemas() -> None:
-    closed = {"type": "object", "properties": {"a": {"type": "string"}}, "required": ["a"], "additionalProperties": False}
+    closed = {
+        "type": "object",
+        "properties": {"a": {"type": "string"}},
+        "required": ["a"],
+        "additionalProperties": False,
+    }
     assert _is_strict(closed)
     assert not _is_strict({**closed, "additionalProperties": {"type": "string"}})
     assert not _is_strict({**closed, "required": []})

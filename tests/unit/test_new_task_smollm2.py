@@ -53,15 +53,20 @@ def server() -> Iterator[str]:
         yield url
 
 
-@pytest.mark.parametrize("text", [
-    "Put the 50 mL falcon tube on the balance",
-    "Open the PCR machine, load the PCR plate, then close the lid",
-    "Close the spectrophotometer lid",
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "Put the 50 mL falcon tube on the balance",
+        "Open the PCR machine, load the PCR plate, then close the lid",
+        "Close the spectrophotometer lid",
+    ],
+)
 def test_every_sentence_ends_in_a_valid_task_or_one_clear_error(server, text) -> None:
     forget_formats()
     transport = Recording()
-    backend = make_backend("openai", base_url=server, model="smollm2", max_attempts=3, timeout_s=300, transport=transport)
+    backend = make_backend(
+        "openai", base_url=server, model="smollm2", max_attempts=3, timeout_s=300, transport=transport
+    )
     try:
         drafted = draft_task(text, backend, namespace="llmtest")
     except PipetteError as exc:

@@ -21,8 +21,11 @@ from pipette_cli.serving.protocol import (
 )
 
 SPEC = PolicySpec(
-    policy_type="act", images={"observation.images.top": (3, 4, 4), "observation.images.wrist": (3, 4, 4)},
-    state_shape=(8,), action_dim=8, chunk_size=5,
+    policy_type="act",
+    images={"observation.images.top": (3, 4, 4), "observation.images.wrist": (3, 4, 4)},
+    state_shape=(8,),
+    action_dim=8,
+    chunk_size=5,
 )
 
 
@@ -90,7 +93,9 @@ def test_bad_array_maps_are_typed_errors(array_map, expected) -> None:
     assert _error(unpack, msgpack.packb({"observation.state": array_map})).type is expected
 
 
-@pytest.mark.parametrize("payload", [b"", b"\xc1", b"\x92\x01", msgpack.packb({"a": 1})[:-1], msgpack.packb({1: 2}), b"\xff" * 50])
+@pytest.mark.parametrize(
+    "payload", [b"", b"\xc1", b"\x92\x01", msgpack.packb({"a": 1})[:-1], msgpack.packb({1: 2}), b"\xff" * 50]
+)
 def test_garbage_is_bad_request(payload) -> None:
     with pytest.raises(ProtocolError) as info:
         parse_request(unpack(payload))
@@ -109,8 +114,11 @@ def test_request_schema() -> None:
     assert parse_request({**_obs(task=None), "language_instruction": "open it"}).task == "open it"
     assert isinstance(parse_request({"command": "info"}), InfoRequest)
     for bad, field in [
-        (_obs(extra=1), "extra"), (_obs(task=3), "task"), (_obs(reset_policy=1), "reset_policy"),
-        (_obs(**{"observation.state": [0.0] * 8}), "observation.state"), ({"command": "shutdown"}, "command"),
+        (_obs(extra=1), "extra"),
+        (_obs(task=3), "task"),
+        (_obs(reset_policy=1), "reset_policy"),
+        (_obs(**{"observation.state": [0.0] * 8}), "observation.state"),
+        ({"command": "shutdown"}, "command"),
         ({"command": "info", "x": 1}, "x"),
     ]:
         err = _error(parse_request, bad)
@@ -120,8 +128,9 @@ def test_request_schema() -> None:
 
 def test_observation_checks_against_the_policy() -> None:
     extra_camera = np.zeros((3, 9, 9), np.uint8)  # a camera the policy does not read is ignored
-    checked = check_observation(parse_request(_obs(**{"observation.images.main": extra_camera,
-                                                      "observation.state": np.zeros(8)})), SPEC)
+    checked = check_observation(
+        parse_request(_obs(**{"observation.images.main": extra_camera, "observation.state": np.zeros(8)})), SPEC
+    )
     assert set(checked) == {"observation.images.top", "observation.images.wrist", "observation.state"}
     assert checked["observation.state"].dtype == np.float32
 
@@ -132,7 +141,11 @@ def test_observation_checks_against_the_policy() -> None:
     inf_img[0, 0, 0] = np.inf
     cases = [
         (_obs(**{"observation.images.top": None}), ErrorType.BAD_REQUEST, "observation.images.top"),
-        (_obs(**{"observation.images.top": np.zeros((4, 4, 3), np.uint8)}), ErrorType.BAD_SHAPE, "observation.images.top"),
+        (
+            _obs(**{"observation.images.top": np.zeros((4, 4, 3), np.uint8)}),
+            ErrorType.BAD_SHAPE,
+            "observation.images.top",
+        ),
         (_obs(**{"observation.images.top": np.zeros((3, 4, 4))}), ErrorType.BAD_DTYPE, "observation.images.top"),
         (_obs(**{"observation.images.wrist": hot}), ErrorType.OUT_OF_RANGE, "observation.images.wrist"),
         (_obs(**{"observation.images.wrist": inf_img}), ErrorType.NAN, "observation.images.wrist"),

@@ -20,8 +20,17 @@ from pipette_cli.sim.env import Observation
 
 H = W = 8
 INFO = DatasetInfo(
-    task_id="testlab/Synthetic-v1", embodiment="franka_panda", instruction="do it", image_height=H, image_width=W,
-    cameras=("top", "main", "wrist"), physics_hz=600, control_hz=30, vision_hz=10, state_dim=8, action_dim=8,
+    task_id="testlab/Synthetic-v1",
+    embodiment="franka_panda",
+    instruction="do it",
+    image_height=H,
+    image_width=W,
+    cameras=("top", "main", "wrist"),
+    physics_hz=600,
+    control_hz=30,
+    vision_hz=10,
+    state_dim=8,
+    action_dim=8,
     sim_state_size=5,
 )
 
@@ -33,7 +42,18 @@ def _observations(steps: int, rng: np.random.Generator) -> list[Observation]:
         fresh = (k - 1) % 3 == 0
         if fresh:
             images = {c: rng.integers(0, 255, (H, W, 3), dtype=np.uint8) for c in INFO.cameras}
-        out.append(Observation(dict(images), rng.normal(size=8).astype(np.float32), fresh, (k - 1) % 3, (k - 1) / 30, 0.01 * k, k, "do it"))
+        out.append(
+            Observation(
+                dict(images),
+                rng.normal(size=8).astype(np.float32),
+                fresh,
+                (k - 1) % 3,
+                (k - 1) / 30,
+                0.01 * k,
+                k,
+                "do it",
+            )
+        )
     return out
 
 

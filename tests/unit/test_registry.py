@@ -121,7 +121,9 @@ def test_extra_folders_from_env_and_option(monkeypatch: pytest.MonkeyPatch) -> N
 
 def test_a_broken_file_refuses_the_whole_registry(tmp_path: Path) -> None:
     (tmp_path / "good.yaml").write_text((FIXTURES / "valid_pick.yaml").read_text())
-    (tmp_path / "bad.yaml").write_text((FIXTURES / "broken" / "unknown_key.yaml").read_text().replace("PickUpMicrotube", "Other"))
+    (tmp_path / "bad.yaml").write_text(
+        (FIXTURES / "broken" / "unknown_key.yaml").read_text().replace("PickUpMicrotube", "Other")
+    )
     with pytest.raises(SpecError) as info:
         load_registry([tmp_path])
     assert len(info.value.problems) == 1 and "bad.yaml:24" in info.value.problems[0]
@@ -160,7 +162,9 @@ TASKS = Path(__file__).parent / "mylab_tasks"
 """
 
 
-def test_validating_one_file_knows_the_evaluator_types_of_task_packs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, run_cli) -> None:
+def test_validating_one_file_knows_the_evaluator_types_of_task_packs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, run_cli
+) -> None:
     """A pack that registers its own evaluator type: `tasks validate FILE` imports it first."""
     from pipette_cli.specs.evaluators import EVALUATORS
 

@@ -152,7 +152,12 @@ def test_third_party_evaluator_registers_without_editing_a_list() -> None:
     assert "test_poured_volume" in evaluator_types()
     spec = TaskSpec.model_validate(spec_with(success={"type": "test_poured_volume", "min_ml": 5}))
     assert isinstance(spec.success, PouredSpec) and spec.success.min_ml == 5
-    assert spec.model_dump()["success"] == {"type": "test_poured_volume", "timeout_s": None, "instruction": None, "min_ml": 5.0}
+    assert spec.model_dump()["success"] == {
+        "type": "test_poured_volume",
+        "timeout_s": None,
+        "instruction": None,
+        "min_ml": 5.0,
+    }
 
     class Impostor(EvaluatorSpec):
         type: Literal["test_poured_volume"] = "test_poured_volume"

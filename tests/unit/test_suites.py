@@ -45,7 +45,9 @@ def test_two_plans_of_a_suite_are_identical_and_use_instructions_in_turn() -> No
     assert [e.seed for e in first["testlab/StagedHoldTube-v1"]] == [500, 501, 502]  # the suite's range
     assert suites.get("Tiny").spec.id == "testlab/Tiny-v2"  # no version: the latest
     assert [e.seed for e in episode_plan(suites.get("Tiny").spec)["testlab/HoldTube-v1"]] == [11, 3, 7]
-    assert list(episode_plan(suites.get("Tiny-v1").spec, ["testlab/StagedHoldTube-v1"])) == ["testlab/StagedHoldTube-v1"]
+    assert list(episode_plan(suites.get("Tiny-v1").spec, ["testlab/StagedHoldTube-v1"])) == [
+        "testlab/StagedHoldTube-v1"
+    ]
     with pytest.raises(SuiteNotFound, match="task testlab/StagedHoldTube-v1 is not in suite testlab/Tiny-v2"):
         episode_plan(suites.get("Tiny-v2").spec, ["testlab/StagedHoldTube-v1"])
     with pytest.raises(SuiteNotFound, match="unknown suite 'Tiyn'; did you mean 'Tiny-v2' or 'Tiny-v1'"):
@@ -61,27 +63,34 @@ def write(tmp_path: Path, text: str) -> Path:
 
 
 def test_bad_suites_are_refused_with_file_and_line(tmp_path) -> None:
-    path = write(tmp_path, """id: lab/S-v1
+    path = write(
+        tmp_path,
+        """id: lab/S-v1
 name: s
 tasks:
   - task: pipette/PickUpTestTube-v1
     instructions: [Pick it up.]
   - task: pipette/PickUpTestTub-v1
     instructions: [Pick it up.]
-""")
+""",
+    )
     with pytest.raises(SpecError) as info:
         load_suite_file(path, REGISTRY)
     [problem] = info.value.problems
-    assert problem.startswith(f"{path}:6: tasks.1.task: unknown task 'pipette/PickUpTestTub-v1'; "
-                              "did you mean 'pipette/PickUpTestTube-v1'")
-    path = write(tmp_path, """id: lab/S-v1
+    assert problem.startswith(
+        f"{path}:6: tasks.1.task: unknown task 'pipette/PickUpTestTub-v1'; did you mean 'pipette/PickUpTestTube-v1'"
+    )
+    path = write(
+        tmp_path,
+        """id: lab/S-v1
 name: s
 seeds: {first: 0, cuont: 3}
 tasks:
   - task: pipette/PickUpTestTube
     seeds: [1, 2, 2]
     instructions: []
-""")
+""",
+    )
     with pytest.raises(SpecError) as info:
         load_suite_file(path, REGISTRY)
     problems = "\n".join(info.value.problems)

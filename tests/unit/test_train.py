@@ -84,10 +84,25 @@ def test_smolvla_command_defaults_and_local_backbone(workdir: Path, run_cli) -> 
 def test_pi0_command_has_paper_memory_settings(workdir: Path, run_cli) -> None:
     [job] = dry_run(run_cli, "--tasks", TASK, "--policy", "pi0", "--dataset-version", "raw")
     f = flags(job["argv"])
-    assert {k: f[k] for k in ("policy.path", "policy.dtype", "policy.gradient_checkpointing",
-                              "policy.freeze_vision_encoder", "policy.train_expert_only", "batch_size", "steps")} == {
-        "policy.path": "lerobot/pi0_base", "policy.dtype": "bfloat16", "policy.gradient_checkpointing": "true",
-        "policy.freeze_vision_encoder": "true", "policy.train_expert_only": "true", "batch_size": "4", "steps": "20000",
+    assert {
+        k: f[k]
+        for k in (
+            "policy.path",
+            "policy.dtype",
+            "policy.gradient_checkpointing",
+            "policy.freeze_vision_encoder",
+            "policy.train_expert_only",
+            "batch_size",
+            "steps",
+        )
+    } == {
+        "policy.path": "lerobot/pi0_base",
+        "policy.dtype": "bfloat16",
+        "policy.gradient_checkpointing": "true",
+        "policy.freeze_vision_encoder": "true",
+        "policy.train_expert_only": "true",
+        "batch_size": "4",
+        "steps": "20000",
     }
     assert "policy.type" not in f  # lerobot refuses --policy.type together with --policy.path
     [local] = dry_run(run_cli, "--tasks", TASK, "--policy", "pi0", "--pretrained-path", "/models/pi0_base")
@@ -95,8 +110,22 @@ def test_pi0_command_has_paper_memory_settings(workdir: Path, run_cli) -> None:
 
 
 def test_overrides_and_extra_flags_come_last(workdir: Path, run_cli) -> None:
-    [job] = dry_run(run_cli, "--tasks", TASK, "--policy", "act", "--steps", "7", "--batch-size", "3", "--device", "cpu",
-                    "--extra", "--policy.dim_model=32", "--extra=--num_workers=0")
+    [job] = dry_run(
+        run_cli,
+        "--tasks",
+        TASK,
+        "--policy",
+        "act",
+        "--steps",
+        "7",
+        "--batch-size",
+        "3",
+        "--device",
+        "cpu",
+        "--extra",
+        "--policy.dim_model=32",
+        "--extra=--num_workers=0",
+    )
     f = flags(job["argv"])
     assert (f["steps"], f["batch_size"], f["policy.device"]) == ("7", "3", "cpu")
     assert job["argv"][-2:] == ["--policy.dim_model=32", "--num_workers=0"]
@@ -118,7 +147,9 @@ def test_augmented_version_uses_its_own_dataset(workdir: Path, run_cli) -> None:
     make_dataset(workdir / "datasets", version="augmented")
     [job] = dry_run(run_cli, "--tasks", TASK, "--policy", "act", "--dataset-version", "augmented")
     f = flags(job["argv"])
-    assert f["dataset.root"] == f"datasets/{NAME}/augmented" and f["output_dir"] == f"outputs/train/act/{NAME}_augmented"
+    assert (
+        f["dataset.root"] == f"datasets/{NAME}/augmented" and f["output_dir"] == f"outputs/train/act/{NAME}_augmented"
+    )
 
 
 def test_missing_dataset_is_one_line_error_before_anything_runs(workdir: Path, run_cli) -> None:
@@ -237,6 +268,7 @@ def test_failed_run_exits_1_naming_the_log(workdir: Path, run_cli, monkeypatch: 
 
 # LeRobot's own parser (draccus) accepts the commands: config construction only, no weights.
 
+
 @pytest.fixture(scope="module")
 def pi0_config_dir(tmp_path_factory) -> Path:
     """A local stand-in for lerobot/pi0_base holding only its config.json (no weights)."""
@@ -255,7 +287,10 @@ def test_lerobot_parser_accepts_the_command(policy: Policy, pi0_config_dir: Path
 
     out = Path(tempfile.mkdtemp()) / "out"
     opts = TrainOptions(
-        policy=policy, output_root=out, device="cpu", dataset_version=DatasetVersion.augmented,
+        policy=policy,
+        output_root=out,
+        device="cpu",
+        dataset_version=DatasetVersion.augmented,
         pretrained_path=str(pi0_config_dir) if policy is Policy.pi0 else None,
         vlm_path="/models/smolvlm2" if policy is Policy.smolvla else None,
     )

@@ -17,8 +17,14 @@ CASES = {
     "syntax.yaml": (13, "YAML syntax error"),
     "unknown_key.yaml": (24, "success.hold_seconds: unknown key 'hold_seconds'; did you mean 'hold_s'?"),
     "wrong_type.yaml": (24, "success.timeout_s: Input should be a valid number"),
-    "unknown_asset.yaml": (13, "scene.objects.0.asset: unknown asset 'test_tube_16x15'; did you mean 'test_tube_16x150'"),
-    "unknown_evaluator.yaml": (21, "success.type: unknown evaluator type 'lift_and_hould'; did you mean 'lift_and_hold'"),
+    "unknown_asset.yaml": (
+        13,
+        "scene.objects.0.asset: unknown asset 'test_tube_16x15'; did you mean 'test_tube_16x150'",
+    ),
+    "unknown_evaluator.yaml": (
+        21,
+        "success.type: unknown evaluator type 'lift_and_hould'; did you mean 'lift_and_hold'",
+    ),
     "unknown_object.yaml": (22, "success.object: 'tubes' names no scene object; did you mean 'tube'?"),
 }
 
@@ -37,7 +43,9 @@ def test_error_names_file_line_and_field(name: str) -> None:
 
 def test_all_problems_in_a_file_are_reported_at_once(tmp_path: Path) -> None:
     text = (BROKEN.parent / "valid_pick.yaml").read_text()
-    text = text.replace("timeout_s: 8", "timeout_s: eight").replace("category: consumable_handling", "category: handling")
+    text = text.replace("timeout_s: 8", "timeout_s: eight").replace(
+        "category: consumable_handling", "category: handling"
+    )
     path = tmp_path / "two.yaml"
     path.write_text(text)
     with pytest.raises(SpecError) as info:

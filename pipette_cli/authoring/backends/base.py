@@ -30,8 +30,15 @@ class AuthoringBackend(Protocol):
 
     name: str
 
-    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
-                 json_schema: dict[str, Any] | None = None) -> T:
+    def complete(
+        self,
+        *,
+        system: str,
+        user: str,
+        schema: type[M],
+        accept: Callable[[M], T],
+        json_schema: dict[str, Any] | None = None,
+    ) -> T:
         """Produce a ``schema`` instance for ``user`` (``system`` is the LLM instructions) and
         return ``accept(instance)``; ``accept`` raises PipetteError to reject it. ``json_schema``
         is what the server is sent (default: the schema's own, strict)."""
@@ -45,24 +52,54 @@ class AuthoringBackend(Protocol):
 class ChatBackend:
     """An LLM server (``kind`` ``openai`` or ``ollama``, see :func:`pipette_cli.llm.make_client`)."""
 
-    def __init__(self, kind: str, *, base_url: str | None = None, model: str | None = None, api_key: str | None = None,
-                 timeout_s: float | None = None, max_attempts: int | None = None,
-                 transport: httpx.BaseTransport | None = None, **_: Any) -> None:
+    def __init__(
+        self,
+        kind: str,
+        *,
+        base_url: str | None = None,
+        model: str | None = None,
+        api_key: str | None = None,
+        timeout_s: float | None = None,
+        max_attempts: int | None = None,
+        transport: httpx.BaseTransport | None = None,
+        **_: Any,
+    ) -> None:
         self.name = kind
-        self.client = make_client(kind, base_url=base_url, model=model, api_key=api_key, timeout_s=timeout_s,
-                                  max_attempts=max_attempts, transport=transport)
+        self.client = make_client(
+            kind,
+            base_url=base_url,
+            model=model,
+            api_key=api_key,
+            timeout_s=timeout_s,
+            max_attempts=max_attempts,
+            transport=transport,
+        )
         self.model = self.client.spec.model
         self.attempts_used = 0
 
     def parse_task(self, description: str) -> None:
         return None
 
-    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
-                 json_schema: dict[str, Any] | None = None) -> T:
+    def complete(
+        self,
+        *,
+        system: str,
+        user: str,
+        schema: type[M],
+        accept: Callable[[M], T],
+        json_schema: dict[str, Any] | None = None,
+    ) -> T:
         trace: list[str] = []
         try:
-            return ask_structured(self.client, system=system, user=user, schema=schema, accept=accept,
-                                  json_schema=json_schema, fix_hint="Fix it (use only names from the lists above)",
-                                  trace=trace)
+            return ask_structured(
+                self.client,
+                system=system,
+                user=user,
+                schema=schema,
+                accept=accept,
+                json_schema=json_schema,
+                fix_hint="Fix it (use only names from the lists above)",
+                trace=trace,
+            )
         finally:
             self.attempts_used = len(trace)

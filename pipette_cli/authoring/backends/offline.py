@@ -23,8 +23,15 @@ class OfflineBackend:
     def parse_task(self, description: str) -> ParseResult:
         return parse_description(description, load_vocabulary())
 
-    def complete(self, *, system: str, user: str, schema: type[M], accept: Callable[[M], T],
-                 json_schema: dict[str, Any] | None = None) -> T:
+    def complete(
+        self,
+        *,
+        system: str,
+        user: str,
+        schema: type[M],
+        accept: Callable[[M], T],
+        json_schema: dict[str, Any] | None = None,
+    ) -> T:
         raise NotImplementedError("the offline backend parses (parse_task / parse_asset); it does not chat")
 
 

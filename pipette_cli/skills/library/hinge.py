@@ -110,7 +110,9 @@ def goal_angle(ctx: SkillContext, hinge: Hinge, step: HingeSpec, opening: bool) 
     if key in sem:
         return float(sem[key])
     if not opening:
-        return 0.0 if hinge.low <= 0.0 <= hinge.high else (hinge.low if abs(hinge.low) < abs(hinge.high) else hinge.high)
+        return (
+            0.0 if hinge.low <= 0.0 <= hinge.high else (hinge.low if abs(hinge.low) < abs(hinge.high) else hinge.high)
+        )
     far = hinge.high if abs(hinge.high) >= abs(hinge.low) else hinge.low
     return 0.9 * far
 
@@ -186,7 +188,9 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     start = angle0
     for attempt in range(MAX_PASSES):
         points = sweep(reach, start)
-        approach = approach_of(chosen)[0] if attempt == 0 else points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP
+        approach = (
+            approach_of(chosen)[0] if attempt == 0 else points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP
+        )
         yield from ctx.transit(approach, rot, what=f"the approach to {joint!r}")
         with ctx.touching(moving):
             yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {joint!r}")
@@ -237,29 +241,37 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
         # a handle on a front face (a door's bar, a lid's front lip) is taken from in front; one on top from above
         normal = ctx.scene.face_normal(ctx.world.position(handle_site), obj, prefer=ctx.base - hinge.anchor)
         angle0 = hinge.angle
-        targets = [float(np.clip(t, min(angle0, goal + sign * 2.0), max(angle0, goal + sign * 2.0)))
-                   for t in np.arange(angle0 + sign * PULL_STEP, goal + sign * (PULL_STEP + 2.0), sign * PULL_STEP)]
+        targets = [
+            float(np.clip(t, min(angle0, goal + sign * 2.0), max(angle0, goal + sign * 2.0)))
+            for t in np.arange(angle0 + sign * PULL_STEP, goal + sign * (PULL_STEP + 2.0), sign * PULL_STEP)
+        ]
 
         def pull_pose(pos: np.ndarray, rot: np.ndarray, target: float, follow: float) -> tuple[np.ndarray, np.ndarray]:
             """The handle's place at ``target``, the hand turned ``follow`` of the way with it (the
             handle turns in the fingers for the rest)."""
             turn = axis_rotation(hinge.axis, np.deg2rad(target - angle0))
-            return hinge.anchor + turn @ (pos - hinge.anchor), axis_rotation(hinge.axis, np.deg2rad(follow * (target - angle0))) @ rot
+            return hinge.anchor + turn @ (pos - hinge.anchor), axis_rotation(
+                hinge.axis, np.deg2rad(follow * (target - angle0))
+            ) @ rot
 
         # a grasp the arm can follow round the first part of the arc (what stays is pushed); the hand
         # turns with the handle if it can, half as much, or not at all
         mode = "top" if normal[2] > 0.9 else "side"
         follow = None
         for follow in FOLLOW:
-            arc = (lambda g, f=follow: [pull_pose(g.pos, g.rot, t, f) for t in targets if abs(t - angle0) <= MIN_PULL_DEG + 1e-6])
+            arc = lambda g, f=follow: [
+                pull_pose(g.pos, g.rot, t, f) for t in targets if abs(t - angle0) <= MIN_PULL_DEG + 1e-6
+            ]
             try:
                 plan_grasp(ctx, obj, at=handle_site, mode=mode, then=arc)
                 break
             except SkillFailure:
                 continue
         else:
-            raise SkillFailure(f"no grasp of {handle_site!r} the {ctx.robot.name} can pull {MIN_PULL_DEG:.0f} deg along "
-                               f"the arc of {step.joint!r}")
+            raise SkillFailure(
+                f"no grasp of {handle_site!r} the {ctx.robot.name} can pull {MIN_PULL_DEG:.0f} deg along "
+                f"the arc of {step.joint!r}"
+            )
         yield from grasp(ctx, obj, at=handle_site, mode=mode, extra_touch=moving, then=arc)
         ctx.held = None  # the part is articulated, not carried: the hand follows its arc
         tcp0, rot0 = ctx.pos.copy(), ctx.rot.copy()
@@ -307,7 +319,9 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
     moving = _moving_bodies(ctx, step.joint)
     handle = step.handle or _part_handle(ctx, step.joint)
     if handle is None:
-        raise SkillFailure(f"{step.joint!r}: the sliding part has no handle site to move it by; name one with 'handle:'")
+        raise SkillFailure(
+            f"{step.joint!r}: the sliding part has no handle site to move it by; name one with 'handle:'"
+        )
     yield from grasp(ctx, obj, at=handle, mode="side" if abs(direction[2]) < 0.7 else "top")
     ctx.held = None  # the part slides on its joint; the hand follows
     with ctx.touching(moving):

@@ -19,9 +19,16 @@ SETTLE_S = 0.25
 CLOSE_S = 0.5
 
 
-def grasp(ctx: SkillContext, name: str, *, at: str | None = None, mode: str = "auto",
-          height: float | None = None, extra_touch: AbstractSet[int] = frozenset(),
-          then: FollowThrough | None = None) -> Iterator[Move]:
+def grasp(
+    ctx: SkillContext,
+    name: str,
+    *,
+    at: str | None = None,
+    mode: str = "auto",
+    height: float | None = None,
+    extra_touch: AbstractSet[int] = frozenset(),
+    then: FollowThrough | None = None,
+) -> Iterator[Move]:
     """Approach ``name``, close on it and record it as held (the hand ends at the grasp pose).
     The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
     if ctx.held is not None:
@@ -82,9 +89,14 @@ def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
 
     if step.to == "bench":
         shape = ctx.scene.shape(step.object)
-        spot = ctx.scene.free_spot(ctx.start[step.object], float(np.max(shape.world_half()[:2])) + 0.02,
-                                   ctx.held_bodies(), (ctx.robot.min_reach, ctx.robot.reach), ctx.base,
-                                   ctx.robot.base_height)
+        spot = ctx.scene.free_spot(
+            ctx.start[step.object],
+            float(np.max(shape.world_half()[:2])) + 0.02,
+            ctx.held_bodies(),
+            (ctx.robot.min_reach, ctx.robot.reach),
+            ctx.base,
+            ctx.robot.base_height,
+        )
         if spot is None:
             raise SkillFailure(f"no free spot on the bench near {step.source!r} to set {step.object!r} down")
         target = spot

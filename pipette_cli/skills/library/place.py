@@ -71,8 +71,9 @@ def base_offset(ctx: SkillContext, name: str) -> float:
     return float(ctx.world.position(name)[2] - ctx.scene.shape(name).bottom)
 
 
-def put_down(ctx: SkillContext, name: str, surface_point: np.ndarray, *, release: bool = True,
-             retreat: float = 0.08) -> Iterator[Move]:
+def put_down(
+    ctx: SkillContext, name: str, surface_point: np.ndarray, *, release: bool = True, retreat: float = 0.08
+) -> Iterator[Move]:
     """Carry held ``name`` so its base rests on ``surface_point``, let go and back off."""
     ctx.holding(name)
     lift = base_offset(ctx, name) + DROP
@@ -92,8 +93,9 @@ def put_down(ctx: SkillContext, name: str, surface_point: np.ndarray, *, release
             yield from back_off(ctx, retreat)
 
 
-def _reachable_spot(ctx: SkillContext, name: str, surface_point: np.ndarray, lift: float,
-                    support: set[int]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+def _reachable_spot(
+    ctx: SkillContext, name: str, surface_point: np.ndarray, lift: float, support: set[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """Tool pose (and the point above it) setting ``name`` down at ``surface_point``, or, where the arm
     cannot reach that without touching anything, as near as the same surface allows toward the robot
     (a shelf's front rather than its back): ``(tool position, tool rotation, above)``."""
@@ -116,8 +118,9 @@ def _reachable_spot(ctx: SkillContext, name: str, surface_point: np.ndarray, lif
             obj_rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.rot @ held.rot
             tool_pos, tool_rot = ctx.tool_for(name, point + lift * UP, obj_rot)
             above = tool_pos + (0.012 if covered else 0.05) * UP
-            if ctx.margin([(above, tool_rot), (tool_pos, tool_rot)], touch=support) is not None \
-                    and ctx.can_reach(above, tool_rot):
+            if ctx.margin([(above, tool_rot), (tool_pos, tool_rot)], touch=support) is not None and ctx.can_reach(
+                above, tool_rot
+            ):
                 return tool_pos, tool_rot, above
     return None
 
@@ -186,11 +189,16 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     def final(tool_rot: np.ndarray, held: Held = held) -> np.ndarray:
         return site + 0.003 * UP - (tool_rot @ held.rot) @ mate - tool_rot @ held.pos
 
-    tool_rot = ctx.choose(rotations, lambda r: [(final(r) + rise * UP, r), (final(r), r)], touch=holder,
-                          via=lambda r: (final(r) + rise * UP, r))
+    tool_rot = ctx.choose(
+        rotations,
+        lambda r: [(final(r) + rise * UP, r), (final(r), r)],
+        touch=holder,
+        via=lambda r: (final(r) + rise * UP, r),
+    )
     if tool_rot is None:
-        raise SkillFailure(f"no reachable way to hold {step.object!r} upright over {step.target!r} "
-                           "without touching anything")
+        raise SkillFailure(
+            f"no reachable way to hold {step.object!r} upright over {step.target!r} without touching anything"
+        )
     yield from ctx.transit(final(tool_rot) + rise * UP, tool_rot, what=f"carrying {step.object!r} over {step.target!r}")
     yield ctx.hold(0.3)  # let it stop swinging in the fingers
     # closed loop: the object may have turned or slipped in the grasp. Measure it again, hold it truly
@@ -202,8 +210,13 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
         entry = final(tool_rot, held) + rise * UP
         if np.linalg.norm(entry - ctx.pos) < 0.0015 and rotation_angle(ctx.rot, tool_rot) < np.deg2rad(0.5):
             break
-        log.debug("insert %s at t=%.2f: correcting by %s, %.1f deg", step.object, ctx.world.time, fmt(entry - ctx.pos),
-                  float(np.rad2deg(rotation_angle(ctx.rot, tool_rot))))
+        log.debug(
+            "insert %s at t=%.2f: correcting by %s, %.1f deg",
+            step.object,
+            ctx.world.time,
+            fmt(entry - ctx.pos),
+            float(np.rad2deg(rotation_angle(ctx.rot, tool_rot))),
+        )
         yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up over {step.target!r}")
         yield ctx.hold(0.2)
     tool_final = final(tool_rot, held)

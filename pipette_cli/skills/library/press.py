@@ -39,8 +39,9 @@ def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
         """Tcp position where the fingers touch the button's face: the fingertips and the fingers'
         sides reach this far along the push from the tcp."""
         rot = candidate[0]
-        reach = fingers.fingertip * max(0.0, float(rot[:, 2] @ -normal)) \
-            + 0.5 * fingers.finger_thickness * abs(float(rot[:, 0] @ normal))
+        reach = fingers.fingertip * max(0.0, float(rot[:, 2] @ -normal)) + 0.5 * fingers.finger_thickness * abs(
+            float(rot[:, 0] @ normal)
+        )
         return site + reach * normal
 
     def poses(candidate: tuple[np.ndarray, float]) -> list[tuple[np.ndarray, np.ndarray]]:
