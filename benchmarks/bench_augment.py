@@ -117,6 +117,8 @@ def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
                 obs_state=np.stack([r[2].state for r in rows]), sim_time=np.array([r[2].sim_time for r in rows]),
                 wall_time=np.array([r[2].wall_time for r in rows]), final_state=world.state(),
                 final_sim_state=sim_state(world.model, world.data), verdict=verdict,
+                instruction=[r[2].instruction for r in rows], stage=np.array([r[2].stage for r in rows], dtype=np.int32),
+                instrument=np.stack([r[2].instrument for r in rows]),
             )
             out_info = dataclasses.replace(info, image_height=env.rig.height, image_width=env.rig.width)  # type: ignore[union-attr]
             tmp = write_rollout(part_path(out, kept), out_info, rollout, [r[2].images for r in rows], index=kept,
