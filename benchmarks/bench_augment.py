@@ -138,6 +138,9 @@ def baseline(task, raw: Path, out: Path, spec: AugmentSpec) -> dict[str, Any]:
                 final_state=world.state(),
                 final_sim_state=sim_state(world.model, world.data),
                 verdict=verdict,
+                instruction=[r[2].instruction for r in rows],
+                stage=np.array([r[2].stage for r in rows], dtype=np.int32),
+                instrument=np.stack([r[2].instrument for r in rows]),
             )
             out_info = dataclasses.replace(info, image_height=env.rig.height, image_width=env.rig.width)  # type: ignore[union-attr]
             tmp = write_rollout(
