@@ -19,7 +19,7 @@ def with_object_pose(pos: tuple[float, float, float]):
 
 
 def test_unknown_robot_names_the_known_ones() -> None:
-    with pytest.raises(SimError, match=r"unknown robot 'kuka'; did you mean 'franka'\? \(robots: agilex_piper, franka_panda, ur5e_robotiq\)"):
+    with pytest.raises(SimError, match=r"unknown robot 'kuka'; did you mean 'franka'\? \(robots: agilex_piper \(piper\), franka_panda \(panda\), ur5e_robotiq \(ur5e\)\)"):
         robot_config("kuka")
 
 
