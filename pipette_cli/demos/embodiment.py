@@ -4,13 +4,13 @@
 is mounted on the hand) taken from the robot's facts (``registry/robots/``). The task's skill
 program is robot-agnostic and runs unchanged. Where the task's base pose leaves a point the program
 works at out of the robot's comfortable reach (hand-down reach for what it picks up, its full
-reach for the rest), the base slides along the bench (x first: toward or
-away from the work area; then sideways) to the nearest pose on the bench top, clear of every object,
-from which all work points are. A robot that physically cannot do the task (payload, reach from any
+reach for the rest), the base slides along the bench (x first: toward or away from the work area;
+then sideways) to the nearest pose on the bench top, clear of every object, from which all work
+points are. A robot that physically cannot do the task (payload, reach from any
 base pose on the bench) is refused with :class:`~pipette_cli.errors.InfeasibleTask` naming the limit.
 
-The result depends on the task and the robot only, so replaying an episode recorded on a robot
-rebuilds the same scene (:func:`task_for_recording`).
+The result depends on the task and the robot only, so ``on_robot(task, file's embodiment)`` rebuilds
+the scene an episode was recorded in (``pipette data replay``, ``pipette augment``).
 """
 
 from __future__ import annotations
@@ -91,12 +91,6 @@ def on_robot(task: TaskSpec, robot: str | None) -> TaskSpec:
         )
         moved = _with_robot(task, config, base)
     return moved
-
-
-def task_for_recording(task: TaskSpec, embodiment: str) -> TaskSpec:
-    """The task as it was recorded by ``embodiment`` (a file's robot): replay and augmentation
-    rebuild the scene the episode saw."""
-    return on_robot(task, embodiment)
 
 
 def _with_robot(task: TaskSpec, config: RobotSpec, base: PoseSpec) -> TaskSpec:
