@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
+from pipette_cli.sim.scene import collision_boxes
 
 FREE_CATEGORIES = ("tools", "consumables")
 
@@ -82,18 +83,6 @@ class AssetGeometry:
         return float(self.high[2] - self.low[2])
 
 
-def _geom_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Iterable[int]) -> np.ndarray:
-    out = []
-    for g in geoms:
-        if model.geom_contype[g] == 0 and model.geom_conaffinity[g] == 0:
-            continue
-        rot = data.geom_xmat[g].reshape(3, 3)
-        center = data.geom_xpos[g] + rot @ model.geom_aabb[g, :3]
-        half = np.abs(rot) @ model.geom_aabb[g, 3:]
-        out.append(np.concatenate([center - half, center + half]))
-    return np.array(out).reshape(-1, 6)
-
-
 def _point(xyz: np.ndarray) -> tuple[float, float, float]:
     x, y, z = (float(v) for v in xyz)
     return x, y, z
@@ -143,7 +132,7 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
         info = joints[name]
         data.qpos[model.jnt_qposadr[model.joint(name).id]] = np.deg2rad(value) if info.kind == "hinge" else value
     mujoco.mj_forward(model, data)
-    boxes = _geom_boxes(model, data, range(model.ngeom))
+    boxes = collision_boxes(model, data, range(model.ngeom))
     sites = {model.site(i).name: _point(data.site_xpos[i]) for i in range(model.nsite)}
     return AssetGeometry(
         asset_id,
