@@ -57,19 +57,23 @@ class Plugins(Generic[T]):
         self.kind = kind
         self.error = error
         self._items: dict[str, T] = {}
-        self._where: dict[str, str] = {}
+        self._sources: dict[str, Any] = {}
 
-    def add(self, name: str, item: T, *, defined_at: str | None = None) -> T:
-        """Register ``item`` under ``name``.
+    def add(self, name: str, item: T, *, source: Any = None) -> T:
+        """Register ``item`` under ``name``; ``source`` is the class or function whose definition a
+        duplicate-name error points at (default: ``item`` itself). Locations are looked up only
+        for that error, so registering costs no source reading at import.
 
         Raises:
             PipetteError: (of the registry's error type) ``name`` is taken by another definition.
         """
-        here = defined_at or where(item)
-        if name in self._items and not _same(self._items[name], item):
-            raise self.error(f"{self.kind} {name!r} is defined twice: at {self._where[name]} and at {here}")
+        source = item if source is None else source
+        if name in self._items and not _same(self._sources[name], source):
+            raise self.error(
+                f"{self.kind} {name!r} is defined twice: at {where(self._sources[name])} and at {where(source)}"
+            )
         self._items[name] = item
-        self._where[name] = here
+        self._sources[name] = source
         return item
 
     def register(self, *names: str) -> Callable[[T], T]:
@@ -95,7 +99,7 @@ class Plugins(Generic[T]):
 
     def remove(self, name: str) -> T | None:
         """Unregister ``name`` (a plugin unloaded, a test cleaning up); returns what was there."""
-        self._where.pop(name, None)
+        self._sources.pop(name, None)
         return self._items.pop(name, None)
 
     def find(self, name: str) -> T | None:

@@ -7,7 +7,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
 from pipette_cli.augment.specs import (
@@ -21,8 +20,8 @@ from pipette_cli.augment.specs import (
     make_variants,
 )
 from pipette_cli.cli.common import (
-    STATE,
     RobotOption,
+    episode_progress,
     err_console,
     load_task,
     out_console,
@@ -163,15 +162,7 @@ def augment(
                 f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})"
             )
         spec = found.spec
-    progress = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        disable=STATE.verbosity < 0,
-    )
+    progress = episode_progress()
     bar = progress.add_task(f"{task.short_name}", total=None)
     kept = tried = 0
 

@@ -7,9 +7,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from pipette_cli.cli.common import STATE, RobotOption, err_console, load_task, out_console
+from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console
 from pipette_cli.errors import PipetteError
 
 
@@ -57,16 +56,7 @@ def collect(
     from pipette_cli.demos.recorder import EpisodeSummary
 
     ok = failed = 0
-    progress = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        transient=False,
-        disable=STATE.verbosity < 0,
-    )
+    progress = episode_progress()
     bar = progress.add_task(f"{spec.short_name}", total=None)
 
     def started(have: int, todo: int) -> None:  # after the file and the expert were checked

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from pydantic import BaseModel
 from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 if TYPE_CHECKING:
     from pipette_cli.specs.task import TaskSpec
@@ -84,3 +85,17 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
             soft_wrap=True,
         )
     return placed
+
+
+def episode_progress() -> Progress:
+    """The stderr progress bar of the commands that play episodes (collect, augment, eval): done
+    of total, elapsed and remaining time; hidden with ``--quiet``."""
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        TimeRemainingColumn(),
+        console=err_console,
+        disable=STATE.verbosity < 0,
+    )

@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from typer.core import TyperCommand
 
-from pipette_cli.cli.common import STATE, RobotOption, err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, RobotOption, episode_progress, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 
 
@@ -193,15 +192,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
     from pipette_cli.evaluation.runner import evaluate_runs
 
     ok = failed = 0
-    progress = Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        disable=STATE.verbosity < 0,
-    )
+    progress = episode_progress()
     bar = progress.add_task("eval", total=None)
 
     def started(done: int, todo: int) -> None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from pipette_cli.assets.model import AssetDef
 from pipette_cli.errors import AssetError, suggest
-from pipette_cli.plugins import Plugins, where
+from pipette_cli.plugins import Plugins
 
 Factory = Callable[[], AssetDef]
 _MODULES = ("tools", "equipment", "consumables", "instruments")
@@ -37,7 +37,7 @@ GENERATORS: Plugins[Generator] = Plugins("asset generator", AssetError)
 
 def register(asset_id: str, category: str, factory: Factory) -> None:
     """Register ``factory`` as the generator of ``asset_id``; ids are unique."""
-    GENERATORS.add(asset_id, Generator(asset_id, category, factory), defined_at=where(factory))
+    GENERATORS.add(asset_id, Generator(asset_id, category, factory), source=factory)
 
 
 def generator(asset_id: str, category: str) -> Callable[[Factory], Factory]:
