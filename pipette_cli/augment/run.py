@@ -72,11 +72,18 @@ def _load_ledger(out: Path, task: TaskSpec, spec: AugmentSpec, source: Path) -> 
         raise DatasetError(f"{path} is unreadable ({exc}); delete it together with {out} to start over") from None
     if ledger.get("format") != LEDGER_FORMAT or ledger.get("task_id") != task.id:
         raise DatasetError(f"{path} belongs to another task or tool; choose another --output")
-    if ledger.get("spec") != fresh["spec"]:
+    if _decisive(ledger.get("spec")) != _decisive(fresh["spec"]):
         raise DatasetError(
             f"{out} was augmented with other parameters (see {path.name}); rerun with the same options or choose another --output"
         )
     return ledger
+
+
+def _decisive(spec: Any) -> Any:
+    """The spec without its execution-only fields (``batch`` gives the same verdicts either way)."""
+    if not isinstance(spec, dict):
+        return spec
+    return {k: v for k, v in spec.items() if k not in AugmentSpec.EXECUTION_ONLY}
 
 
 def _drop_unledgered(path: Path, done: set[str]) -> int:

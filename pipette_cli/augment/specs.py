@@ -170,6 +170,9 @@ class AugmentSpec(Spec):
         False, description="screen physics variants with one mujoco.rollout first (tasks without mechanisms)"
     )
 
+    EXECUTION_ONLY: ClassVar[frozenset[str]] = frozenset({"batch"})
+    """Fields that change how the episodes are made, not which: a resumed run may differ in them."""
+
     @model_validator(mode="after")
     def _names(self) -> AugmentSpec:
         names = [v.name for v in self.variants]

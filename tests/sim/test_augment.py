@@ -111,6 +111,9 @@ def test_rerun_skips_finished_demos_and_other_parameters_are_refused(run, task) 
     assert again.new_demos == 0 and again.skipped_demos == 1
     assert out.read_bytes() == before
     assert json.loads(ledger_path(out).read_text())["demos"]
+    # execution-only fields (batch screening gives the same verdicts) do not block a resume
+    flipped = augment(task, raw, out, SPEC.model_copy(update={"batch": not SPEC.batch}), rejected=rejected, workers=1)
+    assert flipped.new_demos == 0 and out.read_bytes() == before
     from pipette_cli.errors import DatasetError
 
     with pytest.raises(DatasetError, match="other parameters"):
