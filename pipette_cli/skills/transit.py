@@ -157,13 +157,19 @@ def _route(
     heading = heading / (np.linalg.norm(heading) + 1e-12)
     side = np.array([-heading[1], heading[0], 0.0])
     here_flat = np.array([here[0], here[1], goal[2]])
-    paths: list[tuple[list[np.ndarray], bool | None]] = [([goal], False), ([goal], True), ([goal], None)]
-    paths += [([here_flat + s * d * side, goal + s * d * side, goal], True) for d in (0.3, 0.42) for s in (1.0, -1.0)]
-    for path, low in paths:
+    paths: list[tuple[list[np.ndarray], bool | None, float]] = [([goal], False, 0.0), ([goal], True, 0.0)]
+    paths += [([goal], None, 0.0)]
+    # higher over the top before round the side: the arm that cannot cross just over an obstacle
+    # (an open lid standing up) often can higher up, and a detour is long and passes the base
+    paths += [([goal], False, extra) for extra in (0.08, 0.16)]
+    paths += [
+        ([here_flat + s * d * side, goal + s * d * side, goal], True, 0.0) for d in (0.3, 0.42) for s in (1.0, -1.0)
+    ]
+    for path, low, extra in paths:
         if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
             points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]
         else:
-            points = _waypoints(ctx, here, path, goal, skip, radius, hang, low)
+            points = _waypoints(ctx, here, path, goal, skip, radius, hang, low, extra)
         if points is None:
             continue
         resolved = _feasible(ctx, start, points, rot, precise)
@@ -181,16 +187,17 @@ def _waypoints(
     radius: float,
     hang: float,
     low: bool,
+    extra: float = 0.0,
 ) -> list[tuple[np.ndarray, bool | None]] | None:
-    """Climb-and-cross waypoints through ``path`` (and whether each is on the last leg): over everything
-    under each leg, or (``low``) at the hand's height where that band is free (under an overhang,
-    beside an instrument)."""
+    """Climb-and-cross waypoints through ``path`` (and whether each is on the last leg): ``extra``
+    metres over everything under each leg, or (``low``) at the hand's height where that band is free
+    (under an overhang, beside an instrument)."""
     points: list[tuple[np.ndarray, bool | None]] = []
     pos = here.copy()
     for i, end in enumerate(path):
         last = i == len(path) - 1
         floor = goal[2] if last else 0.0
-        over = ctx.scene.corridor_top(pos, end, radius, skip) + CLEARANCE + hang
+        over = ctx.scene.corridor_top(pos, end, radius, skip) + CLEARANCE + hang + extra
         z = max(over, floor)
         if low:
             z = max(pos[2], floor)
