@@ -8,7 +8,8 @@ candidates):
   taken from above around its vertical axis, at its ``grasp`` site (or a named site), low enough
   that its top stays below the palm and high enough that the fingertips close above the rack,
   rotor or holder it stands in (the open fingers would otherwise close on its walls).
-* ``across``: a lying tool (a pipette, a rod) is taken from above across its long axis.
+* ``across``: a lying tool (a pipette, a rod, a syringe, tweezers) is taken from above across its
+  long axis, low ones too.
 * ``pinch``: a flat, low object (a petri dish, a plate) is pinched near the rim facing the robot
   with the hand pitched down, across the widest chord the gripper spans; the pitch lets the
   fingertips reach below its rim without touching the surface under it.
@@ -38,9 +39,12 @@ PALM_MARGIN = 0.008
 FINGERTIP_LIFT = 0.012
 """Lowest tcp height above the supporting surface for a straight-down grasp (fingertips' reach)."""
 FLAT = 0.03
+"""Objects lower than this are pinched at the rim rather than taken around an axis (unless long)."""
+LONG = 2.5
+"""A low object whose footprint is this many times longer than wide (a syringe, tweezers, a rod
+lying on the bench) is taken across its long axis from above, not pinched at a rim."""
 LIFT_CHECK = 0.015
 """Metres above the grasp the arm must also reach, to take the object off its support."""
-"""Objects lower than this are pinched at the rim rather than taken around an axis."""
 PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
 TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
@@ -85,7 +89,9 @@ def plan_grasp(
     half = shape.world_half()
     size = 2 * half
     low = size[2] < FLAT
-    if mode == "pinch" or (mode == "auto" and at is None and low):
+    footprint = np.sort(np.delete(shape.half, shape.vertical_axis()))  # its own box: yaw does not matter
+    long_ = bool(footprint[1] > LONG * footprint[0])
+    if mode == "pinch" or (mode == "auto" and at is None and low and not long_):
         return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then=then)
     if mode == "side":
         if at is None:
@@ -93,7 +99,7 @@ def plan_grasp(
         return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then=then)
     axis_obj = shape.axes[:, shape.vertical_axis()]
     lying = abs(axis_obj[2]) < 0.7 or (
-        at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and not low
+        at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
     )
     point, closing, width = _grasp_point(ctx, name, shape, at, height, lying)
     if width > opening - GRIP_MARGIN:

@@ -69,6 +69,8 @@ def upright(world: World, name: str) -> float:
         ("PickUpTestTube", "tube", 0.1),  # upright tube, about its axis
         ("PlacePetriDishInIncubator", "dish", 0.05),  # flat dish, pinched at the rim
         ("PipetteToPetriDish", "pipette", 0.1),  # lying tool, across its body
+        ("skills/PickLyingTools-v1", "syringe", 0.08),  # low lying tools too, whatever their yaw
+        ("skills/PickLyingTools-v1", "marker", 0.08),
     ],
 )
 def test_pick_lifts_objects_of_every_shape(task_id: str, name: str, lift: float) -> None:
