@@ -144,3 +144,50 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
         joints,
         quat_to_euler_deg(rest) if free else (0.0, 0.0, 0.0),
     )
+
+
+STAND_SECONDS = 1.5
+"""Seconds an object is left alone on a flat floor to see whether it stays as put."""
+STAND_NUDGES = ((3.0, 0.0, 0.0), (0.0, 3.0, 0.0), (0.0, 0.0, 0.05))
+"""Tips about x and y (degrees) and a sideways push (m/s) it is released with, one at a time: a
+resting pose is only one if a nudge does not topple or roll it (a cone balanced on its point, a
+cylinder on its side stay put only unnudged)."""
+STAND_TILT_DEG = 10.0
+STAND_DRIFT = 0.02
+
+
+@cache
+def stands_alone(asset_id: str) -> bool:
+    """Whether a free object stays where it is put on a flat surface in its rest pose: a conical
+    tube tips over and a tube lying on its side rolls away (they belong in a rack); a flask or a
+    dish stays. Simulated once per asset and nudge (:data:`STAND_NUDGES`), alone on a plane."""
+    from pipette_cli.assets.loader import load_asset_spec
+
+    entry = load_asset_library().get(asset_id)
+    if entry.category not in FREE_CATEGORIES:
+        return True
+    spec = load_asset_spec(asset_id, free_joint=True)
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.1])
+    spec.option.timestep = 1.0 / 600.0
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.impratio = 10.0
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    geom = measure_asset(asset_id)
+    rest = np.asarray(geom.semantics.get("rest_quat") or [1.0, 0.0, 0.0, 0.0], dtype=float)
+    for tilt_x, tilt_y, push in STAND_NUDGES:
+        mujoco.mj_resetData(model, data)
+        tip = np.zeros(4)
+        mujoco.mju_euler2Quat(tip, np.deg2rad([tilt_x, tilt_y, 0.0]), "xyz")
+        quat = np.zeros(4)
+        mujoco.mju_mulQuat(quat, tip, rest)
+        data.qpos[:7] = [0.0, 0.0, geom.origin_height + 0.001, *quat]
+        data.qvel[:2] = push / np.sqrt(2.0)
+        mujoco.mj_forward(model, data)
+        start, up = data.xpos[1].copy(), data.xmat[1].reshape(3, 3)[:, 2].copy()
+        for _ in range(int(STAND_SECONDS / model.opt.timestep)):
+            mujoco.mj_step(model, data)
+        tilt = np.rad2deg(np.arccos(np.clip(float(data.xmat[1].reshape(3, 3)[:, 2] @ up), -1.0, 1.0)))
+        if tilt > STAND_TILT_DEG or float(np.linalg.norm(data.xpos[1][:2] - start[:2])) > STAND_DRIFT:
+            return False
+    return True

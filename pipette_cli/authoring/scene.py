@@ -2,6 +2,10 @@
 lids and doors in the state the first step needs, items on the bench or in/on what they are taken
 from. Geometry comes from the compiled assets (:mod:`.measure`); the grid search from :mod:`.layout`.
 
+An item that does not stay put on a flat bench by itself (a conical tube tips over, a pipette tip
+rolls: :func:`~.measure.stands_alone`) and is not taken from anywhere named starts in a rack of the
+library whose holes fit it, added to the scene.
+
 Joint states follow the steps: a lid the task opens starts closed, one it closes starts open, and a
 lid, door or drawer in the way of a placement starts open unless a step opens it first. A step that
 needs a part open after an earlier step closed it is refused.
@@ -15,9 +19,11 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.authoring.layout import Footprint, Layout, PlacedObject
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset
+from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset, stands_alone
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
+from pipette_cli.authoring.resolve import choose_pair, holders_that_fit
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid
+from pipette_cli.authoring.vocabulary import load_vocabulary
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")
@@ -117,6 +123,8 @@ class SceneBuilder:
 
     # ------------------------------------------------------------------ helpers
     def human(self, name: str) -> str:
+        if name not in self.checked.objects:  # a rack the layout added
+            return load_vocabulary().assets[self.out.placed[name].asset].human_name()
         return self.checked.objects[name].info.human_name()
 
     def geom(self, name: str) -> AssetGeometry:
@@ -183,6 +191,10 @@ class SceneBuilder:
             first = next((s for s in self._steps_on(name) if s.object == name), None)
             if first is not None and first.source is not None:
                 self._place_on_source(name, first.source, joints)
+            elif first is not None and first.action not in ("open", "close", "press"):
+                rack = self._rack_for(name)
+                if rack is not None:
+                    self._place_on_source(name, rack, joints)
         free = [n for n in order if n not in self.out.placed]
         for k, name in enumerate(free):
             role = checked.objects[name].spec.role
@@ -293,8 +305,28 @@ class SceneBuilder:
             comment="lid beside it; VERIFY reachable",
         )
 
-    def _place_free(self, name: str, preferred: tuple[float, float]) -> None:
+    def _rack_for(self, name: str) -> str | None:
+        """A rack for an item that cannot stand on the bench by itself, added to the scene (its
+        name), or ``None`` when the item stands or no rack of the library fits it."""
         asset = self.checked.asset(name)
+        if stands_alone(asset):
+            return None
+        vocab = load_vocabulary()
+        racks = [
+            a for a in holders_that_fit(vocab, asset) if any(k.startswith("slot_") for k in measure_asset(a).sites)
+        ]
+        if not racks:
+            return None
+        _, rack = choose_pair(vocab, [asset], racks)
+        rack_name = f"{name}_rack"
+        self._place_free(rack_name, (self.ws.center_x, -self.ws.lane_y), asset=rack)
+        self.out.placed[
+            rack_name
+        ].comment = f"the {self.human(name)} cannot stand on the bench by itself: it starts here"
+        return rack_name
+
+    def _place_free(self, name: str, preferred: tuple[float, float], asset: str | None = None) -> None:
+        asset = asset or self.checked.asset(name)
         geom = measure_asset(asset)
         amp = 0.02 if self.ws.max_reach < 0.6 else 0.03
         hx, hy = geom.half_xy

@@ -132,3 +132,19 @@ def test_sizes_and_synonyms_pick_the_right_asset(text: str, asset: str) -> None:
 def test_the_llm_schema_names_only_library_assets() -> None:
     schema = plan_json_schema(["beaker_250ml", "electronic_balance"])
     assert schema["$defs"]["PlanObjectSpec"]["properties"]["asset"]["enum"] == ["beaker_250ml", "electronic_balance"]
+
+
+def test_a_tube_that_cannot_stand_starts_in_a_rack_that_fits_it_and_a_beaker_on_the_bench() -> None:
+    from pipette_cli.authoring.measure import stands_alone
+
+    assert not stands_alone("conical_tube_15ml") and not stands_alone("pipette_tip_200ul")  # tips over, rolls
+    assert stands_alone("beaker_250ml") and stands_alone("petri_dish_90mm")
+    tube = drafted("Pick up the 15 mL falcon tube").spec
+    rack = tube.object("tube_rack")
+    assert rack.asset == "conical_tube_rack_15ml"
+    slots = {k: v for k, v in measure_asset(rack.asset).sites.items() if k.startswith("slot_")}
+    start = tube.object("tube").pose.pos
+    assert any(math.dist(start[:2], (rack.pose.pos[0] + x, rack.pose.pos[1] + y)) < 1e-3 for x, y, _ in slots.values())
+    assert tube.object("tube").pose.euler_deg in (None, (0.0, 0.0, 0.0))  # upright in the hole, not lying
+    beaker = drafted("Pick up the 250 mL beaker").spec
+    assert [o.asset for o in beaker.scene.objects] == ["beaker_250ml"]
