@@ -16,6 +16,7 @@ from collections.abc import Set as AbstractSet
 from contextlib import contextmanager
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from pipette_cli.plugins import Plugins
@@ -51,6 +52,28 @@ log = logging.getLogger(__name__)
 Skill = Callable[["SkillContext", Any], Iterator[Move]]
 
 
+MIN_JERK_PEAK = 1.875
+"""Peak over mean speed of a minimum-jerk move (how moves are interpolated)."""
+JOINT_SPEED_SHARE = 0.7
+"""Share of a joint's top speed a move may ask of it (the rest is for gravity and acceleration)."""
+
+
+def joint_speeds(world: World) -> np.ndarray:
+    """The speed (rad/s) each arm joint's actuator can drive it at: its force limit over the joint's
+    damping (the terminal speed at full force), times :data:`JOINT_SPEED_SHARE`; unbounded where the
+    joint has no damping or its actuator no force limit. A move timed only by the tool's speed can
+    ask a strongly damped wrist (the UR5e's) for more than it can give, and the arm lags its plan."""
+    m = world.model
+    out = np.full(len(world.arm_joint_ids), np.inf)
+    for i, joint in enumerate(world.arm_joint_ids):
+        damping = float(m.dof_damping[m.jnt_dofadr[joint]])
+        for a in range(m.nu):
+            joint_driven = m.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT and m.actuator_trnid[a, 0] == joint
+            if joint_driven and m.actuator_forcelimited[a] and damping > 0:
+                out[i] = JOINT_SPEED_SHARE * float(m.actuator_forcerange[a, 1]) / damping
+    return out
+
+
 class SkillContext:
     """What skills share during one episode: the world, the robot's facts, IK, scene queries, the
     planned tool state after the last move, and what is in the hand."""
@@ -73,6 +96,7 @@ class SkillContext:
         """The program's step after the running one (a pick looks ahead to where the object goes)."""
         self.start = {name: world.position(name) for name in world.objects}
         self.base = np.asarray(world.task.embodiment.base.pos, dtype=float)
+        self.joint_speed = joint_speeds(world)
 
     # ------------------------------------------------------------------ moves
     def move(
@@ -124,7 +148,7 @@ class SkillContext:
         if yaw_free or free:
             pos, rot = self.ik.tool_pose(solution.qpos)
         if seconds is None:
-            seconds = self._seconds(pos, rot, speed)
+            seconds = self._seconds(pos, rot, speed, solution.qpos)
         self.pos, self.rot, self.q = pos, rot, solution.qpos
         if gripper is not None:
             self.gripper = gripper
@@ -135,19 +159,22 @@ class SkillContext:
         free = speed >= TRANSIT_SPEED and not straight
         if free:  # through joint space the tool ends where the joints put it (within the free tolerance)
             pos, rot = self.ik.tool_pose(q)
-        seconds = self._seconds(pos, rot, speed)
+        seconds = self._seconds(pos, rot, speed, q)
         self.pos, self.rot, self.q = np.asarray(pos, float), rot, q
         return Move(self.pos, rot, self.gripper, seconds, q, free=free)
 
-    def _seconds(self, pos: np.ndarray, rot: np.ndarray, speed: float) -> float:
+    def _seconds(self, pos: np.ndarray, rot: np.ndarray, speed: float, q: np.ndarray) -> float:
         """Duration of a move from the planned pose: its length at ``speed`` (at most
-        :data:`HELD_SPEED` with something in the hand) or its turn, whichever takes longer."""
+        :data:`HELD_SPEED` with something in the hand), its turn, or the time the slowest joint
+        needs to go to ``q`` at the peak of the minimum-jerk profile, whichever takes longest."""
         if self.held is not None:
             speed = min(speed, HELD_SPEED)
+        joints = MIN_JERK_PEAK * float(np.max(np.abs(np.asarray(q) - self.q) / self.joint_speed))
         return max(
             MIN_SECONDS,
             float(np.linalg.norm(np.asarray(pos) - self.pos)) / speed,
             rotation_angle(self.rot, rot) / TURN_SPEED,
+            joints,
         )
 
     def grip(self, gripper: float, seconds: float = 0.5) -> Move:

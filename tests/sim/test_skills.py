@@ -198,3 +198,23 @@ def test_same_seed_same_skill_actions() -> None:
         return np.array(out)
 
     np.testing.assert_array_equal(actions(), actions())
+
+
+def test_moves_give_a_damped_joint_the_time_its_actuator_needs() -> None:
+    """The UR5e's wrists (28 Nm against damping 20) top out near 1.4 rad/s: a move that swings a
+    wrist is timed by that joint, not by the tool's speed; the Panda's joints are not held back."""
+    from pipette_cli.demos.embodiment import on_robot
+    from pipette_cli.skills.moves import TRANSIT_SPEED
+    from pipette_cli.skills.runtime import JOINT_SPEED_SHARE, MIN_JERK_PEAK, SkillContext, joint_speeds
+
+    task = REGISTRY.get("PickUpTestTube")
+    ur5e = World(on_robot(task, "ur5e"))
+    speeds = joint_speeds(ur5e)
+    assert speeds[3:] == pytest.approx([JOINT_SPEED_SHARE * 28.0 / 20.0] * 3)
+    ctx = SkillContext(ur5e, np.random.default_rng(0))
+    swing = ctx.q + np.array([0.0, 0.0, 0.0, 1.5, 0.0, 0.0])
+    assert ctx._seconds(ctx.pos, ctx.rot, TRANSIT_SPEED, swing) == pytest.approx(MIN_JERK_PEAK * 1.5 / speeds[3])
+    panda = SkillContext(World(task), np.random.default_rng(0))
+    nudge = panda.q + 0.05
+    far = panda.pos + np.array([0.3, 0.0, 0.0])
+    assert panda._seconds(far, panda.rot, TRANSIT_SPEED, nudge) == pytest.approx(0.3 / TRANSIT_SPEED)
