@@ -267,20 +267,29 @@ def _top_candidates(
     lying: bool,
     round_: bool = False,
 ) -> list[Grasp]:
-    """Straight down, then pitched toward the robot (a round object can be taken from any side)."""
+    """Straight down, then pitched toward the robot (a round object can be taken from any side; a
+    lying one is pitched along its length, so the fingers still close across it, from the end
+    facing away from the robot first)."""
     out = []
     above = max(0.10, shape.top - point[2] + 0.06)
+    radial = horizontal(point - ctx.base)
+    length = np.array([closing[1], -closing[0], 0.0])
+    along = [length if length @ radial >= 0 else -length]
+    if abs(length @ radial) < 0.5:  # lying across the radial direction: either end may be the one
+        along.append(-along[0])
     for pitch in TOP_PITCHES:
         if pitch >= 89.9:
-            rot = down_frame(closing)
+            rots = [down_frame(closing)]
+        elif lying:
+            rots = [pitched_frame(toward, pitch) for toward in along]
+        elif abs(radial @ horizontal(closing)) > 0.5 and not round_:
+            continue  # pitched toward the robot, the fingers must close across the radial direction
         else:
-            toward = horizontal(point - ctx.base)
-            if lying or (abs(toward @ horizontal(closing)) > 0.5 and not round_):
-                continue  # pitched toward the robot, the fingers must close across the radial direction
-            rot = pitched_frame(toward, pitch)
-        back = point - rot[:, 2] * above
-        back[2] = max(back[2], point[2] + above * 0.5)
-        out.append(Grasp("top", point.copy(), rot, [back], width))
+            rots = [pitched_frame(radial, pitch)]
+        for rot in rots:
+            back = point - rot[:, 2] * above
+            back[2] = max(back[2], point[2] + above * 0.5)
+            out.append(Grasp("top", point.copy(), rot, [back], width))
     return out
 
 
