@@ -107,7 +107,11 @@ def plan_grasp(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
         )
+    # round: the hand may close along any horizontal (a tube, a neck), not only across a bar
     round_ = not lying and bool(np.allclose(closing, horizontal(point - ctx.base)))
+    if at is not None and round_:  # a grip named by a site: round if its footprint is (a handle bar is not)
+        grip = _grip_geom(ctx, name, point, at)
+        round_ = grip is None or abs(float(grip[1][0] - grip[1][1])) < 0.002
     return _first_reachable(
         ctx,
         name,
@@ -267,9 +271,9 @@ def _top_candidates(
     lying: bool,
     round_: bool = False,
 ) -> list[Grasp]:
-    """Straight down, then pitched toward the robot (a round object can be taken from any side; a
-    lying one is pitched along its length, so the fingers still close across it, from the end
-    facing away from the robot first)."""
+    """Straight down, then pitched: toward the robot where the fingers then close across the grip (a
+    round object from any side), else tilted along the grip (a lying tool along its length, a bar
+    facing the robot along the bar), so the fingers still close across it."""
     out = []
     above = max(0.10, shape.top - point[2] + 0.06)
     radial = horizontal(point - ctx.base)
@@ -280,12 +284,10 @@ def _top_candidates(
     for pitch in TOP_PITCHES:
         if pitch >= 89.9:
             rots = [down_frame(closing)]
-        elif lying:
+        elif round_ or (not lying and abs(radial @ horizontal(closing)) <= 0.5):
+            rots = [pitched_frame(radial, pitch)]  # toward the robot: the fingers close across the radial
+        else:  # tilted along the grip (a lying tool, a bar facing the robot): the fingers still close across it
             rots = [pitched_frame(toward, pitch) for toward in along]
-        elif abs(radial @ horizontal(closing)) > 0.5 and not round_:
-            continue  # pitched toward the robot, the fingers must close across the radial direction
-        else:
-            rots = [pitched_frame(radial, pitch)]
         for rot in rots:
             back = point - rot[:, 2] * above
             back[2] = max(back[2], point[2] + above * 0.5)
