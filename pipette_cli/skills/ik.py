@@ -173,11 +173,15 @@ class ArmIK:
                 best = min(best, mujoco.mj_geomDistance(model, data, g1, g2, 0.05, None))
         return float(best)
 
-    def collisions(self, q_arm: np.ndarray, allow: AbstractSet[int] = frozenset()) -> list[tuple[int, int]]:
+    def collisions(
+        self, q_arm: np.ndarray, allow: AbstractSet[int] = frozenset(), carried: AbstractSet[int] = frozenset()
+    ) -> list[tuple[int, int]]:
         """Robot bodies touching something at ``q_arm`` (the scene as it stands now), as
         ``(robot body, other body)`` pairs. The hand (gripper) touching bodies in ``allow`` (what it
         grasps, pushes or holds) and the fingers touching each other do not count; the arm's links
-        touching anything does."""
+        touching anything does, except what the hand carries (``carried``): it moves with the hand,
+        so where it stands now says nothing about the arm at ``q_arm`` (a wrist lowered onto the
+        spot a tall tube occupied before it was carried down)."""
         q = self.world.data.qpos.copy()
         q[self._adr] = q_arm
         self.configuration.update(q)
@@ -193,7 +197,7 @@ class ArmIK:
             if r1 == r2 and (not r1 or (b1 in self.hand_bodies and b2 in self.hand_bodies)):
                 continue  # scene-scene contacts, or the fingers touching each other
             robot, other = (b1, b2) if r1 else (b2, b1)
-            if other in allow and robot in self.hand_bodies:
+            if (other in allow and robot in self.hand_bodies) or other in carried:
                 continue
             out.append((robot, other))
             self.last_contact = (contact.geom1, contact.geom2, float(contact.dist))

@@ -233,7 +233,7 @@ class SkillContext:
             r = slerp(start.rot, rot, t)
             solution = self.ik.solve(p, r, q, iterations=15, dt=0.1, careful=True)
             if not solution.ok(max(tolerance, 0.006)) or self.ik.collisions(
-                solution.qpos, self.allowed | self.held_bodies()
+                solution.qpos, self.allowed | self.held_bodies(), self.held_bodies()
             ):
                 return None
             q = solution.qpos
@@ -245,7 +245,7 @@ class SkillContext:
         allow = self.allowed | self.held_bodies()
         m = self.world.model
         for t in np.linspace(0.0, 1.0, 12)[1:]:
-            hits = self.ik.collisions((1 - t) * q0 + t * q1, allow)
+            hits = self.ik.collisions((1 - t) * q0 + t * q1, allow, self.held_bodies())
             if hits:
                 robot, other = hits[0]
                 return f"hit {m.body(other).name} with its {m.body(robot).name.removeprefix('robot/')}"
@@ -272,7 +272,7 @@ class SkillContext:
             r0, r1 = self.ik.tool_pose(q0)[1], self.ik.tool_pose(q1)[1]
         for t in np.linspace(0.0, 1.0, samples)[1:]:
             q = (1 - t) * q0 + t * q1
-            if self.ik.collisions(q, allow):
+            if self.ik.collisions(q, allow, self.held_bodies()):
                 return False
             if (
                 r0 is not None
@@ -313,7 +313,8 @@ class SkillContext:
                 if leg is None:
                     rot, solution = self.solve_flip(pos, rot, self.q)
                     if not solution.ok() or (
-                        collisions and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies())
+                        collisions
+                        and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies(), self.held_bodies())
                     ):
                         return None
                     q = solution.qpos

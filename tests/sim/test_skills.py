@@ -110,6 +110,12 @@ def test_insert_into_a_rack_hole_and_a_pipette_stand() -> None:
     assert upright(world, "pipette") < 10
 
 
+def test_a_tall_tube_goes_from_one_rack_into_another() -> None:
+    world, _ = run("skills/TallTubeRackToRack-v1", seconds=15.0)
+    assert world.verdict.success, world.verdict.reason
+    assert upright(world, "tube") < 5.0
+
+
 def test_remove_from_a_balance_to_the_bench_and_out_of_an_incubator() -> None:
     world = World(REGISTRY.get("RemoveTubeFromBalance"))
     world.reset(0)
