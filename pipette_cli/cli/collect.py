@@ -9,6 +9,10 @@ from typing import Annotated
 import typer
 
 from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console
+from pipette_cli.demos.collect import collect as collect_episodes
+from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.recorder import EpisodeSummary
+from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
 from pipette_cli.errors import PipetteError
 
 
@@ -51,9 +55,6 @@ def collect(
     spec = load_task(task_id, robot)
     if source is Source.teleop and workers != 1:
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
-    from pipette_cli.demos.collect import collect as collect_episodes
-    from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.demos.recorder import EpisodeSummary
 
     ok = failed = 0
     progress = episode_progress()
@@ -75,8 +76,6 @@ def collect(
     try:
         with deferred_sigint() as interrupted:
             if source is Source.teleop:
-                from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
-
                 err_console.print(
                     "keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True
                 )

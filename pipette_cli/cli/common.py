@@ -13,6 +13,9 @@ from pydantic import BaseModel
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.registry import load_registry
+
 if TYPE_CHECKING:
     from pipette_cli.specs.task import TaskSpec
 
@@ -69,12 +72,9 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
         SimError: unknown robot (the line lists the robots).
         InfeasibleTask: the robot cannot do the task (the line names the limit).
     """
-    from pipette_cli.registry import load_registry
-
     task = load_registry(STATE.registry_dirs).get(task_id)
     if robot is None:
         return task
-    from pipette_cli.demos.embodiment import on_robot
 
     placed = on_robot(task, robot)
     before, after = task.embodiment.base.pos, placed.embodiment.base.pos

@@ -11,7 +11,12 @@ from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.cli.data import app as data_app
+from pipette_cli.demos.store import scan
+from pipette_cli.errors import DatasetError
+from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
+from pipette_cli.lerobot.convert import convert as run_convert
 from pipette_cli.lerobot.frames import FrameFilter
+from pipette_cli.lerobot.stats import dataset_stats
 
 
 def convert(
@@ -56,11 +61,6 @@ def convert(
 
     Example: pipette convert tube.h5   (-> datasets/pipette_PickUpTestTube-v1/raw, where `pipette train` looks)
     """
-    from pipette_cli.demos.store import scan
-    from pipette_cli.errors import DatasetError
-    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
-    from pipette_cli.lerobot.convert import convert as run_convert
-
     try:
         version = DatasetVersion(dataset_version)
     except ValueError:
@@ -131,8 +131,6 @@ def stats(
 
     Example: pipette data stats datasets/pipette_PickUpTestTube-v1/raw --json
     """
-    from pipette_cli.lerobot.stats import dataset_stats
-
     report = dataset_stats(root)
     if as_json:
         print_json(report)

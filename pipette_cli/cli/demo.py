@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
-from pipette_cli.demo import DEFAULT_TASK
+from pipette_cli.demo import DEFAULT_TASK, FAST, FULL, run_demo, summary_rows, verdict_line
 
 
 def demo(
@@ -32,8 +32,6 @@ def demo(
 
     Example: pipette demo --robot ur5e_2f85 --out demo_run
     """
-    from pipette_cli.demo import FAST, FULL, run_demo, summary_rows, verdict_line
-
     task = load_task(task_id, robot)
     report = run_demo(task, out, FAST if fast else FULL, say=lambda line: err_console.print(line, soft_wrap=True))
     if as_json:

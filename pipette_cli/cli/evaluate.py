@@ -10,7 +10,11 @@ import typer
 from typer.core import TyperCommand
 
 from pipette_cli.cli.common import STATE, RobotOption, episode_progress, err_console, out_console, print_json
+from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
+from pipette_cli.registry import load_registry
 
 
 class EvalCommand(TyperCommand):
@@ -110,9 +114,9 @@ def eval_command(
     """
     if dataset_version not in ("raw", "augmented"):
         raise PipetteError(f"--dataset-version must be raw or augmented, not {dataset_version!r}")
+    # deferred: zmq, scipy (~0.9 s)
     from pipette_cli.evaluation.evaluate import DecodeConfig, resolve_policy_type
     from pipette_cli.evaluation.runner import PolicySource, check_servers
-    from pipette_cli.registry import load_registry
 
     source = PolicySource(checkpoint=policy, endpoints=tuple(endpoint or ()), device=device, dead_after_s=dead_after)
     registry = load_registry(STATE.registry_dirs)
@@ -157,9 +161,7 @@ def _plan(
 ) -> tuple[list[Any], Any]:
     """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself),
     each task placed on ``robot`` when one is given."""
-    from pipette_cli.demos.embodiment import on_robot
-    from pipette_cli.evaluation.runner import EvalSettings, TaskRun
-    from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
+    from pipette_cli.evaluation.runner import EvalSettings, TaskRun  # deferred: zmq, scipy (~0.9 s)
 
     if suite_id is None:
         if task_id is None:
@@ -188,8 +190,7 @@ def _plan(
 
 def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict[str, Any]]:
     """Play the runs with a progress bar; the summaries, in run order."""
-    from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.evaluation.runner import evaluate_runs
+    from pipette_cli.evaluation.runner import evaluate_runs  # deferred: zmq, scipy (~0.9 s)
 
     ok = failed = 0
     progress = episode_progress()
@@ -244,6 +245,7 @@ def report_command(
 
     Example: pipette eval report evals/ --out docs/results
     """
+    # deferred: scipy, PIL (~0.8 s)
     from pipette_cli.evaluation.report import build_report, load_runs, markdown, write_report
 
     report = build_report(load_runs(folders))

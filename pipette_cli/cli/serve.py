@@ -40,7 +40,7 @@ def serve(
 
     Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model
     """
-    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint
+    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint  # deferred: zmq (~15 ms)
 
     check_endpoint(bind, allow_remote=allow_remote)  # before the slow policy load
     runner = LeRobotRunner(policy, device=device)

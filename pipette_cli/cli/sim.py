@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Annotated
@@ -12,7 +13,9 @@ from rich.table import Table
 
 from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.errors import PipetteError
+from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import PROFILES
+from pipette_cli.sim.world import World
 
 app = typer.Typer(
     help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png",
@@ -21,7 +24,7 @@ app = typer.Typer(
 
 
 def save_png(image: np.ndarray, path: Path) -> None:
-    from PIL import Image
+    from PIL import Image  # deferred: PIL (~15 ms)
 
     path.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(path)
@@ -48,8 +51,6 @@ def render(
 
     Example: pipette sim render pipette/OpenCentrifugeLid-v1 --robot ur5e_2f85 --seed 3 --out docs/views.png
     """
-    from pipette_cli.sim.env import PipetteEnv
-
     spec = load_task(task_id, robot)
     env = PipetteEnv(spec, image_size=image_size, render_profile=profile)  # type: ignore[arg-type]
     try:
@@ -75,8 +76,6 @@ def step_rate(
 
     Example: pipette sim step-rate PickUpTestTube --robot piper --steps 90
     """
-    from pipette_cli.sim.env import PipetteEnv
-
     spec = load_task(task_id, robot)
     results: dict[str, float] = {}
     env = PipetteEnv(spec, render=False)
@@ -121,13 +120,9 @@ def view(
 
     Example: pipette sim view PickUpTestTube
     """
-    import os
-
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         raise PipetteError("no display: `pipette sim view` needs one (try `pipette sim render` instead)")
-    import mujoco.viewer
-
-    from pipette_cli.sim.world import World
+    import mujoco.viewer  # deferred: glfw (~30 ms; needs a display)
 
     world = World(load_task(task_id, robot))
     world.reset(seed)

@@ -11,7 +11,20 @@ import typer
 from rich.markup import escape
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.lerobot.train import IfExists, Policy
+from pipette_cli.errors import DatasetError
+from pipette_cli.lerobot.convert import DatasetVersion
+from pipette_cli.lerobot.train import (
+    IfExists,
+    Policy,
+    TrainError,
+    TrainOptions,
+    lerobot_train_executable,
+    missing_datasets,
+    plan,
+    resolve_tasks,
+    run_job,
+)
+from pipette_cli.registry import load_registry
 
 
 def train(
@@ -85,19 +98,6 @@ def train(
 
     Example: pipette train --tasks PickUpTestTube,OpenCentrifugeLid --policy act --dataset-version raw --dry-run
     """
-    from pipette_cli.errors import DatasetError
-    from pipette_cli.lerobot.convert import DatasetVersion
-    from pipette_cli.lerobot.train import (
-        TrainError,
-        TrainOptions,
-        lerobot_train_executable,
-        missing_datasets,
-        plan,
-        resolve_tasks,
-        run_job,
-    )
-    from pipette_cli.registry import load_registry
-
     try:
         version = DatasetVersion(dataset_version)
     except ValueError:

@@ -26,6 +26,7 @@ import numpy as np
 
 from pipette_cli.errors import PipetteError
 from pipette_cli.serving.client import PolicyUnreachable
+from pipette_cli.serving.server import LeRobotRunner
 from pipette_cli.sim.env import Observation, PipetteEnv
 
 POLICY_TYPES = ("act", "smolvla", "pi0")
@@ -109,8 +110,6 @@ class InProcessSource:
     """A LeRobot policy loaded in this process (no server)."""
 
     def __init__(self, path: Path, device: str = "auto") -> None:
-        from pipette_cli.serving.server import LeRobotRunner
-
         self.runner = LeRobotRunner(Path(path), device=device)
 
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:

@@ -26,6 +26,7 @@ import multiprocessing
 import os
 import queue
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -52,7 +53,7 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
-from pipette_cli.evaluation.suites import EpisodePlan
+from pipette_cli.evaluation.suites import EpisodePlan, adhoc_plan
 from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import gl_info
@@ -308,8 +309,6 @@ def evaluate_task(
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
     resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
-    from pipette_cli.evaluation.suites import adhoc_plan
-
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
     settings = EvalSettings(config, image_size, "fast", dataset_version)
     return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
@@ -442,8 +441,6 @@ def _exit_with_parent(parent: int) -> None:
 
 def _limit_threads(threads: int) -> None:
     """Share the CPU among workers: torch would otherwise start one thread per core in each."""
-    import sys
-
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(threads)

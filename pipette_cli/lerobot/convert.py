@@ -40,6 +40,7 @@ from pipette_cli.demos.recorder import DatasetInfo
 from pipette_cli.demos.store import EpisodeRef, open_h5, read_episode, scan
 from pipette_cli.errors import DatasetError
 from pipette_cli.lerobot.frames import FrameFilter, select_frames
+from pipette_cli.specs.robot import load_robot_specs
 
 log = logging.getLogger(__name__)
 
@@ -273,7 +274,6 @@ def vector_names(info: DatasetInfo, *, mixed_robots: bool = False) -> tuple[list
     if not mixed_robots:
         if info.state_names and info.action_names:
             return list(info.state_names), list(info.action_names)
-        from pipette_cli.specs.robot import load_robot_specs
 
         robot = load_robot_specs().get(info.embodiment)
         if robot is not None and robot.arm_dof + 1 == info.state_dim:
@@ -378,6 +378,7 @@ def _read_images(planned: PlannedEpisode) -> dict[str, np.ndarray]:
 def _write(
     plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None
 ) -> None:
+    # deferred: lerobot, torch, datasets (~4 s; `pipette --help` imports this module)
     import datasets
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset

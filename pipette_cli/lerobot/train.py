@@ -396,6 +396,7 @@ def parse_train_config(argv: Sequence[str]) -> Any:
     ``lerobot-train`` does, without training (no dataset or weights are loaded; a ``--policy.path``
     must hold a ``config.json``). Returns the config; raises what LeRobot raises on a bad flag.
     """
+    # deferred: lerobot, torch (~3 s; `pipette --help` imports this module)
     from lerobot.configs import parser
     from lerobot.configs.train import TrainPipelineConfig
 

@@ -72,6 +72,7 @@ class LeRobotRunner:
         Raises:
             ServingError: The folder is missing or not a LeRobot policy with processors.
         """
+        # deferred: torch, lerobot (~3 s; a server or client without a LeRobot policy never needs them)
         import torch
         from lerobot.configs.types import FeatureType
 
@@ -127,6 +128,7 @@ class LeRobotRunner:
 
 def _load(path: Path, device: str) -> tuple[Any, Any, tuple[Any, Any]]:
     """Config, policy (eval mode, on ``device``) and pre/post-processors, as ``lerobot-eval`` loads them."""
+    # deferred: lerobot, torch (as above)
     from lerobot.configs.policies import PreTrainedConfig
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 

@@ -30,7 +30,7 @@ Vec3 = tuple[float, float, float]
 class Spec(BaseModel):
     """Base of every spec: unknown keys are errors, instances are immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class PoseSpec(Spec):
