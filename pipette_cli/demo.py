@@ -30,6 +30,7 @@ from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 from pipette_cli.specs.task import TaskSpec
@@ -232,7 +233,6 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     """Run the pipeline into ``out`` (created fresh) and return the summary."""
     # deferred: the augmentation pipeline (~35 ms), evaluation (zmq, scipy: ~0.8 s), out of `pipette --help`
     from pipette_cli.augment.run import augment
-    from pipette_cli.evaluation.evaluate import DecodeConfig
     from pipette_cli.evaluation.runner import PolicySource, evaluate_task
 
     if out.exists() and any(out.iterdir()):

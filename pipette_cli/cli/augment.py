@@ -76,7 +76,10 @@ def augment(
         JointNoiseSpec, "bound"
     ),
     camera: Annotated[
-        str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")
+        str,
+        typer.Option(
+            "--camera", help=spec_help(CameraPoseSpec, "camera", "Camera to jitter: random, top, main or wrist")
+        ),
     ] = spec_default(CameraPoseSpec, "camera"),
     camera_radius: Annotated[
         float, typer.Option("--camera-radius", help=spec_help(CameraPoseSpec, "radius", "Ball radius for top/main"))

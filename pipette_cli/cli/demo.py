@@ -19,7 +19,9 @@ def demo(
         bool,
         typer.Option(
             "--fast",
-            help="Smoke run (CI): 2 demos, 32 px, 2 training steps, 2 evaluation episodes; trains no usable policy.",
+            help=f"Smoke run (CI): {FAST.demos} demos, {FAST.image_size} px, {FAST.train_steps} training steps, "
+            f"{FAST.eval_episodes} evaluation episodes; trains no usable policy (default: {FULL.demos} demos, "
+            f"{FULL.image_size} px, {FULL.train_steps} steps, {FULL.eval_episodes} episodes).",
         ),
     ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,

@@ -11,11 +11,14 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json, spec_default
 from pipette_cli.errors import PipetteError
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import PROFILES
 from pipette_cli.sim.world import World
+from pipette_cli.specs.task import CamerasSpec
+
+IMAGE_SIZE_HELP = f"Square image side in pixels (default: the task's cameras, {spec_default(CamerasSpec, 'width')})."
 
 app = typer.Typer(
     help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png",
@@ -42,8 +45,8 @@ def render(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
     seed: Annotated[int, typer.Option("--seed", help="Episode seed (initial-state randomisation).")] = 0,
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write.")] = Path("views.png"),
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
-    profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "full",
+    image_size: Annotated[int | None, typer.Option("--image-size", help=IMAGE_SIZE_HELP)] = None,
+    profile: Annotated[str, typer.Option("--profile", help=f"Render profile: {' or '.join(PROFILES)}.")] = "full",
     settle: Annotated[int, typer.Option("--settle", help="Control steps to hold still before rendering.")] = 0,
     robot: RobotOption = None,
 ) -> None:
@@ -68,7 +71,7 @@ def render(
 def step_rate(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
     steps: Annotated[int, typer.Option("--steps", help="Control steps to time.")] = 60,
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
+    image_size: Annotated[int | None, typer.Option("--image-size", help=IMAGE_SIZE_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
     robot: RobotOption = None,
 ) -> None:

@@ -38,7 +38,6 @@ from typing import Any, Protocol
 from pipette_cli.errors import PipetteError
 from pipette_cli.evaluation.evaluate import (
     ActionSource,
-    DecodeConfig,
     EpisodeInterrupted,
     EpisodeLog,
     InProcessSource,
@@ -53,8 +52,10 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings
 from pipette_cli.evaluation.suites import EpisodePlan, adhoc_plan
-from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
+from pipette_cli.serving.client import PolicyClient
+from pipette_cli.serving.protocol import DEFAULT_DEAD_AFTER_S, DEFAULT_DEVICE
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import gl_info
 from pipette_cli.specs.task import TaskSpec
@@ -81,7 +82,7 @@ class PolicySource:
 
     checkpoint: Path | None = None
     endpoints: tuple[str, ...] = ()
-    device: str = "cpu"
+    device: str = DEFAULT_DEVICE
     dead_after_s: float = DEFAULT_DEAD_AFTER_S
 
     def __post_init__(self) -> None:
@@ -135,18 +136,6 @@ class TaskRun:
     task: TaskSpec
     folder: Path
     episodes: tuple[EpisodePlan, ...]
-
-
-@dataclass(frozen=True)
-class EvalSettings:
-    """What every episode of an evaluation shares."""
-
-    config: DecodeConfig
-    image_size: int | None = None
-    render_profile: str = "fast"
-    dataset_version: str = "raw"
-    suite: dict[str, Any] | None = None
-    """``{"id", "version", "sha256"}`` of the suite, None for an ad-hoc run."""
 
 
 @dataclass
@@ -310,7 +299,7 @@ def evaluate_task(
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
     resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
-    settings = EvalSettings(config, image_size, "fast", dataset_version)
+    settings = EvalSettings(config, image_size, dataset_version=dataset_version)
     return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
 
 

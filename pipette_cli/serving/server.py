@@ -24,6 +24,8 @@ import numpy as np
 import zmq
 
 from pipette_cli.serving.protocol import (
+    DEFAULT_DEVICE,
+    DEFAULT_ENDPOINT,
     DEFAULT_MAX_REQUEST_BYTES,
     STATE_KEY,
     ErrorType,
@@ -42,7 +44,6 @@ from pipette_cli.serving.protocol import (
 
 log = logging.getLogger(__name__)
 
-DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 _LOOPBACK_NAMES = {"localhost"}
 
 
@@ -66,7 +67,7 @@ class LeRobotRunner:
     postprocessor unnormalises.
     """
 
-    def __init__(self, path: Path, *, device: str = "auto") -> None:
+    def __init__(self, path: Path, *, device: str = DEFAULT_DEVICE) -> None:
         """Load the policy saved in ``path`` (a ``save_pretrained`` folder) onto ``device``.
 
         Raises:

@@ -3,6 +3,7 @@ and the small type registry behind every pluggable ``type:`` field."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator
 from typing import Annotated, Any, Generic, TypeVar
 
@@ -25,6 +26,13 @@ Name = Annotated[str, Field(pattern=NAME_PATTERN, description="lower_snake_case 
 # "object" or "object/part" where part is a body, joint or site inside the object's asset.
 Ref = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*(/[A-Za-z0-9_]+)?$", description="object or object/part")]
 Vec3 = tuple[float, float, float]
+
+
+def described(default: Any, description: str) -> Any:
+    """A dataclass field with a default and a description, like a spec's ``Field(default,
+    description=...)``: options dataclasses describe their fields this way, and a CLI option bound
+    to the field (:func:`pipette_cli.cli.common.spec_help`) shows the description as its help."""
+    return dataclasses.field(default=default, metadata={"description": description})
 
 
 class Spec(BaseModel):
