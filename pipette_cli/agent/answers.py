@@ -51,7 +51,7 @@ def tasks(
 
 def tasks_in(registry: Registry, about: str | None = None) -> Answer:
     """The tasks of ``registry`` about ``about`` (every task without it)."""
-    # deferred: the task index and the asset vocabulary (~20 ms of `pipette --help`, whose agent catalog imports this module)
+    # deferred: the task index and the asset vocabulary (~20 ms; `pipette --help` imports this module)
     from pipette_cli.agent.tasks import TaskIndex
 
     index = TaskIndex(registry, load_vocabulary())

@@ -21,13 +21,13 @@ from pipette_cli.registry import load_registry
 
 def make_agent(catalog: CommandCatalog, backend: str, model: str | None = None, base_url: str | None = None):
     """The offline parser, or an LLM agent on an ``openai`` / ``ollama`` server."""
-    # deferred: the offline parser (~35 ms, 6 modules) and the LLM agent (httpx, ~50 ms), out of `pipette --help`
-    from pipette_cli.agent.llm import LLMAgent
-    from pipette_cli.agent.offline import OfflineAgent
+    from pipette_cli.agent.offline import OfflineAgent  # deferred: the offline parser (~35 ms, 6 modules)
 
     registry = load_registry(STATE.registry_dirs)
     if backend == "offline":
         return OfflineAgent(catalog, registry)
+    from pipette_cli.agent.llm import LLMAgent  # deferred: httpx (~50 ms; only an LLM backend needs it)
+
     return LLMAgent(backend, catalog, registry, model=model, base_url=base_url)
 
 
