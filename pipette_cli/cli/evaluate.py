@@ -85,8 +85,9 @@ def eval_command(
         str | None,
         typer.Option(
             "--policy-type",
-            help=f"{', '.join(POLICY_TYPES[:-1])} or {POLICY_TYPES[-1]}: decoding, timeouts, gripper thresholds (paper A.4/A.6; default: the "
-            f"`type` in --policy's config.json, else {spec_default(DecodeConfig, 'policy_type')}).",
+            help=f"{', '.join(POLICY_TYPES[:-1])} or {POLICY_TYPES[-1]}: decoding, timeouts, gripper thresholds "
+            "(paper A.4/A.6; default: the `type` in --policy's config.json, "
+            f"else {spec_default(DecodeConfig, 'policy_type')}).",
         ),
     ] = None,
     episodes: Annotated[
