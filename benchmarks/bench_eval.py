@@ -39,8 +39,9 @@ sys.path.insert(0, str(ROOT / "tests" / "fixtures" / "policy"))
 from tiny_policy import make_tiny_act  # noqa: E402
 
 from pipette_cli.demos.provenance import git_state  # noqa: E402
-from pipette_cli.evaluation.evaluate import DecodeConfig, ServerLost  # noqa: E402
-from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.evaluate import ServerLost  # noqa: E402
+from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
 from pipette_cli.evaluation.suites import adhoc_plan  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 

@@ -48,8 +48,8 @@ from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
 from pipette_cli.evaluation import report  # noqa: E402
-from pipette_cli.evaluation.evaluate import DecodeConfig  # noqa: E402
-from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
 from pipette_cli.evaluation.significance import ALPHA, Comparison  # noqa: E402
 from pipette_cli.evaluation.suites import RegisteredSuite, episode_plan, load_suites  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402

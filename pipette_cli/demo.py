@@ -26,7 +26,13 @@ from typing import Any
 
 import numpy as np
 
+from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
+from pipette_cli.demos.collect import collect
+from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.settings import DecodeConfig
+from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
+from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -110,9 +116,7 @@ def folder_size(path: Path) -> int:
 def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -> None:
     """The main camera at 2/3 of every kept augmented episode, labelled with its variant, and
     the first episode's three views side by side as a GIF; small images are scaled up."""
-    from PIL import Image, ImageDraw
-
-    from pipette_cli.demos.store import read_episode, scan
+    from PIL import Image, ImageDraw  # deferred: PIL (~15 ms of `pipette --help`, which imports this module)
 
     refs = scan(aug).episodes
     if not refs:
@@ -164,7 +168,7 @@ class RecordingSource:
         return self.source.act(observation, task=task, reset=reset, chunk=chunk)
 
     def write_gifs(self, folder: Path, *, scale: int = 2) -> list[Path]:
-        from PIL import Image
+        from PIL import Image  # deferred: PIL (as above)
 
         paths = []
         for i, frames in enumerate(self.episodes):
@@ -194,7 +198,7 @@ def training_losses(log_file: Path) -> list[tuple[int, float]]:
 
 def plot_run(out_png: Path, losses: list[tuple[int, float]], episodes: list[dict[str, Any]], title: str) -> None:
     """Left: training loss per step (log scale); right: each evaluation episode, green if it succeeded."""
-    from PIL import Image, ImageDraw
+    from PIL import Image, ImageDraw  # deferred: PIL (~15 ms of `pipette --help`, which imports this module)
 
     w, h, pad = 360, 200, 40
     image = Image.new("RGB", (2 * w + 3 * pad, h + 2 * pad + 20), "white")
@@ -227,13 +231,9 @@ def plot_run(out_png: Path, losses: list[tuple[int, float]], episodes: list[dict
 
 def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> dict[str, Any]:
     """Run the pipeline into ``out`` (created fresh) and return the summary."""
+    # deferred: the augmentation pipeline (~35 ms), evaluation (zmq, scipy: ~0.8 s), out of `pipette --help`
     from pipette_cli.augment.run import augment
-    from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
-    from pipette_cli.demos.collect import collect
-    from pipette_cli.evaluation.evaluate import DecodeConfig
     from pipette_cli.evaluation.runner import PolicySource, evaluate_task
-    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
-    from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
 
     if out.exists() and any(out.iterdir()):
         raise PipetteError(f"{out} is not empty; give another --out or remove it")

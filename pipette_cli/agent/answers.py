@@ -16,8 +16,10 @@ from typing import Annotated, Any
 
 import typer
 
+from pipette_cli.agent.vocabulary import load_vocabulary
+from pipette_cli.demos.store import scan
 from pipette_cli.errors import DatasetError, PipetteError
-from pipette_cli.registry import Registry
+from pipette_cli.registry import Registry, load_registry
 
 app = typer.Typer(add_completion=False)
 DEMOS_ROOT = Path("data")
@@ -44,15 +46,13 @@ def tasks(
 
     Example: answer tasks --about "piper"
     """
-    from pipette_cli.registry import load_registry
-
     return tasks_in(load_registry(), about)
 
 
 def tasks_in(registry: Registry, about: str | None = None) -> Answer:
     """The tasks of ``registry`` about ``about`` (every task without it)."""
+    # deferred: the task index and the asset vocabulary (~20 ms; `pipette --help` imports this module)
     from pipette_cli.agent.tasks import TaskIndex
-    from pipette_cli.agent.vocabulary import load_vocabulary
 
     index = TaskIndex(registry, load_vocabulary())
     ids, _ = index.filter(about or "")
@@ -87,8 +87,6 @@ def demos(
 
     Example: answer demos --file data/PickUpTestTube.h5
     """
-    from pipette_cli.demos.store import scan
-
     rows: list[list[str]] = []
     files: list[dict[str, Any]] = []
     for path in _demo_files(file, task_id):

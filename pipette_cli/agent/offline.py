@@ -22,6 +22,7 @@ from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_vocabulary, phrase_pattern
+from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
 from pipette_cli.registry import Registry
 
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
@@ -333,8 +334,6 @@ class OfflineAgent:
                 args[param.name] = m.group(1).strip("\"'")
 
     def _asset(self, words: str) -> str | None:
-        from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
-
         assets = load_asset_words()
         squashed = words.replace(" ", "_")
         explicit = next((a for a in sorted(assets.assets, key=len, reverse=True) if a in squashed), None)

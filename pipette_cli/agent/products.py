@@ -15,6 +15,8 @@ from typing import Any
 from pipette_cli.agent.catalog import CommandInfo
 from pipette_cli.agent.plan import StepRef
 from pipette_cli.agent.vocabulary import VocabularySpec
+from pipette_cli.lerobot.convert import DatasetVersion, default_root
+from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, LAST_CHECKPOINT, Policy, run_dir
 
 
 def _arg(info: CommandInfo, args: dict[str, Any], name: str) -> Any:
@@ -23,8 +25,6 @@ def _arg(info: CommandInfo, args: dict[str, Any], name: str) -> Any:
 
 
 def _convert(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | None:
-    from pipette_cli.lerobot.convert import DatasetVersion, default_root
-
     version = _arg(info, args, "dataset_version")
     if task is None or version not in {v.value for v in DatasetVersion}:
         return None
@@ -32,9 +32,6 @@ def _convert(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path 
 
 
 def _train(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | None:
-    from pipette_cli.lerobot.convert import DatasetVersion
-    from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, LAST_CHECKPOINT, Policy, run_dir
-
     tasks, policy = args.get("tasks"), args.get("policy")
     version = _arg(info, args, "dataset_version")
     if not isinstance(tasks, str) or "," in tasks or tasks == "all" or policy not in {p.value for p in Policy}:

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import IO
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
 from pipette_cli.agent.answers import Answer, answer
@@ -208,6 +209,4 @@ class PlanRunner:
 
 
 def _short(text: str, width: int = 70) -> str:
-    from rich.markup import escape
-
     return escape(text if len(text) <= width else text[: width - 1] + "…")

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase
+from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
 from pipette_cli.errors import suggest
 from pipette_cli.registry import Registry
 
@@ -88,8 +89,6 @@ class TaskIndex:
     name_words: dict[str, list[str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
-
         assets = load_asset_words()
         for tid in self.registry.ids():
             spec = self.registry.get(tid)

@@ -18,6 +18,7 @@ an :class:`AgentError` saying what is wrong (which an LLM backend sends back to 
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +27,7 @@ from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, 
 from pipette_cli.agent.products import product_of
 from pipette_cli.agent.tasks import short_name, task_in_file_name
 from pipette_cli.agent.vocabulary import VocabularySpec
+from pipette_cli.demos.store import scan
 from pipette_cli.errors import PipetteError, suggest
 from pipette_cli.registry import Registry
 
@@ -276,8 +278,6 @@ class Validator:
                 if not isinstance(path, str) or not path.endswith((".h5", ".hdf5")):
                     continue
                 if Path(path).is_file():
-                    from pipette_cli.demos.store import scan
-
                     try:
                         status = scan(Path(path))
                     except PipetteError:
@@ -299,6 +299,4 @@ class Validator:
 
 
 def _single(param: ParamInfo) -> ParamInfo:
-    from dataclasses import replace
-
     return replace(param, multiple=False)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
+from pipette_cli.assets.semantics import read_semantics
 from pipette_cli.errors import AssetError, suggest
 from pipette_cli.resources import data_dir, env_paths
 
@@ -28,8 +29,6 @@ class AssetEntry:
 
     def semantics(self) -> dict:
         """The asset's ``pipette:*`` semantics (reads the USD file on demand; needs usd-core)."""
-        from pipette_cli.assets.semantics import read_semantics
-
         return read_semantics(self.path)
 
 

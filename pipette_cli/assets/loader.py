@@ -19,10 +19,12 @@ import does not (each step is small and listed in ``docs/assets.md``):
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
+import mujoco
+
 from pipette_cli.assets.library import AssetEntry, load_asset_library
+from pipette_cli.assets.semantics import open_stage
 from pipette_cli.errors import AssetError
 
 FREE_JOINT = "free"
@@ -38,26 +40,6 @@ def resolve_asset(asset: str | Path) -> tuple[str, Path]:
         return path.stem, path
     entry: AssetEntry = load_asset_library().get(text)
     return entry.asset_id, entry.path
-
-
-def open_stage(path: Path):
-    """Open a USD stage, turning parse and composition failures into :class:`AssetError`."""
-    from pxr import Tf, Usd
-
-    try:
-        stage = Usd.Stage.Open(str(path))
-    except Tf.ErrorException as exc:
-        text = " ".join(str(exc).split())
-        located = re.search(r"[^'\s]+:(\d+):(\d+): ([^']*)", text)
-        reason = (
-            f"line {located.group(1)}, column {located.group(2)}: {located.group(3).strip()}" if located else text[:300]
-        )
-        raise AssetError(f"{path.name}: cannot parse USD ({reason})") from None
-    if stage is None:
-        raise AssetError(f"{path.name}: cannot open USD stage")
-    if not stage.GetDefaultPrim():
-        raise AssetError(f"{path.name}: no defaultPrim; an asset needs one root prim named after its id")
-    return stage
 
 
 def load_asset_spec(asset: str | Path, *, free_joint: bool = True):
@@ -76,8 +58,6 @@ def load_asset_spec(asset: str | Path, *, free_joint: bool = True):
     Raises:
         AssetError: the file is missing, does not parse, or MuJoCo rejects it.
     """
-    import mujoco
-
     asset_id, path = resolve_asset(asset)
     stage = open_stage(path)
     try:
@@ -139,6 +119,7 @@ def _shorten_names(spec, asset_id: str) -> None:
 
 
 def _exclude_jointed_pairs(spec, stage) -> None:
+    # deferred: pxr.Usd (~110 ms; sim.scene, loaded by every command, imports this module)
     from pxr import UsdPhysics
 
     for prim in stage.Traverse():
@@ -153,7 +134,7 @@ def _exclude_jointed_pairs(spec, stage) -> None:
 
 
 def _copy_opacity(spec, stage) -> None:
-    from pxr import UsdShade
+    from pxr import UsdShade  # deferred: pxr.Usd (as above)
 
     by_leaf = {}
     for prim in stage.Traverse():

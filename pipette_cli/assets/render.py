@@ -11,9 +11,12 @@ import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import mujoco
 import numpy as np
+from PIL import Image, ImageDraw
 
 from pipette_cli.assets.library import CATEGORIES, AssetEntry
+from pipette_cli.assets.loader import attach_asset
 from pipette_cli.errors import AssetError
 
 TILE = (220, 200)  # width, height of one thumbnail in pixels
@@ -21,10 +24,6 @@ LABEL_H = 18
 
 
 def _scene_for(entry: AssetEntry):
-    import mujoco
-
-    from pipette_cli.assets.loader import attach_asset
-
     scene = mujoco.MjSpec()
     scene.visual.global_.offwidth = 1024
     scene.visual.global_.offheight = 1024
@@ -60,8 +59,6 @@ def _scene_for(entry: AssetEntry):
 
 def render_asset(entry: AssetEntry, size: tuple[int, int] = TILE) -> np.ndarray:
     """Render one asset to an ``(h, w, 3)`` uint8 image."""
-    import mujoco
-
     try:
         model = _scene_for(entry).compile()
     except Exception as exc:
@@ -110,8 +107,6 @@ def contact_sheet(
     progress: Callable[[str], None] | None = None,
 ) -> Path:
     """Render ``entries`` grouped by category into one labelled PNG at ``out``."""
-    from PIL import Image, ImageDraw
-
     by_cat = {c: [e for e in entries if e.category == c] for c in CATEGORIES}
     tw, th = tile
     header = 30

@@ -22,6 +22,8 @@ import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from pxr import Ar, Sdf, Tf, UsdUtils
+
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
 _WINDOWS_ABS = re.compile(r"^[A-Za-z]:[\\/]")
 
@@ -52,8 +54,6 @@ def is_absolute(asset_path: str) -> bool:
 
 
 def _outer(asset_path: str) -> str:
-    from pxr import Ar
-
     if Ar.IsPackageRelativePath(asset_path):
         return Ar.SplitPackageRelativePathOuter(asset_path)[0]
     return asset_path
@@ -61,8 +61,6 @@ def _outer(asset_path: str) -> str:
 
 def _collect(layer) -> list[tuple[str, str, str]]:
     """(kind, where, asset path) for every external reference in ``layer``."""
-    from pxr import Sdf
-
     found = [("sublayer", "/", p) for p in layer.subLayerPaths]
 
     def visit(path) -> None:
@@ -108,8 +106,6 @@ def _find_by_name(name: str, file_dir: Path, root: Path) -> Path | None:
 
 
 def _relative_fix(asset_path: str, file_dir: Path, root: Path) -> str | None:
-    from pxr import Ar
-
     inner = None
     outer = asset_path
     if Ar.IsPackageRelativePath(asset_path):
@@ -134,8 +130,6 @@ def _under(path: Path, root: Path) -> bool:
 
 def scan_file(path: Path, root: Path, *, fix: bool) -> FileReport:
     """Report (and with ``fix`` rewrite) the asset paths of one USD file."""
-    from pxr import Sdf, Tf, UsdUtils
-
     report = FileReport(str(path))
     try:
         layer = Sdf.Layer.FindOrOpen(str(path))

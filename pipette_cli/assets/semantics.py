@@ -1,12 +1,37 @@
-"""Read an asset's task semantics (``pipette:*`` attributes) without compiling it."""
+"""Open an asset's USD stage, and read its task semantics (``pipette:*`` attributes) without
+compiling it."""
 
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from pipette_cli.errors import AssetError
+
 PREFIX = "pipette:"
+
+
+def open_stage(path: Path) -> Any:
+    """Open a USD stage, turning parse and composition failures into :class:`AssetError`."""
+    # deferred: pxr.Usd (~110 ms; every command imports this module through the asset index)
+    from pxr import Tf, Usd
+
+    try:
+        stage = Usd.Stage.Open(str(path))
+    except Tf.ErrorException as exc:
+        text = " ".join(str(exc).split())
+        located = re.search(r"[^'\s]+:(\d+):(\d+): ([^']*)", text)
+        reason = (
+            f"line {located.group(1)}, column {located.group(2)}: {located.group(3).strip()}" if located else text[:300]
+        )
+        raise AssetError(f"{path.name}: cannot parse USD ({reason})") from None
+    if stage is None:
+        raise AssetError(f"{path.name}: cannot open USD stage")
+    if not stage.GetDefaultPrim():
+        raise AssetError(f"{path.name}: no defaultPrim; an asset needs one root prim named after its id")
+    return stage
 
 
 def read_semantics(path: Path) -> dict[str, Any]:
@@ -22,8 +47,6 @@ def read_semantics(path: Path) -> dict[str, Any]:
 
 @lru_cache(maxsize=512)
 def _read(path: Path, mtime_ns: int, size: int) -> dict[str, Any]:
-    from pipette_cli.assets.loader import open_stage
-
     stage = open_stage(path)  # keep the stage alive while its prims are read
     root = stage.GetDefaultPrim()
     out: dict[str, Any] = {"id": root.GetName()}

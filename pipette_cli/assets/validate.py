@@ -19,8 +19,12 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import mujoco
 import numpy as np
+from pxr import UsdGeom, UsdValidation
 
+from pipette_cli.assets.loader import attach_asset, load_asset_spec
+from pipette_cli.assets.semantics import open_stage
 from pipette_cli.errors import AssetError
 
 SETTLE_SECONDS = 1.5
@@ -73,8 +77,6 @@ class AssetReport:
 
 def usd_problems(stage) -> list[str]:
     """Errors reported by usd-core's own validators (core, geom, shade, physics, utils)."""
-    from pxr import UsdValidation
-
     registry = UsdValidation.ValidationRegistry()
     validators = [registry.GetOrLoadValidatorByName(name) for name in USD_VALIDATORS]
     context = UsdValidation.ValidationContext([v for v in validators if v])
@@ -90,8 +92,6 @@ def usd_problems(stage) -> list[str]:
 
 def semantic_problems(stage, category: str | None) -> list[str]:
     """Missing or inconsistent ``pipette:*`` semantics on the default prim."""
-    from pxr import UsdGeom
-
     root = stage.GetDefaultPrim()
     out = []
     for key in REQUIRED_SEMANTICS:
@@ -116,10 +116,6 @@ def _attr(stage, name: str, default=None):
 
 
 def _free_scene(path: Path, rest_quat):
-    import mujoco
-
-    from pipette_cli.assets.loader import attach_asset
-
     scene = mujoco.MjSpec()
     scene.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[2, 2, 0.1])
     attach_asset(scene, path, name="asset", quat=tuple(rest_quat))
@@ -138,8 +134,6 @@ def _free_scene(path: Path, rest_quat):
 
 def settle_free(path: Path, rest_quat, upright: bool) -> tuple[list[str], dict[str, float]]:
     """Drop a free object onto a plane; return problems and metrics."""
-    import mujoco
-
     model, data = _free_scene(path, rest_quat)
     start_pos = data.qpos[:3].copy()
     start_axis = data.xmat[1].reshape(3, 3)[:, 2].copy()
@@ -176,10 +170,6 @@ def settle_free(path: Path, rest_quat, upright: bool) -> tuple[list[str], dict[s
 
 def sweep_joints(path: Path) -> tuple[list[str], dict[str, float]]:
     """Weld a static asset to the world and drive each joint to both limits."""
-    import mujoco
-
-    from pipette_cli.assets.loader import attach_asset
-
     scene = mujoco.MjSpec()
     scene.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3, 3, 0.1])
     attach_asset(scene, path, name="asset")
@@ -232,8 +222,6 @@ def sweep_joints(path: Path) -> tuple[list[str], dict[str, float]]:
 
 def _push_force(model, data, joint: int) -> float:
     """A generalised force beating gravity and friction anywhere in the joint's range."""
-    import mujoco
-
     lo, hi = model.jnt_range[joint]
     qadr, dof = model.jnt_qposadr[joint], model.jnt_dofadr[joint]
     worst = inertia = 0.0
@@ -258,8 +246,6 @@ def _push_force(model, data, joint: int) -> float:
 
 def validate_asset(path: Path, category: str | None = None, *, physics: bool = True) -> AssetReport:
     """Run every check on one asset file and collect all problems (never raises for bad assets)."""
-    from pipette_cli.assets.loader import load_asset_spec, open_stage
-
     t0 = time.perf_counter()
     report = AssetReport(path.stem, path)
     try:

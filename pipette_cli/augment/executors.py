@@ -83,7 +83,7 @@ def in_ray(
     """One Ray actor per worker, each with its own augmenter; part files are written on a
     filesystem every node shares (the output's folder)."""
     try:
-        import ray
+        import ray  # deferred: ray (~0.35 s; an optional extra, only for --executor ray)
     except ImportError:
         raise PipetteError("--executor ray needs Ray: pip install 'pipette[ray]' (or pip install ray)") from None
     started = not ray.is_initialized()

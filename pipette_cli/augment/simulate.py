@@ -8,6 +8,7 @@ these states (:mod:`.render`).
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass
@@ -201,8 +202,6 @@ def settle_steps(world: World, settle_s: float) -> int:
 
 def offset_from_attrs(attrs: dict[str, object]) -> ObjectOffset | None:
     """The object offset an augmented episode was recorded with (``augment_object_offset``)."""
-    import json
-
     raw = attrs.get("augment_object_offset")
     data = json.loads(str(raw)) if raw else {}
     return ObjectOffset(data["object"], data["dx"], data["dy"], data["dyaw_deg"]) if data else None

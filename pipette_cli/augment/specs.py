@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Annotated, ClassVar, Literal
 
 from pydantic import Field, ValidationError, model_validator
 
-from pipette_cli.errors import SpecError
+from pipette_cli.errors import SpecError, suggest
 from pipette_cli.specs.base import Spec, TypedSpec, TypeRegistry
 
 
@@ -207,8 +207,6 @@ def make_variants(names: list[str], atoms: dict[str, PerturbationSpec]) -> list[
         parts = name.split("+")
         unknown = [p for p in parts if p not in atoms]
         if unknown:
-            from pipette_cli.errors import suggest
-
             raise SpecError(
                 f"--variants: unknown perturbation {unknown[0]!r} in {name!r}; {suggest(unknown[0], [*atoms, 'paper', ORIGINAL])}"
             )

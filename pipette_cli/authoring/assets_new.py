@@ -14,6 +14,7 @@ import os
 import re
 import shutil
 import tempfile
+import time
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -21,7 +22,10 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field, model_validator
 
+from pipette_cli.assets.generators import all_generators
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
+from pipette_cli.assets.usd_writer import write_usda
+from pipette_cli.assets.validate import validate_asset
 from pipette_cli.authoring.plan import PlanError as DraftError
 from pipette_cli.errors import AssetError, PipetteError
 from pipette_cli.resources import env_paths
@@ -151,8 +155,6 @@ def parse_asset(description: str) -> AssetDraftSpec:
 
 
 def _references(function_name: str) -> list[tuple[str, partial[AssetDef]]]:
-    from pipette_cli.assets.generators import all_generators
-
     out = []
     for asset_id, gen in all_generators().items():
         factory = gen.factory
@@ -233,9 +235,6 @@ def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsse
     Raises:
         AssetError: the asset fails validation (every problem listed).
     """
-    from pipette_cli.assets.usd_writer import write_usda
-    from pipette_cli.assets.validate import validate_asset
-
     name = asset_id or spec.default_id()
     if not re.fullmatch(r"[a-z][a-z0-9_]*", name):
         raise PipetteError(f"asset id {name!r} must be lower_snake_case (letters, digits, _)")
@@ -298,8 +297,6 @@ class WrittenAsset:
 
 def write_asset(drafted: DraftedAsset, root: Path, *, force: bool = False) -> WrittenAsset:
     """Write the validated asset to ``root/<category>/<id>.usda``."""
-    import time
-
     start = time.perf_counter()
     path = root / drafted.category / f"{drafted.asset_id}.usda"
     if path.exists() and not force:

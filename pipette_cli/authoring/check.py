@@ -19,13 +19,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from pipette_cli.demos.check import run_expert_episode
 from pipette_cli.demos.experts.base import find_expert
 from pipette_cli.errors import PipetteError
+from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
 
 if TYPE_CHECKING:
     from pipette_cli.evaluators.base import Verdict
-    from pipette_cli.sim.world import World
 
 SOLVE_SHARE = 0.8
 """Share of seeds the expert must solve for ``--check`` to pass (4 of 5)."""
@@ -120,8 +121,6 @@ def check_task(
         stage_names: What each stage of the success criterion is ("place the tube on the
             balance"), for the failure lines; else "stage k of n".
     """
-    from pipette_cli.sim.world import World
-
     start = time.perf_counter()
     report = CheckReport(task.id, episodes=episodes)
     try:
@@ -181,9 +180,6 @@ def solve_check(task_spec: TaskSpec, episodes: int, stage_names: list[str] | Non
 
     Returns ``status="not_checked"`` when the task has no program and none can be derived.
     """
-    from pipette_cli.demos.check import run_expert_episode
-    from pipette_cli.sim.world import World
-
     try:
         name, expert = find_expert(task_spec)
     except PipetteError as exc:

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
+from pipette_cli.assets.loader import load_asset_spec
 from pipette_cli.sim.scene import collision_boxes
 
 FREE_CATEGORIES = ("tools", "consumables")
@@ -103,8 +104,6 @@ def quat_to_euler_deg(quat: Iterable[float]) -> tuple[float, float, float]:
 @cache
 def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = ()) -> AssetGeometry:
     """Compile ``asset_id`` alone (rest pose, joints at ``joint_values``: deg / m) and measure it."""
-    from pipette_cli.assets.loader import load_asset_spec
-
     entry = load_asset_library().get(asset_id)
     semantics = entry.semantics()
     free = entry.category in FREE_CATEGORIES

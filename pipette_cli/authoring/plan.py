@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import Field, model_validator
 
 from pipette_cli.errors import SpecError
+from pipette_cli.llm import strict_json_schema
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.robot import robot_names
 
@@ -144,8 +145,6 @@ def name_problems(plan: TaskPlanSpec) -> list[str]:
 def plan_json_schema(asset_ids: list[str]) -> dict[str, Any]:
     """The JSON schema sent to LLM servers: :class:`TaskPlanSpec`'s, strict, with ``asset`` an enum
     of ``asset_ids`` (servers that constrain decoding then cannot name an asset that does not exist)."""
-    from pipette_cli.llm import strict_json_schema
-
     schema = strict_json_schema(TaskPlanSpec)
     obj = schema["$defs"]["PlanObjectSpec"]["properties"]
     obj["asset"] = {"type": "string", "enum": sorted(asset_ids), "description": obj["asset"].get("description", "")}

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from functools import cache
 
 from pipette_cli.authoring.vocabulary import Vocabulary, VocabularySpec
+from pipette_cli.specs.robot import robot_names, robot_spec
 
 SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
     (r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+)\s*(?:mm)?\b", lambda m: [f"{m[1]}x{m[2]}", f"{m[1]}mm"]),
@@ -112,8 +113,6 @@ def extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
 
 def extract_robots(text: str, words: VocabularySpec) -> tuple[str, list[str]]:
     """Robots the description names (``with the Piper arm``), and the text without them."""
-    from pipette_cli.specs.robot import robot_names, robot_spec
-
     robots: list[str] = []
     for robot in robot_names():
         spec = robot_spec(robot)

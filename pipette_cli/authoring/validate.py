@@ -9,6 +9,7 @@ than the gripper opens) is said the same way.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from pipette_cli.authoring.clause import ClauseReader
@@ -17,6 +18,7 @@ from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, 
 from pipette_cli.authoring.resolve import Wanted, candidates
 from pipette_cli.authoring.text import normalise, tokenise
 from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
+from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
@@ -71,8 +73,6 @@ def resolve_asset(words: str, vocab: Vocabulary) -> str:
 def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
     """Metres across the object where the skills' grasp (:mod:`pipette_cli.skills.grasp`) would take
     it, from its resting collision boxes; None for a flat object, which is pinched at the rim."""
-    from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, PALM_MARGIN
-
     boxes = geom.boxes
     low, high = geom.low, geom.high
     if float(high[2] - low[2]) < FLAT:
@@ -94,8 +94,6 @@ def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
 
 def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None:
     """Why ``robot``'s gripper cannot hold the object, or None."""
-    from pipette_cli.skills.grasp import GRIP_MARGIN
-
     width = grip_width(geom, robot)
     opening = robot.gripper.max_opening
     if width is None or width <= opening - GRIP_MARGIN:
@@ -155,8 +153,6 @@ def _openable(asset: str, part: str | None) -> bool:
 
 def separate_lid(geom: AssetGeometry) -> str | None:
     """The asset id of a lift-off lid the asset's description names ("separate asset water_bath_lid")."""
-    import re
-
     m = re.search(r"separate asset (\w+)", str(geom.semantics.get("description", "")))
     return m.group(1) if m else None
 

@@ -17,16 +17,19 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pipette_cli.authoring.backends import AuthoringBackend
+from pipette_cli.authoring.check import check_task
 from pipette_cli.authoring.clause import ClauseReader
 from pipette_cli.authoring.compose import ComposedTask, compose
+from pipette_cli.authoring.measure import measure_asset
 from pipette_cli.authoring.parser import refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.plan import PlanError, TaskPlanSpec, plan_json_schema
 from pipette_cli.authoring.render import environment, render_task
 from pipette_cli.authoring.text import normalise, split_steps, tokenise
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_plan
 from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
-from pipette_cli.errors import SimError, SpecError
+from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.registry import Registry, validate_task_document
+from pipette_cli.sim.world import World
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
@@ -133,8 +136,6 @@ def finish_plan(
     text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
     drafted = DraftedTask(description, backend, checked.plan, composed, text, spec, list(remarks))
     if options.build:
-        from pipette_cli.sim.world import World
-
         try:
             World(spec)
         except SimError as exc:
@@ -163,8 +164,6 @@ def screen(description: str, vocab: Vocabulary) -> set[str]:
 
 def grounding_problems(checked: CheckedPlan, kinds: set[str], vocab: Vocabulary) -> list[str]:
     """Objects of an LLM's plan that the description does not name."""
-    from pipette_cli.authoring.measure import measure_asset
-
     named = {a for k in kinds for a in vocab.members(k)}
     lids = {separate_lid(measure_asset(a)) for a in named if vocab.assets[a].static}
     problems = []
@@ -226,7 +225,6 @@ def check_gate(episodes: int, *, enforce: bool = True) -> Gate:
     ``episodes`` seeds (at least 4 of 5 must succeed). The report is kept on the draft; with
     ``enforce`` a failed check raises :class:`PlanError` naming the stage and step that failed (an
     LLM backend is sent it for a corrected answer)."""
-    from pipette_cli.authoring.check import check_task
 
     def gate(drafted: DraftedTask) -> None:
         report = check_task(drafted.spec, episodes, stage_names=drafted.composed.stage_names)
@@ -257,8 +255,6 @@ def write_task(drafted: DraftedTask, target: Path, *, force: bool = False) -> Pa
     Raises:
         PipetteError: the file exists and ``force`` is false.
     """
-    from pipette_cli.errors import PipetteError
-
     if target.exists() and not force:
         raise PipetteError(f"{target} exists; pass --force to overwrite")
     target.parent.mkdir(parents=True, exist_ok=True)

@@ -13,6 +13,7 @@ from rich.table import Table
 from pipette_cli.agent.answers import Answer, answer
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, cli_catalog, render_args, say_missing
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepRef, StepSpec, plain
+from pipette_cli.agent.run import PlanRunner
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
@@ -20,12 +21,12 @@ from pipette_cli.registry import load_registry
 
 def make_agent(catalog: CommandCatalog, backend: str, model: str | None = None, base_url: str | None = None):
     """The offline parser, or an LLM agent on an ``openai`` / ``ollama`` server."""
+    from pipette_cli.agent.offline import OfflineAgent  # deferred: the offline parser (~35 ms, 6 modules)
+
     registry = load_registry(STATE.registry_dirs)
     if backend == "offline":
-        from pipette_cli.agent.offline import OfflineAgent
-
         return OfflineAgent(catalog, registry)
-    from pipette_cli.agent.llm import LLMAgent
+    from pipette_cli.agent.llm import LLMAgent  # deferred: httpx (~50 ms; only an LLM backend needs it)
 
     return LLMAgent(backend, catalog, registry, model=model, base_url=base_url)
 
@@ -98,8 +99,6 @@ def _ask_missing(agent: Any, plan: CheckedPlan, context: Context) -> CheckedPlan
 
 
 def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: bool, interactive: bool) -> None:
-    from pipette_cli.agent.run import PlanRunner
-
     plan = agent.plan(request, context)
     can_ask = interactive or (sys.stdin.isatty() and not yes)
     if plan.missing and not as_json:

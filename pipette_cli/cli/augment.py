@@ -29,6 +29,8 @@ from pipette_cli.cli.common import (
     spec_default,
     spec_help,
 )
+from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.embodiment import resolve_robot
 from pipette_cli.errors import PipetteError, SpecError
 
 
@@ -74,7 +76,10 @@ def augment(
         JointNoiseSpec, "bound"
     ),
     camera: Annotated[
-        str, typer.Option("--camera", help="Camera to jitter: random, top, main or wrist.")
+        str,
+        typer.Option(
+            "--camera", help=spec_help(CameraPoseSpec, "camera", "Camera to jitter: random, top, main or wrist")
+        ),
     ] = spec_default(CameraPoseSpec, "camera"),
     camera_radius: Annotated[
         float, typer.Option("--camera-radius", help=spec_help(CameraPoseSpec, "radius", "Ball radius for top/main"))
@@ -127,6 +132,10 @@ def augment(
 
     Example: pipette augment PickUpTestTube --input raw.h5 --output aug.h5 --workers 4
     """
+    # deferred: the augmentation pipeline (~35 ms: multiprocessing, mujoco.rollout, 12 modules), out of `pipette --help`
+    from pipette_cli.augment.calibrate import calibrate
+    from pipette_cli.augment.run import augment as run_augment
+    from pipette_cli.augment.run import check_inputs
 
     if executor not in ("local", "ray"):
         raise PipetteError(f"--executor must be local or ray, not {executor!r}")
@@ -141,10 +150,6 @@ def augment(
     if not names:
         raise SpecError("--variants is empty")
     spec = AugmentSpec(variants=make_variants(names, atoms), seed=seed, image_size=image_size)
-    from pipette_cli.augment.run import augment as run_augment
-    from pipette_cli.augment.run import check_inputs
-    from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.demos.embodiment import resolve_robot
 
     recorded = check_inputs(load_task(task_id), input, output, rejected).embodiment
     if robot is not None and resolve_robot(robot).name != recorded:
@@ -154,8 +159,6 @@ def augment(
         )
     task = load_task(task_id, recorded)
     if target_yield is not None:
-        from pipette_cli.augment.calibrate import calibrate
-
         found = calibrate(task, input, spec, target_yield)
         for row in found.rounds:
             err_console.print(

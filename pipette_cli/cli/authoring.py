@@ -11,6 +11,7 @@ from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.registry import load_registry
 
 BACKEND_HELP = "offline (default: a deterministic parser), openai (OpenAI-compatible server) or ollama."
 
@@ -73,9 +74,9 @@ def new_task(
 
     Example: pipette new-task "Open the microfuge, put the 2 mL tube in, then close the lid" --check --out registry/generated/ --yes
     """
+    # deferred: httpx, mink, scipy (~0.4 s)
     from pipette_cli.authoring.backends import make_backend
     from pipette_cli.authoring.workflow import check_gate, draft_task, plan_summary, write_task
-    from pipette_cli.registry import load_registry
 
     registry = load_registry(STATE.registry_dirs)
     engine = make_backend(backend, model=model, base_url=base_url)
@@ -161,6 +162,7 @@ def new_asset(
 
     Example: pipette assets new "a 300 mL Erlenmeyer flask" --out my_assets/ --yes
     """
+    # deferred: pxr.Usd, httpx (~0.25 s)
     from pipette_cli.authoring.assets_new import default_asset_root, draft_asset, write_asset
     from pipette_cli.authoring.backends import make_backend
 

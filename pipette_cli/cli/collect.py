@@ -8,8 +8,14 @@ from typing import Annotated
 
 import typer
 
-from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console
+from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console, spec_default
+from pipette_cli.demos.collect import collect as collect_episodes
+from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.recorder import EpisodeSummary
+from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
 from pipette_cli.errors import PipetteError
+from pipette_cli.sim.render import PROFILES
+from pipette_cli.specs.task import CamerasSpec
 
 
 class Source(str, Enum):
@@ -29,7 +35,12 @@ def collect(
     seed: Annotated[int, typer.Option("--seed", help="Seed of episode 0; episode i uses seed + i.")] = 0,
     image_size: Annotated[
         int | None,
-        typer.Option("--image-size", min=16, max=4096, help="Square image side in pixels (default: the task's, 400)."),
+        typer.Option(
+            "--image-size",
+            min=16,
+            max=4096,
+            help=f"Square image side in pixels (default: the task's cameras, {spec_default(CamerasSpec, 'width')}).",
+        ),
     ] = None,
     workers: Annotated[
         int, typer.Option("--workers", "-w", min=1, help="Processes recording episodes in parallel (scripted only).")
@@ -38,7 +49,7 @@ def collect(
         int | None,
         typer.Option("--max-steps", min=1, help="Control-step cap per episode (default: the task's timeout + 1 s)."),
     ] = None,
-    profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "fast",
+    profile: Annotated[str, typer.Option("--profile", help=f"Render profile: {' or '.join(PROFILES)}.")] = "fast",
     robot: RobotOption = None,
 ) -> None:
     """Record demonstrations of a task: per control step three RGB views, state, action and
@@ -51,9 +62,6 @@ def collect(
     spec = load_task(task_id, robot)
     if source is Source.teleop and workers != 1:
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
-    from pipette_cli.demos.collect import collect as collect_episodes
-    from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.demos.recorder import EpisodeSummary
 
     ok = failed = 0
     progress = episode_progress()
@@ -75,8 +83,6 @@ def collect(
     try:
         with deferred_sigint() as interrupted:
             if source is Source.teleop:
-                from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
-
                 err_console.print(
                     "keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True
                 )

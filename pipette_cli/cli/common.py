@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 from dataclasses import dataclass, field
@@ -12,6 +13,9 @@ import typer
 from pydantic import BaseModel
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.registry import load_registry
 
 if TYPE_CHECKING:
     from pipette_cli.specs.task import TaskSpec
@@ -38,16 +42,36 @@ def print_json(data: Any) -> None:
     sys.stdout.flush()
 
 
-def spec_default(model: type[BaseModel], field: str) -> Any:
-    """The default of ``model.field``: CLI options bound to a spec take their default from it, so
-    each default lives once."""
-    return model.model_fields[field].get_default(call_default_factory=True)
+def _field(model: type, name: str) -> tuple[Any, str]:
+    """(default, description) of field ``name`` of a pydantic model (``Field(description=...)``)
+    or of a dataclass (``field(metadata={"description": ...})``)."""
+    if isinstance(model, type) and issubclass(model, BaseModel):
+        info = model.model_fields[name]
+        return info.get_default(call_default_factory=True), info.description or ""
+    if not dataclasses.is_dataclass(model):
+        raise TypeError(f"{model.__name__} is neither a pydantic model nor a dataclass")
+    found = {f.name: f for f in dataclasses.fields(model)}[name]
+    if found.default is not dataclasses.MISSING:
+        default = found.default
+    elif found.default_factory is not dataclasses.MISSING:
+        default = found.default_factory()
+    else:
+        raise TypeError(f"{model.__name__}.{name} has no default to bind an option to")
+    return default, str(found.metadata.get("description", ""))
 
 
-def spec_help(model: type[BaseModel], field: str, text: str = "") -> str:
-    """``text`` followed by the field's own description (units, the paper's symbol and section)."""
-    description = model.model_fields[field].description or ""
-    return f"{text} ({description})" if text and description else text or description
+def spec_default(model: type, field: str) -> Any:
+    """The default of ``model.field`` (a pydantic spec or a dataclass of options): CLI options bound
+    to a spec take their default from it, so each default lives once."""
+    return _field(model, field)[0]
+
+
+def spec_help(model: type, field: str, text: str = "") -> str:
+    """``text`` followed by the field's own description (units, the paper's symbol and section), as
+    a sentence."""
+    description = _field(model, field)[1]
+    said = f"{text.rstrip('.')} ({description})" if text and description else text or description
+    return said if not said or said.endswith(".") else f"{said}."
 
 
 RobotOption = Annotated[
@@ -69,12 +93,9 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
         SimError: unknown robot (the line lists the robots).
         InfeasibleTask: the robot cannot do the task (the line names the limit).
     """
-    from pipette_cli.registry import load_registry
-
     task = load_registry(STATE.registry_dirs).get(task_id)
     if robot is None:
         return task
-    from pipette_cli.demos.embodiment import on_robot
 
     placed = on_robot(task, robot)
     before, after = task.embodiment.base.pos, placed.embodiment.base.pos

@@ -9,9 +9,14 @@ import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
 from pipette_cli.cli.data import app as data_app
+from pipette_cli.demos.store import scan
+from pipette_cli.errors import DatasetError
+from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
+from pipette_cli.lerobot.convert import convert as run_convert
 from pipette_cli.lerobot.frames import FrameFilter
+from pipette_cli.lerobot.stats import dataset_stats
 
 
 def convert(
@@ -23,29 +28,33 @@ def convert(
     root: Annotated[
         Path | None, typer.Option("--root", help="Dataset folder to create (default datasets/<task>/<version>).")
     ] = None,
-    fps: Annotated[int, typer.Option("--fps", min=1, help="Dataset frame rate.")] = 10,
+    fps: Annotated[int, typer.Option("--fps", min=1, help=spec_help(ConvertOptions, "fps"))] = spec_default(
+        ConvertOptions, "fps"
+    ),
     frame_filter: Annotated[
-        FrameFilter,
-        typer.Option("--frame-filter", help="fresh: steps with a new camera frame; stride: every k-th step."),
-    ] = FrameFilter.fresh,
-    video: Annotated[
-        bool, typer.Option("--video/--images", help="Cameras as MP4 video (lossy, small) or PNG images (exact).")
-    ] = True,
+        FrameFilter, typer.Option("--frame-filter", help=spec_help(ConvertOptions, "frame_filter"))
+    ] = spec_default(ConvertOptions, "frame_filter"),
+    video: Annotated[bool, typer.Option("--video/--images", help=spec_help(ConvertOptions, "video"))] = spec_default(
+        ConvertOptions, "video"
+    ),
     dataset_version: Annotated[
-        str, typer.Option("--dataset-version", help="raw or augmented; the two go to separate datasets.")
-    ] = "raw",
-    include_failed: Annotated[bool, typer.Option("--include-failed", help="Keep failed episodes too.")] = False,
-    allow_mixed: Annotated[bool, typer.Option("--allow-mixed", help="Allow several tasks in one dataset.")] = False,
+        str, typer.Option("--dataset-version", help=spec_help(ConvertOptions, "dataset_version"))
+    ] = spec_default(ConvertOptions, "dataset_version").value,
+    include_failed: Annotated[
+        bool, typer.Option("--include-failed", help=spec_help(ConvertOptions, "include_failed"))
+    ] = spec_default(ConvertOptions, "include_failed"),
+    allow_mixed: Annotated[
+        bool, typer.Option("--allow-mixed", help=spec_help(ConvertOptions, "allow_mixed"))
+    ] = spec_default(ConvertOptions, "allow_mixed"),
     allow_mixed_robots: Annotated[
-        bool,
-        typer.Option(
-            "--allow-mixed-robots", help="Allow episodes of several robots (same state/action size) in one dataset."
-        ),
-    ] = False,
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="Replace an existing dataset at --root.")] = False,
-    vcodec: Annotated[
-        str, typer.Option("--vcodec", help="Video codec: libsvtav1 (LeRobot default) or h264 (faster).")
-    ] = "libsvtav1",
+        bool, typer.Option("--allow-mixed-robots", help=spec_help(ConvertOptions, "allow_mixed_robots"))
+    ] = spec_default(ConvertOptions, "allow_mixed_robots"),
+    overwrite: Annotated[bool, typer.Option("--overwrite", help=spec_help(ConvertOptions, "overwrite"))] = spec_default(
+        ConvertOptions, "overwrite"
+    ),
+    vcodec: Annotated[str, typer.Option("--vcodec", help=spec_help(ConvertOptions, "vcodec"))] = spec_default(
+        ConvertOptions, "vcodec"
+    ),
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable result.")] = False,
 ) -> None:
     """Convert recorded episodes into a LeRobot dataset (written with LeRobot's own API, offline).
@@ -56,11 +65,6 @@ def convert(
 
     Example: pipette convert tube.h5   (-> datasets/pipette_PickUpTestTube-v1/raw, where `pipette train` looks)
     """
-    from pipette_cli.demos.store import scan
-    from pipette_cli.errors import DatasetError
-    from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
-    from pipette_cli.lerobot.convert import convert as run_convert
-
     try:
         version = DatasetVersion(dataset_version)
     except ValueError:
@@ -131,8 +135,6 @@ def stats(
 
     Example: pipette data stats datasets/pipette_PickUpTestTube-v1/raw --json
     """
-    from pipette_cli.lerobot.stats import dataset_stats
-
     report = dataset_stats(root)
     if as_json:
         print_json(report)

@@ -9,7 +9,13 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.demos.replay import replay_episode
+from pipette_cli.demos.store import delete_episode as delete
+from pipette_cli.demos.store import file_size, parts_dir, scan
+from pipette_cli.demos.store import pack as pack_parts
 from pipette_cli.errors import DatasetError
+from pipette_cli.registry import load_registry
 
 app = typer.Typer(
     help="Inspect, edit and replay recorded episode files.\n\nExample: pipette data inspect tube.h5",
@@ -28,8 +34,6 @@ def inspect(
 
     Example: pipette data inspect tube.h5 --json
     """
-    from pipette_cli.demos.store import file_size, parts_dir, scan
-
     status = scan(file)
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
@@ -97,8 +101,6 @@ def delete_episode(
 
     Example: pipette data delete-episode tube.h5 3
     """
-    from pipette_cli.demos.store import delete_episode as delete
-
     summary = delete(file, index)
     err_console.print(f"deleted episode {index} (seed {summary.seed}) from {file}", soft_wrap=True)
 
@@ -109,9 +111,6 @@ def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> No
 
     Example: pipette data pack tube.h5
     """
-    from pipette_cli.demos.store import pack as pack_parts
-    from pipette_cli.demos.store import scan
-
     if scan(file).info is None:
         raise DatasetError(f"{file}: no such file")
     err_console.print(f"packed {pack_parts(file)} pending episodes into {file}", soft_wrap=True)
@@ -134,15 +133,10 @@ def replay(
 
     Example: pipette data replay tube.h5 --episode 0 --check
     """
-    from pipette_cli.demos.replay import replay_episode
-    from pipette_cli.demos.store import scan
-    from pipette_cli.registry import load_registry
-
     status = scan(file)
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
     status.episode(episode)  # range check before building the scene
-    from pipette_cli.demos.embodiment import on_robot
 
     task = on_robot(load_registry(STATE.registry_dirs).get(status.info.task_id), status.info.embodiment)
     report = replay_episode(file, episode, task)

@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
-from pipette_cli.demo import DEFAULT_TASK
+from pipette_cli.demo import DEFAULT_TASK, FAST, FULL, run_demo, summary_rows, verdict_line
 
 
 def demo(
@@ -19,7 +19,9 @@ def demo(
         bool,
         typer.Option(
             "--fast",
-            help="Smoke run (CI): 2 demos, 32 px, 2 training steps, 2 evaluation episodes; trains no usable policy.",
+            help=f"Smoke run (CI): {FAST.demos} demos, {FAST.image_size} px, {FAST.train_steps} training steps, "
+            f"{FAST.eval_episodes} evaluation episodes; trains no usable policy (default: {FULL.demos} demos, "
+            f"{FULL.image_size} px, {FULL.train_steps} steps, {FULL.eval_episodes} episodes).",
         ),
     ] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the summary as JSON.")] = False,
@@ -32,8 +34,6 @@ def demo(
 
     Example: pipette demo --robot ur5e_2f85 --out demo_run
     """
-    from pipette_cli.demo import FAST, FULL, run_demo, summary_rows, verdict_line
-
     task = load_task(task_id, robot)
     report = run_demo(task, out, FAST if fast else FULL, say=lambda line: err_console.print(line, soft_wrap=True))
     if as_json:

@@ -9,8 +9,30 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperCommand
 
-from pipette_cli.cli.common import STATE, RobotOption, episode_progress, err_console, out_console, print_json
+from pipette_cli.cli.common import (
+    STATE,
+    RobotOption,
+    episode_progress,
+    err_console,
+    out_console,
+    print_json,
+    spec_default,
+    spec_help,
+)
+from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.settings import (
+    ADHOC_EPISODES,
+    ADHOC_SEED,
+    POLICY_TYPES,
+    DecodeConfig,
+    EvalSettings,
+    resolve_policy_type,
+)
+from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
+from pipette_cli.registry import load_registry
+from pipette_cli.serving.protocol import DEFAULT_DEAD_AFTER_S, DEFAULT_DEVICE
 
 
 class EvalCommand(TyperCommand):
@@ -63,15 +85,23 @@ def eval_command(
         str | None,
         typer.Option(
             "--policy-type",
-            help="act, smolvla or pi0: decoding, timeouts, gripper thresholds "
-            "(default: the `type` in --policy's config.json, else act).",
+            help=f"{', '.join(POLICY_TYPES[:-1])} or {POLICY_TYPES[-1]}: decoding, timeouts, gripper thresholds "
+            "(paper A.4/A.6; default: the `type` in --policy's config.json, "
+            f"else {spec_default(DecodeConfig, 'policy_type')}).",
         ),
     ] = None,
     episodes: Annotated[
         int | None,
-        typer.Option("--episodes", "-n", min=1, help="Episodes without a suite (seeds seed..seed+n-1; default 100)."),
+        typer.Option(
+            "--episodes",
+            "-n",
+            min=1,
+            help=f"Episodes without a suite (seeds seed..seed+n-1; default {ADHOC_EPISODES}, as in the paper).",
+        ),
     ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="First episode seed without a suite (default 0).")] = None,
+    seed: Annotated[
+        int | None, typer.Option("--seed", help=f"First episode seed without a suite (default {ADHOC_SEED}).")
+    ] = None,
     out: Annotated[
         Path | None,
         typer.Option(
@@ -79,21 +109,23 @@ def eval_command(
         ),
     ] = None,
     dataset_version: Annotated[
-        str, typer.Option("--dataset-version", help="raw or augmented: the label `eval report` groups by.")
-    ] = "raw",
+        str, typer.Option("--dataset-version", help=spec_help(EvalSettings, "dataset_version"))
+    ] = spec_default(EvalSettings, "dataset_version"),
     image_size: Annotated[
-        int | None, typer.Option("--image-size", help="Camera image side without a suite (must match the policy's).")
-    ] = None,
+        int | None, typer.Option("--image-size", help=spec_help(EvalSettings, "image_size"))
+    ] = spec_default(EvalSettings, "image_size"),
     workers: Annotated[
         int,
         typer.Option(
             "--workers", "-w", min=1, help="Processes playing episodes (each loads the policy or connects to a server)."
         ),
     ] = 1,
-    device: Annotated[str, typer.Option("--device", help="Torch device for --policy: cpu, cuda, auto.")] = "auto",
+    device: Annotated[
+        str, typer.Option("--device", help="Torch device for --policy: cpu, cuda, auto (cuda when available).")
+    ] = DEFAULT_DEVICE,
     dead_after: Annotated[
         float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")
-    ] = 5.0,
+    ] = DEFAULT_DEAD_AFTER_S,
     connect_timeout: Annotated[
         float, typer.Option("--connect-timeout", min=0.1, help="Seconds to wait for the server at the start.")
     ] = 30.0,
@@ -110,9 +142,7 @@ def eval_command(
     """
     if dataset_version not in ("raw", "augmented"):
         raise PipetteError(f"--dataset-version must be raw or augmented, not {dataset_version!r}")
-    from pipette_cli.evaluation.evaluate import DecodeConfig, resolve_policy_type
-    from pipette_cli.evaluation.runner import PolicySource, check_servers
-    from pipette_cli.registry import load_registry
+    from pipette_cli.evaluation.runner import PolicySource, check_servers  # deferred: zmq, scipy (~0.9 s)
 
     source = PolicySource(checkpoint=policy, endpoints=tuple(endpoint or ()), device=device, dead_after_s=dead_after)
     registry = load_registry(STATE.registry_dirs)
@@ -157,16 +187,14 @@ def _plan(
 ) -> tuple[list[Any], Any]:
     """The task runs and settings of a suite (a folder per task) or of one task (``out`` itself),
     each task placed on ``robot`` when one is given."""
-    from pipette_cli.demos.embodiment import on_robot
-    from pipette_cli.evaluation.runner import EvalSettings, TaskRun
-    from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
+    from pipette_cli.evaluation.runner import TaskRun  # deferred: zmq, scipy (~0.9 s)
 
     if suite_id is None:
         if task_id is None:
             raise PipetteError("name a task or a suite: pipette eval TASK ... or pipette eval --suite ID ...")
         task = on_robot(registry.get(task_id), robot)
-        plan = adhoc_plan(task, episodes or 100, seed or 0)
-        return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, "fast", dataset_version)
+        plan = adhoc_plan(task, ADHOC_EPISODES if episodes is None else episodes, ADHOC_SEED if seed is None else seed)
+        return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, dataset_version=dataset_version)
     fixed = [
         flag
         for flag, value in (("--episodes", episodes), ("--seed", seed), ("--image-size", image_size))
@@ -188,8 +216,7 @@ def _plan(
 
 def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict[str, Any]]:
     """Play the runs with a progress bar; the summaries, in run order."""
-    from pipette_cli.demos.collect import deferred_sigint
-    from pipette_cli.evaluation.runner import evaluate_runs
+    from pipette_cli.evaluation.runner import evaluate_runs  # deferred: zmq, scipy (~0.9 s)
 
     ok = failed = 0
     progress = episode_progress()
@@ -244,6 +271,7 @@ def report_command(
 
     Example: pipette eval report evals/ --out docs/results
     """
+    # deferred: scipy, PIL (~0.8 s)
     from pipette_cli.evaluation.report import build_report, load_runs, markdown, write_report
 
     report = build_report(load_runs(folders))

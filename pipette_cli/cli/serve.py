@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.serving.protocol import DEFAULT_MAX_REQUEST_BYTES
+from pipette_cli.serving.protocol import DEFAULT_DEVICE, DEFAULT_ENDPOINT, DEFAULT_MAX_REQUEST_BYTES
 
 
 def serve(
@@ -17,12 +17,14 @@ def serve(
         Path, typer.Option("--policy", help="LeRobot policy folder (config.json, model.safetensors, processor files).")
     ],
     bind: Annotated[
-        str, typer.Option("--bind", help="ZeroMQ endpoint; port 0 lets the OS pick one.")
-    ] = "tcp://127.0.0.1:5555",
+        str, typer.Option("--bind", help="ZeroMQ endpoint (paper A.4); port 0 lets the OS pick one.")
+    ] = DEFAULT_ENDPOINT,
     allow_remote: Annotated[
         bool, typer.Option("--allow-remote", help="Allow a non-loopback address (the server has no authentication).")
     ] = False,
-    device: Annotated[str, typer.Option("--device", help="auto (cuda when available), cpu or cuda[:N].")] = "auto",
+    device: Annotated[
+        str, typer.Option("--device", help="auto (cuda when available), cpu or cuda[:N].")
+    ] = DEFAULT_DEVICE,
     max_request_mb: Annotated[
         float, typer.Option("--max-request-mb", min=0.001, help="Larger requests are answered too_large.")
     ] = DEFAULT_MAX_REQUEST_BYTES / 2**20,
@@ -40,7 +42,7 @@ def serve(
 
     Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model
     """
-    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint
+    from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint  # deferred: zmq (~15 ms)
 
     check_endpoint(bind, allow_remote=allow_remote)  # before the slow policy load
     runner = LeRobotRunner(policy, device=device)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from typing import Annotated
@@ -10,9 +11,14 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json, spec_default
 from pipette_cli.errors import PipetteError
+from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import PROFILES
+from pipette_cli.sim.world import World
+from pipette_cli.specs.task import CamerasSpec
+
+IMAGE_SIZE_HELP = f"Square image side in pixels (default: the task's cameras, {spec_default(CamerasSpec, 'width')})."
 
 app = typer.Typer(
     help="Build, render and time task scenes.\n\nExample: pipette sim render PickUpTestTube --out views.png",
@@ -21,7 +27,7 @@ app = typer.Typer(
 
 
 def save_png(image: np.ndarray, path: Path) -> None:
-    from PIL import Image
+    from PIL import Image  # deferred: PIL (~15 ms)
 
     path.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(image).save(path)
@@ -39,8 +45,8 @@ def render(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
     seed: Annotated[int, typer.Option("--seed", help="Episode seed (initial-state randomisation).")] = 0,
     out: Annotated[Path, typer.Option("--out", "-o", help="PNG to write.")] = Path("views.png"),
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
-    profile: Annotated[str, typer.Option("--profile", help="Render profile: fast or full.")] = "full",
+    image_size: Annotated[int | None, typer.Option("--image-size", help=IMAGE_SIZE_HELP)] = None,
+    profile: Annotated[str, typer.Option("--profile", help=f"Render profile: {' or '.join(PROFILES)}.")] = "full",
     settle: Annotated[int, typer.Option("--settle", help="Control steps to hold still before rendering.")] = 0,
     robot: RobotOption = None,
 ) -> None:
@@ -48,8 +54,6 @@ def render(
 
     Example: pipette sim render pipette/OpenCentrifugeLid-v1 --robot ur5e_2f85 --seed 3 --out docs/views.png
     """
-    from pipette_cli.sim.env import PipetteEnv
-
     spec = load_task(task_id, robot)
     env = PipetteEnv(spec, image_size=image_size, render_profile=profile)  # type: ignore[arg-type]
     try:
@@ -67,7 +71,7 @@ def render(
 def step_rate(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
     steps: Annotated[int, typer.Option("--steps", help="Control steps to time.")] = 60,
-    image_size: Annotated[int | None, typer.Option("--image-size", help="Square image side in pixels.")] = None,
+    image_size: Annotated[int | None, typer.Option("--image-size", help=IMAGE_SIZE_HELP)] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
     robot: RobotOption = None,
 ) -> None:
@@ -75,8 +79,6 @@ def step_rate(
 
     Example: pipette sim step-rate PickUpTestTube --robot piper --steps 90
     """
-    from pipette_cli.sim.env import PipetteEnv
-
     spec = load_task(task_id, robot)
     results: dict[str, float] = {}
     env = PipetteEnv(spec, render=False)
@@ -121,13 +123,9 @@ def view(
 
     Example: pipette sim view PickUpTestTube
     """
-    import os
-
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         raise PipetteError("no display: `pipette sim view` needs one (try `pipette sim render` instead)")
-    import mujoco.viewer
-
-    from pipette_cli.sim.world import World
+    import mujoco.viewer  # deferred: glfw (~30 ms; needs a display)
 
     world = World(load_task(task_id, robot))
     world.reset(seed)

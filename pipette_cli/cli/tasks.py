@@ -10,7 +10,9 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.errors import PipetteError, SpecError, suggest
+from pipette_cli.evaluation.suites import load_suites
 from pipette_cli.registry import (
     YAML_SUFFIXES,
     Registry,
@@ -90,8 +92,6 @@ def list_suites(
 
     Example: pipette tasks suites
     """
-    from pipette_cli.evaluation.suites import load_suites
-
     suites = load_suites(_registry(), STATE.registry_dirs)
     rows: list[dict[str, Any]] = []
     for suite_id in suites.ids():
@@ -163,8 +163,6 @@ def show_task(
 def _program(spec) -> tuple[list[dict], str]:
     """The expert program a task runs, as plain data, and where it comes from (``task``, ``derived``,
     or why there is none)."""
-    from pipette_cli.demos.experts.base import expert_program
-
     try:
         steps, source = expert_program(spec)
     except PipetteError as exc:
@@ -187,8 +185,6 @@ def validate_tasks(
     Example: pipette tasks validate registry/pick_up_test_tube.yaml
     """
     if not paths:
-        from pipette_cli.evaluation.suites import load_suites
-
         registry = _registry()
         suites = load_suites(registry, STATE.registry_dirs)
         err_console.print(

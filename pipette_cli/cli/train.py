@@ -10,8 +10,21 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
-from pipette_cli.lerobot.train import IfExists, Policy
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
+from pipette_cli.errors import DatasetError
+from pipette_cli.lerobot.convert import DatasetVersion
+from pipette_cli.lerobot.train import (
+    IfExists,
+    Policy,
+    TrainError,
+    TrainOptions,
+    lerobot_train_executable,
+    missing_datasets,
+    plan,
+    resolve_tasks,
+    run_job,
+)
+from pipette_cli.registry import load_registry
 
 
 def train(
@@ -19,53 +32,39 @@ def train(
         str, typer.Option("--tasks", help="Comma-separated task ids, or `all` (every registered task with a dataset).")
     ],
     policy: Annotated[Policy, typer.Option("--policy", help="act, smolvla or pi0.")],
-    dataset_version: Annotated[str, typer.Option("--dataset-version", help="raw or augmented.")] = "raw",
-    steps: Annotated[
-        int | None, typer.Option("--steps", min=1, help="Training steps (default: act 15000, smolvla/pi0 20000).")
-    ] = None,
+    dataset_version: Annotated[
+        str, typer.Option("--dataset-version", help=spec_help(TrainOptions, "dataset_version"))
+    ] = spec_default(TrainOptions, "dataset_version").value,
+    steps: Annotated[int | None, typer.Option("--steps", min=1, help=spec_help(TrainOptions, "steps"))] = spec_default(
+        TrainOptions, "steps"
+    ),
     batch_size: Annotated[
-        int | None, typer.Option("--batch-size", min=1, help="Batch size (default: act 32, smolvla 8, pi0 4).")
-    ] = None,
-    device: Annotated[
-        str | None, typer.Option("--device", help="cpu, cuda, cuda:1, mps (default: LeRobot picks).")
-    ] = None,
+        int | None, typer.Option("--batch-size", min=1, help=spec_help(TrainOptions, "batch_size"))
+    ] = spec_default(TrainOptions, "batch_size"),
+    device: Annotated[str | None, typer.Option("--device", help=spec_help(TrainOptions, "device"))] = spec_default(
+        TrainOptions, "device"
+    ),
     datasets_root: Annotated[
-        Path, typer.Option("--datasets-root", help="Folder of <task>/<version> datasets (pipette convert's layout).")
-    ] = Path("datasets"),
+        Path, typer.Option("--datasets-root", help=spec_help(TrainOptions, "datasets_root"))
+    ] = spec_default(TrainOptions, "datasets_root"),
     output_root: Annotated[
-        Path, typer.Option("--output-root", help="Runs go to <root>/<policy>/<task>_<version>, logs beside as .log.")
-    ] = Path("outputs/train"),
+        Path, typer.Option("--output-root", help=spec_help(TrainOptions, "output_root"))
+    ] = spec_default(TrainOptions, "output_root"),
     if_exists: Annotated[
-        IfExists,
-        typer.Option(
-            "--if-exists", help="Existing output: skip the task, overwrite it, or continue from its last checkpoint."
-        ),
-    ] = IfExists.skip,
+        IfExists, typer.Option("--if-exists", help=spec_help(TrainOptions, "if_exists"))
+    ] = spec_default(TrainOptions, "if_exists"),
     pretrained_path: Annotated[
-        str | None,
-        typer.Option(
-            "--pretrained-path",
-            help="Checkpoint to fine-tune (--policy.path; hub id or local folder). pi0 default: lerobot/pi0_base.",
-        ),
-    ] = None,
+        str | None, typer.Option("--pretrained-path", help=spec_help(TrainOptions, "pretrained_path"))
+    ] = spec_default(TrainOptions, "pretrained_path"),
     vlm_path: Annotated[
-        str | None,
-        typer.Option(
-            "--vlm-path",
-            help="SmolVLA backbone (--policy.vlm_model_name): hub id or local folder with config and tokenizer.",
-        ),
-    ] = None,
+        str | None, typer.Option("--vlm-path", help=spec_help(TrainOptions, "vlm_path"))
+    ] = spec_default(TrainOptions, "vlm_path"),
     act_backbone_weights: Annotated[
-        str | None,
-        typer.Option(
-            "--act-backbone-weights",
-            help="torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init).",
-        ),
-    ] = None,
-    offline: Annotated[
-        bool,
-        typer.Option("--offline", help="Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache."),
-    ] = False,
+        str | None, typer.Option("--act-backbone-weights", help=spec_help(TrainOptions, "act_backbone_weights"))
+    ] = spec_default(TrainOptions, "act_backbone_weights"),
+    offline: Annotated[bool, typer.Option("--offline", help=spec_help(TrainOptions, "offline"))] = spec_default(
+        TrainOptions, "offline"
+    ),
     extra: Annotated[
         list[str] | None,
         typer.Option(
@@ -85,19 +84,6 @@ def train(
 
     Example: pipette train --tasks PickUpTestTube,OpenCentrifugeLid --policy act --dataset-version raw --dry-run
     """
-    from pipette_cli.errors import DatasetError
-    from pipette_cli.lerobot.convert import DatasetVersion
-    from pipette_cli.lerobot.train import (
-        TrainError,
-        TrainOptions,
-        lerobot_train_executable,
-        missing_datasets,
-        plan,
-        resolve_tasks,
-        run_job,
-    )
-    from pipette_cli.registry import load_registry
-
     try:
         version = DatasetVersion(dataset_version)
     except ValueError:

@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 import pipette_cli
+from pipette_cli.assets.library import load_asset_library
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -42,8 +43,6 @@ def task_spec_sha256(task: TaskSpec) -> str:
 
 def asset_hashes(task: TaskSpec) -> dict[str, str]:
     """SHA-256 of every USD asset file the task's scene uses (bench and objects), by asset id."""
-    from pipette_cli.assets.library import load_asset_library
-
     library = load_asset_library()
     ids = sorted({task.scene.bench, *(o.asset for o in task.scene.objects)})
     return {asset_id: sha256_file(library.get(asset_id).path) for asset_id in ids}

@@ -313,7 +313,7 @@ def teleop_collect(
     if have >= episodes:
         pack(out)
         return result
-    import mujoco.viewer
+    import mujoco.viewer  # deferred: glfw (~30 ms; needs a display)
 
     env = PipetteEnv(task, image_size=image_size)
     try:

@@ -15,7 +15,6 @@ workers) and :mod:`pipette_cli.evaluation.results` writes and summarises their l
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,78 +24,11 @@ from typing import Any, Protocol
 import numpy as np
 
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.serving.client import PolicyUnreachable
+from pipette_cli.serving.protocol import DEFAULT_DEVICE
+from pipette_cli.serving.server import LeRobotRunner
 from pipette_cli.sim.env import Observation, PipetteEnv
-
-POLICY_TYPES = ("act", "smolvla", "pi0")
-
-
-@dataclass(frozen=True)
-class DecodeConfig:
-    """How a policy's answers become robot commands (paper A.4 / A.6 defaults per policy)."""
-
-    policy_type: str = "act"
-    open_threshold: float = 0.5
-    stay_open_threshold: float = 0.5
-    timeout_ms: int = 65_000
-    max_consecutive_failures: int = 6
-    float_images: bool = True
-    """ACT's client sends float32 CHW images in [0, 1]; SmolVLA and pi0 send uint8."""
-
-    @classmethod
-    def for_policy(cls, policy_type: str) -> DecodeConfig:
-        if policy_type not in POLICY_TYPES:
-            raise PipetteError(f"unknown policy type {policy_type!r}; expected one of {', '.join(POLICY_TYPES)}")
-        if policy_type == "act":
-            return cls("act")
-        if policy_type == "smolvla":
-            return cls("smolvla", float_images=False)
-        return cls("pi0", 0.55, 0.45, 300_000, 20, float_images=False)
-
-    @property
-    def chunked(self) -> bool:
-        return self.policy_type != "act"
-
-
-def checkpoint_policy_type(path: Path) -> str:
-    """The policy ``type`` LeRobot wrote into ``path/config.json`` (``act``, ``smolvla``, ``pi0``).
-
-    Raises:
-        PipetteError: ``path`` holds no readable ``config.json`` with a ``type``.
-    """
-    config = Path(path) / "config.json"
-    if not config.is_file():
-        raise PipetteError(f"{path}: not a LeRobot policy folder (no config.json); pass the pretrained_model folder")
-    try:
-        policy_type = json.loads(config.read_text(encoding="utf-8")).get("type")
-    except (OSError, ValueError, AttributeError) as exc:
-        raise PipetteError(f"{config}: not a readable LeRobot policy config: {exc}") from exc
-    if not isinstance(policy_type, str):
-        raise PipetteError(f"{config}: no policy 'type' field; pass --policy-type ({', '.join(POLICY_TYPES)})")
-    return policy_type
-
-
-def resolve_policy_type(given: str | None, checkpoint: Path | None) -> str:
-    """The policy type to decode with: the checkpoint's ``config.json`` ``type``, which an explicit
-    ``given`` must agree with; ``given`` (default ``act``) when there is no checkpoint (a server).
-
-    Raises:
-        PipetteError: ``given`` contradicts the checkpoint, or the checkpoint's type is unknown.
-    """
-    if checkpoint is None:
-        return given or "act"
-    found = checkpoint_policy_type(checkpoint)
-    if given is not None and given != found:
-        raise PipetteError(
-            f"--policy-type {given} contradicts {Path(checkpoint) / 'config.json'}, which says type "
-            f"{found!r}; drop --policy-type or pass the right checkpoint"
-        )
-    if found not in POLICY_TYPES:
-        raise PipetteError(
-            f"{Path(checkpoint) / 'config.json'}: policy type {found!r} cannot be evaluated; "
-            f"expected one of {', '.join(POLICY_TYPES)}"
-        )
-    return found
 
 
 class ActionSource(Protocol):
@@ -108,9 +40,7 @@ class ActionSource(Protocol):
 class InProcessSource:
     """A LeRobot policy loaded in this process (no server)."""
 
-    def __init__(self, path: Path, device: str = "auto") -> None:
-        from pipette_cli.serving.server import LeRobotRunner
-
+    def __init__(self, path: Path, device: str = DEFAULT_DEVICE) -> None:
         self.runner = LeRobotRunner(Path(path), device=device)
 
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:

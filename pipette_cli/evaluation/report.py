@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from PIL import Image, ImageDraw
+
 from pipette_cli.errors import DatasetError
 from pipette_cli.evaluation.results import MANIFEST_FILE, SUMMARY_FILE, read_logs, summarize
 from pipette_cli.evaluation.significance import ALPHA, Comparison, compare, holm, wilson_interval
@@ -237,8 +239,6 @@ def csv_text(report: Report) -> str:
 def bar_chart(report: Report, path: Path) -> None:
     """Grouped bars per (task, policy), one per dataset version, with 95 % interval whiskers and
     a star over groups whose difference is significant (Holm)."""
-    from PIL import Image, ImageDraw
-
     rows = report.rows()
     bar, gap, height, left, top = 30, 52, 220, 40, 22
     width = left + len(rows) * (len(VERSIONS) * bar + gap) + 20

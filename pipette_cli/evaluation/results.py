@@ -31,7 +31,8 @@ import pipette_cli
 from pipette_cli.demos.provenance import git_state, sha256_file, task_spec_sha256
 from pipette_cli.demos.recorder import write_json_atomic
 from pipette_cli.errors import DatasetError
-from pipette_cli.evaluation.evaluate import DecodeConfig, EpisodeLog
+from pipette_cli.evaluation.evaluate import EpisodeLog
+from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.evaluation.significance import wilson_interval
 from pipette_cli.evaluation.suites import EpisodePlan
 from pipette_cli.specs.task import TaskSpec

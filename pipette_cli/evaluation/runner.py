@@ -26,6 +26,7 @@ import multiprocessing
 import os
 import queue
 import signal
+import sys
 import threading
 import time
 import traceback
@@ -37,7 +38,6 @@ from typing import Any, Protocol
 from pipette_cli.errors import PipetteError
 from pipette_cli.evaluation.evaluate import (
     ActionSource,
-    DecodeConfig,
     EpisodeInterrupted,
     EpisodeLog,
     InProcessSource,
@@ -52,8 +52,10 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
-from pipette_cli.evaluation.suites import EpisodePlan
-from pipette_cli.serving.client import DEFAULT_DEAD_AFTER_S, PolicyClient
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings
+from pipette_cli.evaluation.suites import EpisodePlan, adhoc_plan
+from pipette_cli.serving.client import PolicyClient
+from pipette_cli.serving.protocol import DEFAULT_DEAD_AFTER_S, DEFAULT_DEVICE
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import gl_info
 from pipette_cli.specs.task import TaskSpec
@@ -80,7 +82,7 @@ class PolicySource:
 
     checkpoint: Path | None = None
     endpoints: tuple[str, ...] = ()
-    device: str = "cpu"
+    device: str = DEFAULT_DEVICE
     dead_after_s: float = DEFAULT_DEAD_AFTER_S
 
     def __post_init__(self) -> None:
@@ -134,18 +136,6 @@ class TaskRun:
     task: TaskSpec
     folder: Path
     episodes: tuple[EpisodePlan, ...]
-
-
-@dataclass(frozen=True)
-class EvalSettings:
-    """What every episode of an evaluation shares."""
-
-    config: DecodeConfig
-    image_size: int | None = None
-    render_profile: str = "fast"
-    dataset_version: str = "raw"
-    suite: dict[str, Any] | None = None
-    """``{"id", "version", "sha256"}`` of the suite, None for an ad-hoc run."""
 
 
 @dataclass
@@ -308,10 +298,8 @@ def evaluate_task(
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
     resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
-    from pipette_cli.evaluation.suites import adhoc_plan
-
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
-    settings = EvalSettings(config, image_size, "fast", dataset_version)
+    settings = EvalSettings(config, image_size, dataset_version=dataset_version)
     return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
 
 
@@ -442,8 +430,6 @@ def _exit_with_parent(parent: int) -> None:
 
 def _limit_threads(threads: int) -> None:
     """Share the CPU among workers: torch would otherwise start one thread per core in each."""
-    import sys
-
     torch = sys.modules.get("torch")
     if torch is not None:
         torch.set_num_threads(threads)

@@ -119,18 +119,15 @@ def register(type_name: str) -> Callable[[EvaluatorFactory], EvaluatorFactory]:
 def make_evaluator(spec: EvaluatorSpec) -> Evaluator:
     """Build the runtime evaluator for ``spec``.
 
+    The built-in families are registered by then: this module is only importable through its
+    package, whose ``__init__`` imports every family module.
+
     Raises:
         EvaluatorError: no runtime is registered for ``spec.type`` (never a silent success).
     """
-    _load_builtins()
     return EVALUATOR_RUNTIMES.get(spec.type)(spec)
 
 
 def registered_types() -> list[str]:
     """Names of every evaluator type that has a runtime, built-in families included."""
-    _load_builtins()
     return EVALUATOR_RUNTIMES.names()
-
-
-def _load_builtins() -> None:
-    import pipette_cli.evaluators  # noqa: F401  (its __init__ imports every family module)

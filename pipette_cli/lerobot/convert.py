@@ -40,6 +40,8 @@ from pipette_cli.demos.recorder import DatasetInfo
 from pipette_cli.demos.store import EpisodeRef, open_h5, read_episode, scan
 from pipette_cli.errors import DatasetError
 from pipette_cli.lerobot.frames import FrameFilter, select_frames
+from pipette_cli.specs.base import described
+from pipette_cli.specs.robot import load_robot_specs
 
 log = logging.getLogger(__name__)
 
@@ -83,36 +85,35 @@ def default_root(task_id: str, version: DatasetVersion, base: Path = Path("datas
 
 @dataclass(frozen=True)
 class ConvertOptions:
-    """What :func:`convert` writes and how.
+    """What :func:`convert` writes and how (each field's description is also the help of its
+    ``pipette convert`` option).
 
     Attributes:
         repo_id: LeRobot repo id (``local/NAME``); stored only, nothing is pushed.
         root: The dataset folder (``LeRobotDataset(repo_id, root=root)`` loads it).
-        fps: Dataset frame rate.
-        frame_filter: ``fresh`` or ``stride`` (:mod:`.frames`).
-        video: Cameras as MP4 videos (lossy) rather than PNG images (exact).
-        dataset_version: ``raw`` or ``augmented``; the other kind of episode is refused.
-        include_failed: Keep failed episodes too (default: successful ones only).
-        allow_mixed: Allow several tasks in one dataset.
-        allow_mixed_robots: Allow episodes of several robots (same state/action size) in one dataset;
-            its state/action entries are then named by position (``joint_i``), not by the robots' joints.
-        overwrite: Replace an existing dataset at ``root``.
-        vcodec: Video codec (LeRobot's default ``libsvtav1``; ``h264`` is faster).
-        image_writer_threads: Threads writing PNG frames while converting.
     """
 
     repo_id: str
     root: Path
-    fps: int = 10
-    frame_filter: FrameFilter = FrameFilter.fresh
-    video: bool = True
-    dataset_version: DatasetVersion = DatasetVersion.raw
-    include_failed: bool = False
-    allow_mixed: bool = False
-    allow_mixed_robots: bool = False
-    overwrite: bool = False
-    vcodec: str = "libsvtav1"
-    image_writer_threads: int = 4
+    fps: int = described(10, "Dataset frame rate in Hz (paper 3.6: 10 Hz, the rate of fresh camera frames)")
+    frame_filter: FrameFilter = described(
+        FrameFilter.fresh,
+        "fresh: steps with a new camera frame (paper 3.6: stale frames removed); stride: every k-th step",
+    )
+    video: bool = described(True, "Cameras as MP4 video (lossy, small) or PNG images (exact)")
+    dataset_version: DatasetVersion = described(
+        DatasetVersion.raw, "raw or augmented; the two go to separate datasets, the other kind of episode is refused"
+    )
+    include_failed: bool = described(False, "Keep failed episodes too (default: successful ones only)")
+    allow_mixed: bool = described(False, "Allow several tasks in one dataset")
+    allow_mixed_robots: bool = described(
+        False,
+        "Allow episodes of several robots (same state/action size) in one dataset; its state/action entries "
+        "are then named by position (joint_i), not by the robots' joints",
+    )
+    overwrite: bool = described(False, "Replace an existing dataset at root (--root)")
+    vcodec: str = described("libsvtav1", "Video codec: libsvtav1 (LeRobot's default) or h264 (faster)")
+    image_writer_threads: int = described(4, "Threads writing PNG frames while converting")
 
 
 @dataclass(frozen=True)
@@ -273,7 +274,6 @@ def vector_names(info: DatasetInfo, *, mixed_robots: bool = False) -> tuple[list
     if not mixed_robots:
         if info.state_names and info.action_names:
             return list(info.state_names), list(info.action_names)
-        from pipette_cli.specs.robot import load_robot_specs
 
         robot = load_robot_specs().get(info.embodiment)
         if robot is not None and robot.arm_dof + 1 == info.state_dim:
@@ -378,6 +378,7 @@ def _read_images(planned: PlannedEpisode) -> dict[str, np.ndarray]:
 def _write(
     plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None
 ) -> None:
+    # deferred: lerobot, torch, datasets (~4 s; `pipette --help` imports this module)
     import datasets
     from lerobot.configs.video import RGBEncoderConfig
     from lerobot.datasets.lerobot_dataset import LeRobotDataset

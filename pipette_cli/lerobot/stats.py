@@ -49,7 +49,7 @@ def dataset_stats(root: Path) -> dict[str, Any]:
         raise DatasetError(f"{root} is not a LeRobot dataset (no meta/info.json); convert one with `pipette convert`")
     provenance = load_provenance(root)
     repo_id = str(provenance["repo_id"]) if provenance else f"local/{root.name}"
-    from lerobot.datasets.dataset_metadata import LeRobotDatasetMetadata
+    from lerobot.datasets.dataset_metadata import LeRobotDatasetMetadata  # deferred: lerobot, torch (~4 s)
 
     try:
         meta = LeRobotDatasetMetadata(repo_id, root=root)

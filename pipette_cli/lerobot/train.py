@@ -28,6 +28,7 @@ from typing import IO, Any
 
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.lerobot.convert import DatasetVersion, slug
+from pipette_cli.specs.base import described
 
 logger = logging.getLogger(__name__)
 
@@ -68,39 +69,45 @@ PAPER_DEFAULTS: dict[Policy, PolicyDefaults] = {
 }
 
 
+def _per_policy(what: str) -> str:
+    """``act 32, smolvla 8, pi0 4``: the paper's default ``what`` for each policy."""
+    return ", ".join(f"{p.value} {getattr(d, what)}" for p, d in PAPER_DEFAULTS.items())
+
+
 @dataclass(frozen=True)
 class TrainOptions:
-    """How every task of one ``pipette train`` call is trained.
+    """How every task of one ``pipette train`` call is trained (each field's description is also the
+    help of its ``pipette train`` option).
 
     Attributes:
         policy: act, smolvla or pi0.
-        dataset_version: raw or augmented (separate datasets).
-        steps / batch_size: None = the paper's default for the policy.
-        device: cpu, cuda, ... (None: LeRobot picks the best available).
-        datasets_root: Folder holding ``<task>/<version>`` datasets.
-        output_root: Runs go to ``<output_root>/<policy>/<task>_<version>``.
-        if_exists: skip, overwrite, or continue (resume from the last checkpoint).
-        pretrained_path: Policy checkpoint to fine-tune (``--policy.path``); pi0 defaults to
-            ``lerobot/pi0_base``. A local folder works offline.
-        vlm_path: SmolVLA backbone (``--policy.vlm_model_name``): hub id or local folder with the
-            VLM config and tokenizer/processor files.
-        act_backbone_weights: torchvision weights of ACT's ResNet (None: random init, no download).
-        offline: Set ``HF_HUB_OFFLINE=1`` for the run (only local files / the HF cache are used).
         extra: More ``lerobot-train`` flags, appended last (they win).
     """
 
     policy: Policy
-    dataset_version: DatasetVersion = DatasetVersion.raw
-    steps: int | None = None
-    batch_size: int | None = None
-    device: str | None = None
-    datasets_root: Path = DEFAULT_DATASETS_ROOT
-    output_root: Path = DEFAULT_OUTPUT_ROOT
-    if_exists: IfExists = IfExists.skip
-    pretrained_path: str | None = None
-    vlm_path: str | None = None
-    act_backbone_weights: str | None = None
-    offline: bool = False
+    dataset_version: DatasetVersion = described(DatasetVersion.raw, "raw or augmented (separate datasets)")
+    steps: int | None = described(None, f"Training steps (default: the paper's, D.1: {_per_policy('steps')})")
+    batch_size: int | None = described(None, f"Batch size (default: the paper's, D.1: {_per_policy('batch_size')})")
+    device: str | None = described(None, "cpu, cuda, cuda:1, mps (default: LeRobot picks the best available)")
+    datasets_root: Path = described(
+        DEFAULT_DATASETS_ROOT, "Folder of <task>/<version> datasets (pipette convert's layout)"
+    )
+    output_root: Path = described(
+        DEFAULT_OUTPUT_ROOT, "Runs go to <root>/<policy>/<task>_<version>, logs beside as .log"
+    )
+    if_exists: IfExists = described(
+        IfExists.skip, "Existing output: skip the task, overwrite it, or continue from its last checkpoint"
+    )
+    pretrained_path: str | None = described(
+        None, f"Checkpoint to fine-tune (--policy.path; hub id or local folder). pi0 default: {PI0_BASE}"
+    )
+    vlm_path: str | None = described(
+        None, "SmolVLA backbone (--policy.vlm_model_name): hub id or local folder with config and tokenizer"
+    )
+    act_backbone_weights: str | None = described(
+        None, "torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init)"
+    )
+    offline: bool = described(False, "Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache")
     extra: tuple[str, ...] = ()
 
 
@@ -396,6 +403,7 @@ def parse_train_config(argv: Sequence[str]) -> Any:
     ``lerobot-train`` does, without training (no dataset or weights are loaded; a ``--policy.path``
     must hold a ``config.json``). Returns the config; raises what LeRobot raises on a bad flag.
     """
+    # deferred: lerobot, torch (~3 s; `pipette --help` imports this module)
     from lerobot.configs import parser
     from lerobot.configs.train import TrainPipelineConfig
 

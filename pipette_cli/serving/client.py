@@ -29,17 +29,19 @@ import numpy as np
 import zmq
 from zmq.utils.monitor import recv_monitor_message
 
-from pipette_cli.serving.protocol import ServingError, pack, unpack
+from pipette_cli.serving.protocol import (
+    DEFAULT_DEAD_AFTER_S,
+    DEFAULT_TIMEOUT_MS,
+    ServingError,
+    pack,
+    unpack,
+)
 
 log = logging.getLogger(__name__)
 
-DEFAULT_TIMEOUT_MS = {"act": 65_000, "smolvla": 65_000, "pi0": 300_000}
-"""Request timeouts of the paper's clients (A.4), by policy type."""
 MAX_REPLY_BYTES = 256 * 2**20
 DEFAULT_HEARTBEAT_MS = 1000
 """ZMTP heartbeat interval; a connection that answers none for 3 intervals is dropped."""
-DEFAULT_DEAD_AFTER_S = 5.0
-"""How long a request waits for a lost connection to come back before the server counts as dead."""
 
 
 class PolicyTimeout(ServingError):

@@ -27,6 +27,14 @@ STATE_KEY = "observation.state"
 ARRAY_DTYPES = {"|u1": np.uint8, "<f4": np.float32, "<f8": np.float64}
 """Wire dtypes a request may carry (little-endian); anything else is ``bad_dtype``."""
 DEFAULT_MAX_REQUEST_BYTES = 64 * 2**20
+DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
+"""Where a server binds and a client connects by default (paper A.4)."""
+DEFAULT_DEVICE = "auto"
+"""Torch device a policy is loaded on: ``auto`` is cuda when available, else cpu."""
+DEFAULT_TIMEOUT_MS = {"act": 65_000, "smolvla": 65_000, "pi0": 300_000}
+"""Request timeouts of the paper's clients (A.4), by policy type."""
+DEFAULT_DEAD_AFTER_S = 5.0
+"""How long a request waits for a lost connection to come back before the server counts as dead."""
 MAX_DIMS = 4
 
 

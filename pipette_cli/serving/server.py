@@ -24,6 +24,8 @@ import numpy as np
 import zmq
 
 from pipette_cli.serving.protocol import (
+    DEFAULT_DEVICE,
+    DEFAULT_ENDPOINT,
     DEFAULT_MAX_REQUEST_BYTES,
     STATE_KEY,
     ErrorType,
@@ -42,7 +44,6 @@ from pipette_cli.serving.protocol import (
 
 log = logging.getLogger(__name__)
 
-DEFAULT_ENDPOINT = "tcp://127.0.0.1:5555"
 _LOOPBACK_NAMES = {"localhost"}
 
 
@@ -66,12 +67,13 @@ class LeRobotRunner:
     postprocessor unnormalises.
     """
 
-    def __init__(self, path: Path, *, device: str = "auto") -> None:
+    def __init__(self, path: Path, *, device: str = DEFAULT_DEVICE) -> None:
         """Load the policy saved in ``path`` (a ``save_pretrained`` folder) onto ``device``.
 
         Raises:
             ServingError: The folder is missing or not a LeRobot policy with processors.
         """
+        # deferred: torch, lerobot (~3 s; a server or client without a LeRobot policy never needs them)
         import torch
         from lerobot.configs.types import FeatureType
 
@@ -127,6 +129,7 @@ class LeRobotRunner:
 
 def _load(path: Path, device: str) -> tuple[Any, Any, tuple[Any, Any]]:
     """Config, policy (eval mode, on ``device``) and pre/post-processors, as ``lerobot-eval`` loads them."""
+    # deferred: lerobot, torch (as above)
     from lerobot.configs.policies import PreTrainedConfig
     from lerobot.policies.factory import get_policy_class, make_pre_post_processors
 

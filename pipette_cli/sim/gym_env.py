@@ -17,6 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import Observation, PipetteEnv
 from pipette_cli.sim.render import Profile
 
@@ -46,8 +47,6 @@ class PipetteGymEnv(gym.Env[dict[str, Any], np.ndarray]):
         render_profile: Profile = "fast",
         render_mode: str | None = None,
     ) -> None:
-        from pipette_cli.registry import load_registry
-
         self.spec_task = load_registry().get(task_id)
         self.env = PipetteEnv(self.spec_task, image_size=image_size, render_profile=render_profile)
         self.render_mode = render_mode
@@ -108,8 +107,6 @@ def register_envs() -> None:
     Gymnasium 1.x has no plugin entry points: importing :mod:`pipette_cli.envs` calls this, and
     ``gym.make("pipette_cli.envs:pipette/PickUpTestTube-v1")`` imports that module itself.
     """
-    from pipette_cli.registry import load_registry
-
     registry = load_registry()
     for task_id in registry.ids():
         if task_id not in gym.registry:

@@ -30,7 +30,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.evaluators.base import MechanismState
-from pipette_cli.sim.mechanisms import Servo, pressed, register_mechanism_runtime
+from pipette_cli.sim.actuation import Servo, pressed
 from pipette_cli.specs.mechanisms import InstrumentSpec, ZoneSpec
 
 if TYPE_CHECKING:
@@ -279,6 +279,3 @@ def _descends(model: mujoco.MjModel, body: int, root: int) -> bool:
             return True
         body = int(model.body_parentid[body])
     return body == root
-
-
-register_mechanism_runtime("instrument", Instrument)  # type: ignore[arg-type]

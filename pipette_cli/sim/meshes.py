@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
+import fast_simplification
 import mujoco
 import numpy as np
 
@@ -97,7 +98,6 @@ def simplify(vertices: np.ndarray, faces: np.ndarray, decimation: Decimation = F
             return cached["vertices"], cached["faces"]
     except (OSError, KeyError, ValueError):
         pass
-    import fast_simplification
 
     points, triangles = weld(vertices, faces)
     reduction = 1.0 - decimation.target(len(triangles)) / len(triangles)

@@ -8,6 +8,7 @@ original meshes, for figures and GPU machines. A profile's meshes are compiled i
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from typing import Literal
 
@@ -97,11 +98,9 @@ class CameraRig:
 def gl_info() -> dict[str, str]:
     """The OpenGL backend (``MUJOCO_GL``) and the vendor, renderer and version strings of the
     context current in this thread (after a render); ``unknown`` where there is none."""
-    import os
-
     info = {"gl_backend": os.environ.get("MUJOCO_GL", "default")}
     try:
-        from OpenGL import GL
+        from OpenGL import GL  # deferred: OpenGL.GL (~65 ms; read once per evaluation run)
 
         for key, name in (("gl_vendor", GL.GL_VENDOR), ("gl_renderer", GL.GL_RENDERER), ("gl_version", GL.GL_VERSION)):
             value = GL.glGetString(name)

@@ -37,7 +37,7 @@ def robot_config(name: str) -> RobotSpec:
 
 
 def _menagerie_spec(ref: MenagerieRef) -> mujoco.MjSpec:
-    import mujoco_menagerie
+    import mujoco_menagerie  # deferred: mujoco_menagerie (~20 ms; only robots taken from the menagerie)
 
     try:
         spec = mujoco_menagerie.get(ref.model).spec(ref.entry)

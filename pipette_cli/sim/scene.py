@@ -17,6 +17,8 @@ from functools import cache
 import mujoco
 import numpy as np
 
+from pipette_cli.assets.library import load_asset_library
+from pipette_cli.assets.loader import attach_asset
 from pipette_cli.errors import AssetError, SimError
 from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
 from pipette_cli.sim.robots import make_robot_spec, match_options, wrist_camera_pose
@@ -143,9 +145,6 @@ def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotSpec:
 
 
 def _attach_objects(spec: mujoco.MjSpec, task: TaskSpec) -> dict[str, ObjectInfo]:
-    from pipette_cli.assets.library import load_asset_library
-    from pipette_cli.assets.loader import attach_asset
-
     library = load_asset_library()
     objects: dict[str, ObjectInfo] = {}
     placements = [("bench", task.scene.bench, PoseSpec(pos=BENCH_POS), "scene.bench")]

@@ -16,7 +16,8 @@ import numpy as np
 
 from pipette_cli.errors import SimError, suggest
 from pipette_cli.evaluators.base import MechanismState, Verdict, make_evaluator
-from pipette_cli.sim.mechanisms import Memory, make_mechanism, memory_size
+from pipette_cli.sim.actuation import Memory
+from pipette_cli.sim.mechanisms import make_mechanism, memory_size
 from pipette_cli.sim.meshes import MeshDetail
 from pipette_cli.sim.robots import gripper_ctrl
 from pipette_cli.sim.scene import ROBOT_PREFIX, compile_scene, euler_to_quat, make_scene_spec

@@ -17,8 +17,9 @@ import numpy as np
 
 from pipette_cli.sim.world import World
 from pipette_cli.skills.frames import min_jerk, slerp
+from pipette_cli.skills.library import skill_runtime
 from pipette_cli.skills.moves import Move, SkillFailure
-from pipette_cli.skills.runtime import SkillContext, skill_runtime
+from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.specs.expert import StepSpec
 
 log = logging.getLogger(__name__)

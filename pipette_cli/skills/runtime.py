@@ -463,11 +463,5 @@ def skill(name: str) -> Callable[[Skill], Skill]:
     return SKILL_RUNTIMES.register(name)
 
 
-def skill_runtime(name: str) -> Skill:
-    import pipette_cli.skills.library  # noqa: F401  (registers the built-in skills)
-
-    return SKILL_RUNTIMES.get(name)
-
-
 def _pose_key(pos: np.ndarray, rot: np.ndarray) -> tuple:
     return tuple(np.round(np.asarray(pos, float), 3)) + tuple(np.round(np.asarray(rot, float), 2).flatten())

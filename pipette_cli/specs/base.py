@@ -3,6 +3,7 @@ and the small type registry behind every pluggable ``type:`` field."""
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator
 from typing import Annotated, Any, Generic, TypeVar
 
@@ -27,10 +28,17 @@ Ref = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*(/[A-Za-z0-9_]+)?$", descri
 Vec3 = tuple[float, float, float]
 
 
+def described(default: Any, description: str) -> Any:
+    """A dataclass field with a default and a description, like a spec's ``Field(default,
+    description=...)``: options dataclasses describe their fields this way, and a CLI option bound
+    to the field (:func:`pipette_cli.cli.common.spec_help`) shows the description as its help."""
+    return dataclasses.field(default=default, metadata={"description": description})
+
+
 class Spec(BaseModel):
     """Base of every spec: unknown keys are errors, instances are immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 class PoseSpec(Spec):

@@ -22,6 +22,7 @@ from pydantic import Field, ValidationError, model_validator
 from pipette_cli.errors import SpecError, suggest
 from pipette_cli.resources import data_dir
 from pipette_cli.specs.base import Name, Spec, Vec3
+from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
 
 Axis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
 DEFAULT_ROBOT = "franka_panda"
@@ -211,8 +212,6 @@ def load_robot_specs() -> dict[str, RobotSpec]:
         SpecError: a file does not validate (``file:line: field: message``), or two robots share a
             name or alias.
     """
-    from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
-
     robots: dict[str, RobotSpec] = {}
     owner: dict[str, Path] = {}
     problems: list[str] = []

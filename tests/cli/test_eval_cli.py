@@ -10,7 +10,7 @@ import pytest
 
 from pipette_cli.errors import PipetteError
 from pipette_cli.evaluation import runner as lerobot_runner
-from pipette_cli.evaluation.evaluate import resolve_policy_type
+from pipette_cli.evaluation.settings import resolve_policy_type
 
 
 def checkpoint(folder: Path, policy_type: str) -> Path:

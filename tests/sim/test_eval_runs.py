@@ -19,8 +19,9 @@ sys.path.insert(0, str(FIXTURES / "policy"))
 
 from tiny_policy import FeedbackSource, FixedRunner  # noqa: E402
 
-from pipette_cli.evaluation.evaluate import DecodeConfig, ServerLost  # noqa: E402
-from pipette_cli.evaluation.runner import EvalSettings, PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.evaluate import ServerLost  # noqa: E402
+from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
 from pipette_cli.evaluation.suites import episode_plan, load_suites  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.serving.server import PolicyServer, serving_in_thread  # noqa: E402

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.evaluation.evaluate import DecodeConfig, Gripper, _commanded, run_episode
+from pipette_cli.evaluation.evaluate import Gripper, _commanded, run_episode
+from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import PipetteEnv
 

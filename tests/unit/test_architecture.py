@@ -1,9 +1,14 @@
 """The layers of ARCHITECTURE.md, enforced: a package imports only from its own layer's packages
-below it, never from a layer above (function-level imports included), and modules keep to size."""
+below it, never from a layer above (function-level imports included); modules import each other
+without cycles; an import inside a function says which heavy dependency it defers (and `pipette
+--help` imports none of them); and modules keep to size."""
 
 from __future__ import annotations
 
 import ast
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -82,3 +87,161 @@ def test_the_layer_check_sees_a_wrong_import(tmp_path: Path) -> None:
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from pipette_cli.cli.main import app\n")
     assert _imports(module) == [(2, "cli")]
+
+
+def _function_imports(path: Path) -> list[tuple[int, bool]]:
+    """(line, has a ``deferred:`` comment) for every import inside a function of the module. The
+    comment is on the import's lines or in the run of comment and import lines right above it (one
+    comment may head a group of imports)."""
+    lines = path.read_text().splitlines()
+    tree = ast.parse("\n".join(lines), str(path))
+    inner = [
+        node
+        for fn in ast.walk(tree)
+        if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef))
+        for node in ast.walk(fn)
+        if isinstance(node, (ast.Import, ast.ImportFrom))
+    ]
+    import_lines = {i for node in inner for i in range(node.lineno, (node.end_lineno or node.lineno) + 1)}
+    out = {}
+    for node in inner:
+        said = [lines[i - 1] for i in range(node.lineno, (node.end_lineno or node.lineno) + 1)]
+        above = node.lineno - 1
+        while above >= 1 and (above in import_lines or lines[above - 1].lstrip().startswith("#")):
+            said.append(lines[above - 1])
+            above -= 1
+        out[node.lineno] = any("# deferred: " in line for line in said)
+    return sorted(out.items())
+
+
+def test_function_level_imports_say_what_they_defer() -> None:
+    bare = [
+        f"{path.relative_to(ROOT.parent)}:{line}"
+        for path in MODULES
+        for line, commented in _function_imports(path)
+        if not commented
+    ]
+    assert bare == [], (
+        "import at the top of the module; inside a function only to keep a heavy dependency out of "
+        "`pipette --help`, with a comment `# deferred: <what> (<cost>)`"
+    )
+
+
+def test_the_deferral_check_sees_a_bare_import(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text(
+        "def f():\n"
+        "    from pipette_cli.registry import load_registry\n"
+        "\n"
+        "def g():\n"
+        "    # deferred: torch (~1 s)\n"
+        "    import json\n"
+        "    import torch\n"
+        "    import numpy  # deferred: numpy\n"
+    )
+    assert _function_imports(module) == [(2, False), (6, True), (7, True), (8, True)]
+
+
+def _module_name(path: Path) -> str:
+    return ".".join(path.relative_to(ROOT.parent).with_suffix("").parts).removesuffix(".__init__")
+
+
+def _runtime_graph(paths: list[Path]) -> dict[str, set[str]]:
+    """Module -> the pipette_cli modules it imports when it is imported (module level, outside
+    functions and ``if TYPE_CHECKING:``). ``from package import name`` counts the submodule
+    ``package.name`` where there is one."""
+    known = {_module_name(p) for p in paths}
+    graph: dict[str, set[str]] = {}
+    for path in paths:
+        edges: set[str] = set()
+        stack: list[ast.AST] = list(ast.parse(path.read_text(), str(path)).body)
+        while stack:
+            node = stack.pop()
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                continue
+            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+                stack.extend(node.orelse)
+                continue
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                for alias in node.names:
+                    sub = f"{node.module}.{alias.name}"
+                    edges.add(sub if sub in known else node.module)
+            elif isinstance(node, ast.Import):
+                edges.update(alias.name for alias in node.names)
+            stack.extend(ast.iter_child_nodes(node))
+        name = _module_name(path)
+        graph[name] = {e for e in edges if e in known and e != name}
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One cycle (as a path that returns to its start) per strongly connected group of modules."""
+    order, low, on_stack, stack, found = {}, {}, set(), [], []
+
+    def visit(v: str) -> None:
+        order[v] = low[v] = len(order)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in order:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], order[w])
+        if low[v] == order[v]:
+            group = []
+            while not group or group[-1] != v:
+                group.append(stack.pop())
+                on_stack.discard(group[-1])
+            if len(group) > 1:
+                found.append(_shortest_cycle(graph, v, set(group)))
+
+    for v in sorted(graph):
+        if v not in order:
+            visit(v)
+    return found
+
+
+def _shortest_cycle(graph: dict[str, set[str]], start: str, members: set[str]) -> list[str]:
+    came_from: dict[str, str] = {}
+    frontier = [start]
+    while frontier:
+        following = []
+        for v in frontier:
+            for w in sorted(graph[v] & members):
+                if w == start:
+                    path = [v]
+                    while path[-1] != start:
+                        path.append(came_from[path[-1]])
+                    return [*reversed(path), start]
+                if w not in came_from:
+                    came_from[w] = v
+                    following.append(w)
+        frontier = following
+    raise AssertionError(f"{start} is on no cycle")
+
+
+def test_modules_import_each_other_without_cycles() -> None:
+    cycles = [" -> ".join(c) for c in _cycles(_runtime_graph(MODULES))]
+    assert cycles == [], "move the shared part into a module both can import"
+
+
+def test_the_cycle_check_sees_a_cycle(tmp_path: Path) -> None:
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set()}
+    assert _cycles(graph) == [["a", "b", "c", "a"]]
+    graph = {"a": {"b"}, "b": {"c", "d"}, "c": {"b"}, "d": {"a"}}  # the walk through c is a dead end
+    assert _cycles(graph) == [["a", "b", "d", "a"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+# Heavy packages no command's --help needs: what the deferred imports above keep out of it.
+DEFERRED = ["torch", "lerobot", "datasets", "zmq", "httpx", "scipy", "mink", "ray", "PIL", "glfw", "pxr.Usd"]
+
+
+def test_pipette_help_imports_no_heavy_dependency() -> None:
+    code = (
+        "import json, sys; import pipette_cli.cli.main; "
+        f"print(json.dumps([m for m in {DEFERRED!r} if m in sys.modules]))"
+    )
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert json.loads(loaded) == []

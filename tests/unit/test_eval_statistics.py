@@ -10,9 +10,10 @@ from pathlib import Path
 import pytest
 
 from pipette_cli.errors import DatasetError
-from pipette_cli.evaluation.evaluate import DecodeConfig, EpisodeLog, stage_progress
+from pipette_cli.evaluation.evaluate import EpisodeLog, stage_progress
 from pipette_cli.evaluation.report import _label_lines, bar_chart, build_report, load_runs, markdown, to_json
 from pipette_cli.evaluation.results import make_manifest, prepare_folder, summarize, write_episode, write_summary
+from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.evaluation.significance import compare, fisher_exact, holm, mcnemar_exact, wilson_interval
 from pipette_cli.evaluation.suites import adhoc_plan
 from pipette_cli.registry import load_registry

@@ -35,8 +35,9 @@ def test_an_unknown_name_suggests_the_closest() -> None:
 def test_every_registry_of_the_package_is_one() -> None:
     from pipette_cli.assets.generators import GENERATORS, all_generators
     from pipette_cli.skills.derive import DERIVERS
-    from pipette_cli.skills.runtime import SKILL_RUNTIMES, skill_runtime
+    from pipette_cli.skills.library import skill_runtime
+    from pipette_cli.skills.runtime import SKILL_RUNTIMES
 
-    skill_runtime("pick")  # loads the library
+    skill_runtime("pick")
     assert all(isinstance(r, Plugins) for r in (GENERATORS, DERIVERS, SKILL_RUNTIMES))
     assert len(all_generators()) > 100 and "place_on" in SKILL_RUNTIMES and "region_hold" in DERIVERS

@@ -7,6 +7,7 @@ a tube can stand in; slot sites mark where a held object's origin goes.
 
 from __future__ import annotations
 
+import math
 from functools import partial
 
 from pipette_cli.assets import geometry as g
@@ -82,8 +83,6 @@ def pipette_stand_carousel() -> AssetDef:
     p.visual(base, "carousel", g.revolve(ring + [ring[0]], 36), p.WHITE_PLASTIC)
     p.ring_colliders(base, "carousel_col", 0.04, 0.085, arm_top - 0.012, arm_top, 12)
     for k in range(6):
-        import math
-
         a = 2 * math.pi * k / 6
         p.site(base, f"slot_{k}", (0.095 * math.cos(a), 0.095 * math.sin(a), arm_top))
     return _asset("pipette_stand_carousel", "Carousel stand for six pipettes.", [base], extra={"slot_count": 6.0, "slot_height": arm_top})

@@ -12,7 +12,7 @@ from functools import partial
 from pipette_cli.assets import geometry as g
 from pipette_cli.assets import parts as p
 from pipette_cli.assets.generators import register
-from pipette_cli.assets.model import AssetDef, Body, Material
+from pipette_cli.assets.model import AssetDef, Body, Collider, Material
 
 CATEGORY = "tools"
 ON_SIDE = (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0)  # 90 deg about y: lying along x
@@ -78,7 +78,6 @@ def lying_rod(asset_id: str, description: str, parts: list[tuple[str, float, flo
     for name, r, length, mat in parts:
         p.visual(body, name, g.cylinder(r, length, (0, 0, 0), 20).moved((x + length / 2, 0, axis_z), g.rotation("y", 90)), mat)
         half = math.sqrt(0.5)
-        from pipette_cli.assets.model import Collider
 
         body.colliders.append(Collider(f"{name}_col", "cylinder", (r, length / 2), (x + length / 2, 0, axis_z), (half, 0, half, 0)))
         x += length

@@ -20,6 +20,7 @@ import numpy as np
 
 from pipette_cli.errors import PipetteError
 from pipette_cli.sim.world import World
+from pipette_cli.skills.derive import derive_program
 
 if TYPE_CHECKING:
     from pipette_cli.specs.expert import StepSpec
@@ -63,8 +64,6 @@ def expert_program(task: TaskSpec) -> tuple[list[StepSpec], str]:
     Raises:
         PipetteError: the task has no program and none can be read off its success criterion.
     """
-    from pipette_cli.skills.derive import derive_program
-
     return derive_program(task), "task" if task.expert else "derived"
 
 
@@ -83,7 +82,7 @@ def find_expert(task: TaskSpec) -> tuple[str, Expert]:
     factory = _CUSTOM.get(_key(task.id))
     if factory is not None:
         return getattr(factory, "__qualname__", "custom expert"), factory()
-    from pipette_cli.skills.program import ProgramExpert
+    from pipette_cli.skills.program import ProgramExpert  # deferred: mink, scipy (~0.26 s)
 
     steps, source = expert_program(task)
     return ("program" if source == "task" else "derived program"), ProgramExpert(steps, source)
