@@ -160,7 +160,6 @@ def stands_alone(asset_id: str) -> bool:
     """Whether a free object stays where it is put on a flat surface in its rest pose: a conical
     tube tips over and a tube lying on its side rolls away (they belong in a rack); a flask or a
     dish stays. Simulated once per asset and nudge (:data:`STAND_NUDGES`), alone on a plane."""
-    from pipette_cli.assets.loader import load_asset_spec
 
     entry = load_asset_library().get(asset_id)
     if entry.category not in FREE_CATEGORIES:
