@@ -135,6 +135,7 @@ def compose(
         comments.update({f"success.{path}": text for path, text in stages[0].comments.items()})
     program = [skill for stage in stages for skill in stage.program]
     releases = [m for stage in stages for m in stage.mechanisms]
+    instruments = list({m.name: m for stage in stages for m in stage.instruments}.values())  # once each
     if len({m.joint for m in releases}) < len(releases) or any(
         s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in releases) for s in steps
     ):
@@ -184,7 +185,7 @@ def compose(
         initial_joints=[r(v, 4) for v in checked.robot.arm.home],
         objects=objects,
         joint_states=layout.joint_states,
-        mechanisms=list[MechanismSpec](releases),
+        mechanisms=[*releases, *instruments],
         targets=targets,
         stages=stages,
         success=success,

@@ -25,6 +25,7 @@ import numpy as np
 from pipette_cli.authoring.fit import check_hole_fit, fit_radius
 from pipette_cli.authoring.layout import Footprint, PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.motors import motor_button, motorised
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
 from pipette_cli.authoring.scene import (
     HANDLES,
@@ -40,7 +41,7 @@ from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
-from pipette_cli.specs.mechanisms import ButtonReleaseSpec
+from pipette_cli.specs.mechanisms import ButtonReleaseSpec, InstrumentSpec
 
 SLOTS = ("cuvette_slot",)
 """Receptacles an object goes *into* (``insert_into``); the others are surfaces it is set on."""
@@ -58,6 +59,8 @@ class Stage:
     comments: dict[str, str] = field(default_factory=dict)  # criterion field path -> comment
     targets: list[str] = field(default_factory=list)
     mechanisms: list[ButtonReleaseSpec] = field(default_factory=list)
+    instruments: list[InstrumentSpec] = field(default_factory=list)
+    """Motorised lids and drawers the stage works with their button (one per instrument and task)."""
 
 
 def _reference(name: str, geom: AssetGeometry) -> tuple[str, float]:
@@ -347,6 +350,19 @@ class StageBuilder:
             timeout_s=self.timeout(10),
         )
         handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
+        button = motor_button(geom, joint)
+        if button is not None:  # a motorised lid or drawer (a thermal cycler's, a plate reader's): its button
+            motor = motorised(name, joint, button)
+            ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
+            program: list[sk.StepSpec] = [
+                sk.PressSpec(button=f"{name}/{button}"),
+                sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
+            ]
+            comments = {
+                "bound": note,
+                "": f"the {joint.name.split('_')[0]} is motorised: its {button} drives it (a toggle)",
+            }
+            return Stage(step, criterion, program, comments, [name], instruments=[motor])
         if joint.kind == "slide":
             skill: sk.StepSpec = sk.SlideSpec(
                 joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3

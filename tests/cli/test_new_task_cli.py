@@ -85,7 +85,11 @@ def test_multi_step_description_becomes_a_sequence_task(run_cli, tmp_path) -> No
     path = next(tmp_path.iterdir())
     spec = load_task_file(path)
     assert spec.success.type == "sequence" and len(spec.success.of) == 3
-    assert [s.skill for s in spec.expert][0] == "open_hinge" and spec.expert[-1].skill == "close_hinge"
+    # the cycler's lid is motorised: opened and closed with its button, one instrument for both
+    skills = [s.skill for s in spec.expert]
+    assert skills[:2] == ["press", "wait"] and skills[-2:] == ["press", "wait"]
+    assert spec.expert[0].button == spec.expert[-2].button and spec.expert[0].button.endswith("/lid_button")
+    assert [m.type for m in spec.scene.mechanisms] == ["instrument"]
     assert run_cli("tasks", "validate", path).exit_code == 0
 
 

@@ -148,3 +148,18 @@ def test_a_tube_that_cannot_stand_starts_in_a_rack_that_fits_it_and_a_beaker_on_
     assert tube.object("tube").pose.euler_deg in (None, (0.0, 0.0, 0.0))  # upright in the hole, not lying
     beaker = drafted("Pick up the 250 mL beaker").spec
     assert [o.asset for o in beaker.scene.objects] == ["beaker_250ml"]
+
+
+def test_a_motorised_lid_or_drawer_is_worked_by_its_button() -> None:
+    """A thermal cycler's lid and a plate reader's drawer have drives: opening presses their button
+    (an instrument with a toggle motor), not a grasp of the handle."""
+    cycler = drafted("Open the thermal cycler, then close it").spec
+    assert [step.skill for step in cycler.expert] == ["press", "wait", "press", "wait"]
+    assert {step.button for step in cycler.expert if step.skill == "press"} == {"cycler/lid_button"}
+    (instrument,) = cycler.scene.mechanisms
+    assert instrument.type == "instrument" and instrument.motor.mode == "toggle"
+    assert instrument.closure.joint == "cycler/lid_hinge" and instrument.motor.open > 60
+    reader = drafted("Slide the plate reader drawer out").spec
+    assert reader.expert[0].button == "reader/drawer_button"
+    beaker_free = drafted("Close the centrifuge lid").spec  # a release button only: pushed shut by hand
+    assert beaker_free.expert[0].skill == "close_hinge"
