@@ -22,9 +22,14 @@ def motor_button(geom: AssetGeometry, joint: JointInfo) -> str | None:
     return None
 
 
+SHUT_TOLERANCE = {"hinge": 5.0, "slide": 0.01}
+"""How far from 0 (degrees, metres) a lid, door or drawer still counts as shut."""
+
+
 def shut_bound(joint: JointInfo) -> BoundSpec:
-    """Where a lid or drawer counts as shut: within 5 degrees or 1 cm of 0, on its opening side."""
-    tol = 5.0 if joint.kind == "hinge" else 0.01
+    """Where a lid, door or drawer counts as shut (a close stage's criterion, an instrument's
+    closure): within :data:`SHUT_TOLERANCE` of 0, on its opening side."""
+    tol = SHUT_TOLERANCE[joint.kind]
     return BoundSpec(max=tol) if joint.open_limit > 0 else BoundSpec(min=-tol)
 
 

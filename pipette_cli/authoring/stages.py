@@ -25,7 +25,7 @@ import numpy as np
 from pipette_cli.authoring.fit import check_hole_fit, fit_radius
 from pipette_cli.authoring.layout import Footprint, PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.motors import motor_button, motorised
+from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
 from pipette_cli.authoring.scene import (
     HANDLES,
@@ -339,9 +339,8 @@ class StageBuilder:
             bound = BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)
             note = f"VERIFY: open past 75 % of the {limit:g} {joint.unit} limit"
         else:
-            tol = 5.0 if joint.kind == "hinge" else 0.01
-            bound = BoundSpec(max=tol) if sign > 0 else BoundSpec(min=-tol)
-            note = f"VERIFY: within {tol:g} {joint.unit} of shut (0)"
+            bound = shut_bound(joint)
+            note = f"VERIFY: within {SHUT_TOLERANCE[joint.kind]:g} {joint.unit} of shut (0)"
         criterion = ev.JointThresholdSpec(
             joint=ref,
             bound=bound,

@@ -101,21 +101,16 @@ def plan_grasp(
     lying = abs(axis_obj[2]) < 0.7 or (
         at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
     )
-    point, closing, width = _grasp_point(ctx, name, shape, at, height, lying)
+    point, closing, width, round_ = _grasp_point(ctx, name, shape, at, height, lying)
     if width > opening - GRIP_MARGIN:
         raise SkillFailure(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
         )
-    # round: the hand may close along any horizontal (a tube, a neck), not only across a bar
-    round_ = not lying and bool(np.allclose(closing, horizontal(point - ctx.base)))
-    if at is not None and round_:  # a grip named by a site: round if its footprint is (a handle bar is not)
-        grip = _grip_geom(ctx, name, point, at)
-        round_ = grip is None or abs(float(grip[1][0] - grip[1][1])) < 0.002
     return _first_reachable(
         ctx,
         name,
-        _top_candidates(ctx, point, closing, shape, width, lying, round_),
+        _top_candidates(ctx, point, closing, shape, width, lying, round_ and not lying),
         "across" if lying else "axis",
         then=then,
     )
@@ -132,21 +127,21 @@ def _fingertips_clear(ctx: SkillContext, name: str, shape: Shape) -> float:
 
 def _grasp_point(
     ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None, lying: bool
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Grasp point, closing direction and the object's width across the fingers there."""
+) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """Grasp point, closing direction, the object's width across the fingers there, and whether it
+    is round there (the hand may close along any horizontal: a tube, a neck; not a handle bar)."""
     sem = semantics(ctx, name)
     base = ctx.world.position(name)
     if at is not None:
         point = ctx.world.position(at)
-        closing, width = _local_closing(ctx, name, point, shape, site=at)
-        return point, closing, width
+        return point, *_local_closing(ctx, name, point, shape, site=at)
     if lying:
         long_axis = horizontal(shape.long_axis())
         point = ctx.world.position(f"{name}/grasp") if "grasp" in sem.get("sites", []) else shape.center.copy()
         point[2] = max(point[2], shape.bottom + FINGERTIP_LIFT)
         closing = np.array([-long_axis[1], long_axis[0], 0.0])
         width = float(2 * np.abs(closing @ shape.axes) @ shape.half)
-        return point, closing, width
+        return point, closing, width, False
     top = shape.top
     if height is not None:
         z = base[2] + height
@@ -161,7 +156,7 @@ def _grasp_point(
     point = np.array([slab.center[0], slab.center[1], z])
     radial = horizontal(point - ctx.base)
     closing, width = _narrow_side(slab, radial, shape.vertical_axis())
-    return point, closing, width
+    return point, closing, width, bool(np.allclose(closing, radial))
 
 
 def _slab(ctx: SkillContext, name: str, shape: Shape, z: float, thickness: float = 0.008) -> Shape:
@@ -223,19 +218,21 @@ def _grip_geom(
 
 def _local_closing(
     ctx: SkillContext, name: str, point: np.ndarray, shape: Shape, site: str | None = None
-) -> tuple[np.ndarray, float]:
-    """At a named site (a handle bar, a neck): close across the grip there (:func:`_grip_geom`)."""
+) -> tuple[np.ndarray, float, bool]:
+    """At a named site (a handle bar, a neck): close across the grip there (:func:`_grip_geom`);
+    and whether the grip is round (a neck, closed along the radial; a bar is not, even when its
+    across-direction happens to point at the robot)."""
     grip = _grip_geom(ctx, name, point, site)
     radial = horizontal(point - ctx.base)
     if grip is None:
-        return radial, 0.0
+        return radial, 0.0, True
     size = 2 * grip[1]
     if abs(size[0] - size[1]) < 0.004:
-        return radial, float(min(size[0], size[1]))
+        return radial, float(min(size[0], size[1])), True
     # a bar: close across it
     if size[0] > size[1]:
-        return np.array([0.0, 1.0, 0.0]), float(size[1])
-    return np.array([1.0, 0.0, 0.0]), float(size[0])
+        return np.array([0.0, 1.0, 0.0]), float(size[1]), False
+    return np.array([1.0, 0.0, 0.0]), float(size[0]), False
 
 
 def _side_candidates(ctx: SkillContext, name: str, at: str) -> list[Grasp]:

@@ -232,9 +232,7 @@ class SkillContext:
             p = (1 - t) * start.pos + t * point
             r = slerp(start.rot, rot, t)
             solution = self.ik.solve(p, r, q, iterations=15, dt=0.1, careful=True)
-            if not solution.ok(max(tolerance, 0.006)) or self.ik.collisions(
-                solution.qpos, self.allowed | self.held_bodies(), self.held_bodies()
-            ):
+            if not solution.ok(max(tolerance, 0.006)) or self.hits(solution.qpos):
                 return None
             q = solution.qpos
         final = self.ik.reachable(point, rot, q)
@@ -242,14 +240,18 @@ class SkillContext:
 
     def obstacle(self, q0: np.ndarray, q1: np.ndarray) -> str:
         """Names of what the arm touches on the way from ``q0`` to ``q1`` (for messages)."""
-        allow = self.allowed | self.held_bodies()
         m = self.world.model
         for t in np.linspace(0.0, 1.0, 12)[1:]:
-            hits = self.ik.collisions((1 - t) * q0 + t * q1, allow, self.held_bodies())
+            hits = self.hits((1 - t) * q0 + t * q1)
             if hits:
                 robot, other = hits[0]
                 return f"hit {m.body(other).name} with its {m.body(robot).name.removeprefix('robot/')}"
         return f"swing {self.held.name!r} round on the way" if self.held else "leave its path"
+
+    def hits(self, q: np.ndarray) -> list[tuple[int, int]]:
+        """What the arm touches at joints ``q``, besides what the hand may touch (:attr:`allowed`) and
+        what it carries (which moves with it): ``(robot body, other body)`` pairs."""
+        return self.ik.collisions(q, self.allowed, self.held_bodies())
 
     @contextmanager
     def touching(self, bodies: set[int]) -> Iterator[None]:
@@ -264,7 +266,6 @@ class SkillContext:
     def clear_path(self, q0: np.ndarray, q1: np.ndarray, samples: int | None = None) -> bool:
         """Whether the arm moves from joints ``q0`` to ``q1`` (interpolated) without touching the
         scene: anything but what the hand holds or is about to touch (:attr:`allowed`)."""
-        allow = self.allowed | self.held_bodies()
         if samples is None:  # a sample every 0.08 rad of the joint that moves most
             samples = max(4, int(np.ceil(float(np.max(np.abs(q1 - q0))) / 0.08)) + 1)
         r0 = r1 = None
@@ -272,7 +273,7 @@ class SkillContext:
             r0, r1 = self.ik.tool_pose(q0)[1], self.ik.tool_pose(q1)[1]
         for t in np.linspace(0.0, 1.0, samples)[1:]:
             q = (1 - t) * q0 + t * q1
-            if self.ik.collisions(q, allow, self.held_bodies()):
+            if self.hits(q):
                 return False
             if (
                 r0 is not None
@@ -312,10 +313,7 @@ class SkillContext:
             for pos, rot in poses:
                 if leg is None:
                     rot, solution = self.solve_flip(pos, rot, self.q)
-                    if not solution.ok() or (
-                        collisions
-                        and self.ik.collisions(solution.qpos, self.allowed | self.held_bodies(), self.held_bodies())
-                    ):
+                    if not solution.ok() or (collisions and self.hits(solution.qpos)):
                         return None
                     q = solution.qpos
                 else:
