@@ -120,11 +120,13 @@ class SceneBuilder:
         self.ws = self.layout.workspace
         self.out = SceneLayout()
         self.geoms: dict[str, AssetGeometry] = {}
+        self.added: dict[str, str] = {}
+        """Objects the layout adds to the plan's (a rack for a tube that cannot stand): name -> asset."""
 
     # ------------------------------------------------------------------ helpers
     def human(self, name: str) -> str:
-        if name not in self.checked.objects:  # a rack the layout added
-            return load_vocabulary().assets[self.out.placed[name].asset].human_name()
+        if name in self.added:  # a rack the layout added
+            return load_vocabulary().assets[self.added[name]].human_name()
         return self.checked.objects[name].info.human_name()
 
     def geom(self, name: str) -> AssetGeometry:
@@ -319,13 +321,18 @@ class SceneBuilder:
             return None
         _, rack = choose_pair(vocab, [asset], racks)
         rack_name = f"{name}_rack"
-        self._place_free(rack_name, (self.ws.center_x, -self.ws.lane_y), asset=rack)
-        self.out.placed[
-            rack_name
-        ].comment = f"the {self.human(name)} cannot stand on the bench by itself: it starts here"
+        self.added[rack_name] = rack
+        reason = f"the {self.human(name)} cannot stand on the bench by itself: it starts here"
+        self._place_free(rack_name, (self.ws.center_x, -self.ws.lane_y), asset=rack, comment=reason)
         return rack_name
 
-    def _place_free(self, name: str, preferred: tuple[float, float], asset: str | None = None) -> None:
+    def _place_free(
+        self,
+        name: str,
+        preferred: tuple[float, float],
+        asset: str | None = None,
+        comment: str = "VERIFY reachable: placed by pipette new-task",
+    ) -> None:
         asset = asset or self.checked.asset(name)
         geom = measure_asset(asset)
         amp = 0.02 if self.ws.max_reach < 0.6 else 0.03
@@ -343,7 +350,7 @@ class SceneBuilder:
             (spot[0], spot[1], z),
             geom.rest_euler_deg,
             randomize,
-            "VERIFY reachable: placed by pipette new-task",
+            comment,
         )
         self.geoms[name] = geom
 

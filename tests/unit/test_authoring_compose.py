@@ -163,3 +163,12 @@ def test_a_motorised_lid_or_drawer_is_worked_by_its_button() -> None:
     assert reader.expert[0].button == "reader/drawer_button"
     beaker_free = drafted("Close the centrifuge lid").spec  # a release button only: pushed shut by hand
     assert beaker_free.expert[0].skill == "close_hinge"
+
+
+def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) -> None:
+    from pipette_cli.authoring.layout import Layout
+    from pipette_cli.authoring.plan import PlanError
+
+    monkeypatch.setattr(Layout, "place", lambda self, footprint, z: None)
+    with pytest.raises(PlanError, match="no place for the 15 mL conical tube rack"):
+        drafted("Pick up the 15 mL falcon tube")
