@@ -17,7 +17,8 @@ import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
 from pipette_cli.assets.loader import load_asset_spec
-from pipette_cli.sim.scene import collision_boxes
+from pipette_cli.sim.scene import collision_boxes, set_physics
+from pipette_cli.specs.task import TimingSpec
 
 FREE_CATEGORIES = ("tools", "consumables")
 
@@ -166,9 +167,7 @@ def stands_alone(asset_id: str) -> bool:
         return True
     spec = load_asset_spec(asset_id, free_joint=True)
     spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[1.0, 1.0, 0.1])
-    spec.option.timestep = 1.0 / 600.0
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.option.impratio = 10.0
+    set_physics(spec, TimingSpec().physics_dt)
     model = spec.compile()
     data = mujoco.MjData(model)
     geom = measure_asset(asset_id)

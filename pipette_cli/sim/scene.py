@@ -81,13 +81,19 @@ def _camera_quat(cam: CameraSpec) -> np.ndarray:
     return euler_to_quat(cam.euler_deg)  # type: ignore[arg-type]
 
 
-def _configure(spec: mujoco.MjSpec, task: TaskSpec) -> None:
-    spec.modelname = task.short_name
-    spec.option.timestep = task.timing.physics_dt
+def set_physics(spec: mujoco.MjSpec, timestep: float) -> None:
+    """The simulator options of every Pipette scene (and of anything measured outside one, so it
+    behaves the same): implicit-fast integration, elliptic friction cones, impratio 10, gravity."""
+    spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.impratio = 10.0
     spec.option.gravity = [0.0, 0.0, -9.81]
+
+
+def _configure(spec: mujoco.MjSpec, task: TaskSpec) -> None:
+    spec.modelname = task.short_name
+    set_physics(spec, task.timing.physics_dt)
     spec.visual.global_.offwidth = max(task.cameras.width, 640)
     spec.visual.global_.offheight = max(task.cameras.height, 480)
     spec.visual.quality.shadowsize = 2048
