@@ -75,10 +75,10 @@ def on_robot(task: TaskSpec, robot: str | None) -> TaskSpec:
     config = resolve_robot(robot)
     if config.name == task.embodiment.robot:
         return task
-    moved = _with_robot(task, config, task.embodiment.base)
+    moved = _with_robot(task, config, task.embodiment.base, config.arm.home)
     space = measure_workspace(moved)
     check_payload(moved, config, space)
-    base = reachable_base(moved, config, space)
+    base, joints = reachable_base(moved, config, space)
     if base != moved.embodiment.base:
         log.info(
             "%s on the %s: base moved from %s to %s so the work points are within %.0f %% of its %.2f m reach",
@@ -89,16 +89,19 @@ def on_robot(task: TaskSpec, robot: str | None) -> TaskSpec:
             100 * COMFORT,
             config.reach,
         )
-        moved = _with_robot(task, config, base)
+    if joints != config.arm.home:
+        log.info("%s on the %s: starts stowed (its home pose would touch the scene there)", task.id, config.name)
+    if base != moved.embodiment.base or joints != config.arm.home:
+        moved = _with_robot(task, config, base, joints)
     return moved
 
 
-def _with_robot(task: TaskSpec, config: RobotSpec, base: PoseSpec) -> TaskSpec:
+def _with_robot(task: TaskSpec, config: RobotSpec, base: PoseSpec, joints: list[float]) -> TaskSpec:
     data = task.model_dump(mode="json")
     data["embodiment"] = {
         "robot": config.name,
         "base": base.model_dump(mode="json"),
-        "initial_joints": list(config.arm.home),
+        "initial_joints": list(joints),
         "gripper": task.embodiment.gripper,
     }
     if task.cameras.wrist.mount == "end_effector":
@@ -174,9 +177,11 @@ def check_payload(task: TaskSpec, config: RobotSpec, space: Workspace) -> None:
             )
 
 
-def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseSpec:
+def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple[PoseSpec, list[float]]:
     """The task's base pose if every work point is within ``COMFORT`` of the robot's reach (and no
-    closer than its ``min_reach``), else the nearest such pose on the bench top clear of the objects.
+    closer than its ``min_reach``), else the nearest such pose on the bench top clear of the objects;
+    with the arm joints the robot starts in there: its home pose, or its stow pose (``arm.stow``)
+    where the home pose's arm would come within ``CLEARANCE`` of an object.
 
     Raises:
         InfeasibleTask: no base pose on the bench reaches every work point.
@@ -194,17 +199,22 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
     points = points3[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench
-    arm = robot_boxes(config.name, tuple(home))
-    arm = arm[arm[:, 5] > home[2] + 0.002]  # the arm in its home pose, above the bench top
+    poses = [config.arm.home] + ([config.arm.stow] if config.arm.stow is not None else [])
+    arms = []
+    for joints in poses:
+        arm = robot_boxes(config.name, tuple(home), tuple(joints))
+        arms.append((joints, arm[arm[:, 5] > home[2] + 0.002]))  # the arm above the bench top
     best_miss = (np.inf, "")
     for dx, dy in grid:
         xy = home[:2] + (dx, dy)
         if not (x0 + r <= xy[0] <= x1 - r and y0 + r <= xy[1] <= y1 - r):
             continue
-        if len(space.boxes) and (
-            _box_distance(space.boxes, xy).min() < r + CLEARANCE
-            or _overlap(arm + [dx, dy, 0.0, dx, dy, 0.0], space.boxes)
-        ):
+        if len(space.boxes) and _box_distance(space.boxes, xy).min() < r + CLEARANCE:
+            continue
+        clear = [
+            j for j, arm in arms if not len(space.boxes) or not _overlap(arm + [dx, dy, 0.0, dx, dy, 0.0], space.boxes)
+        ]
+        if not clear:
             continue
         dist = np.linalg.norm(points - xy, axis=1)
         far = dist - limit
@@ -212,11 +222,11 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> PoseS
         worst = max(far.max(initial=-np.inf), near.max(initial=-np.inf))
         if worst <= 0:
             if dx == 0 and dy == 0:
-                return task.embodiment.base
+                return task.embodiment.base, list(clear[0])
             return PoseSpec(
                 pos=(round(float(xy[0]), 4), round(float(xy[1]), 4), float(home[2])),
                 euler_deg=task.embodiment.base.euler_deg,
-            )
+            ), list(clear[0])
         if worst < best_miss[0]:
             i = int(np.argmax(np.maximum(far, near)))
             best_miss = (worst, f"{list(space.points)[i]} is {dist[i]:.2f} m away")

@@ -209,8 +209,10 @@ def collision_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Iterable[
 
 
 @cache
-def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55)) -> np.ndarray:
-    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose."""
+def robot_boxes(
+    robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55), joints: tuple[float, ...] | None = None
+) -> np.ndarray:
+    """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose (or arm ``joints``)."""
     spec, config = make_robot_spec(robot)
     scene = mujoco.MjSpec()
     match_options(spec, scene)
@@ -218,7 +220,7 @@ def robot_boxes(robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55))
     scene.attach(spec, prefix="r/", frame=frame)
     model = scene.compile()
     data = mujoco.MjData(model)
-    for joint, value in zip(config.arm_joints, config.home(), strict=True):
+    for joint, value in zip(config.arm_joints, config.home() if joints is None else joints, strict=True):
         data.qpos[model.jnt_qposadr[model.joint("r/" + joint).id]] = value
     mujoco.mj_forward(model, data)
     return collision_boxes(model, data, range(model.ngeom))

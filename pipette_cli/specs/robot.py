@@ -50,6 +50,11 @@ class ArmSpec(Spec):
     joints: list[str] = Field(min_length=3)
     actuators: list[str] = Field(min_length=3)
     home: list[float] = Field(description="a comfortable configuration facing +x, radians")
+    stow: list[float] | None = Field(
+        None,
+        description="a folded configuration, the hand over the base, that the robot starts in where its "
+        "home pose would touch the scene (a short arm standing close to an instrument), radians",
+    )
     limit_ctrl_to_joint_range: bool = False
     joint_damping: list[Annotated[float, Field(ge=0)]] | None = Field(
         None, description="passive damping of each arm joint (N m s/rad), overriding menagerie's"
@@ -68,6 +73,8 @@ class ArmSpec(Spec):
                 f"joints ({len(self.joints)}), actuators ({len(self.actuators)}) and home "
                 f"({len(self.home)}) must have one entry per arm joint"
             )
+        if self.stow is not None and len(self.stow) != len(self.joints):
+            raise ValueError(f"stow has {len(self.stow)} entries for {len(self.joints)} arm joints")
         if self.joint_damping is not None and len(self.joint_damping) != len(self.joints):
             raise ValueError(f"joint_damping has {len(self.joint_damping)} entries for {len(self.joints)} arm joints")
         return self

@@ -37,6 +37,24 @@ def test_another_robot_gets_its_home_pose_wrist_camera_and_a_base_that_reaches()
     World(placed)  # builds: nothing interpenetrates, every target within reach
 
 
+def test_a_short_arm_starts_stowed_where_its_home_pose_would_reach_into_an_instrument() -> None:
+    # the dish is on the incubator's shelf: the Piper must stand so close that its home pose's hand
+    # would be inside the incubator, so it starts folded over its base (arm.stow)
+    task = REGISTRY.get("RemovePetriDishFromIncubator")
+    piper = robot_spec("piper")
+    assert piper.arm.stow is not None
+    placed = on_robot(task, "piper")
+    assert placed.embodiment.initial_joints == piper.arm.stow
+    base = np.asarray(placed.embodiment.base.pos)
+    dish = np.asarray(placed.object("dish").pose.pos)
+    assert abs(base[1]) < 1e-9  # straight in front of the door, not beside it
+    assert np.linalg.norm(dish[:2] - base[:2]) <= 0.9 * piper.reach
+    World(placed)  # builds: the stowed arm touches nothing
+    unstowed = piper.model_copy(update={"arm": piper.arm.model_copy(update={"stow": None})})
+    base_home, joints = reachable_base(placed, unstowed, measure_workspace(placed))
+    assert joints == piper.arm.home and abs(base_home.pos[1]) > 0.1  # without it: beside the door
+
+
 def test_an_unknown_robot_is_one_line_listing_the_robots() -> None:
     with pytest.raises(
         SimError, match=r"unknown robot 'kuka'.*robots: agilex_piper \(piper\), franka_panda \(panda\), ur5e_robotiq"

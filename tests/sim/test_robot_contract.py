@@ -36,15 +36,16 @@ def tube_world(robot: str) -> World:
     return World(on_robot(load_registry().get("PickUpTestTube"), robot))
 
 
-def _alone(name: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """The robot alone, standing at the origin, arm at home."""
+def _alone(name: str, pose: str = "home") -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The robot alone, standing at the origin, arm at home (or in its stow pose)."""
     spec, config = make_robot_spec(name)
+    joints = config.home() if pose == "home" else np.asarray(load_robot_specs()[name].arm.stow)
     scene = mujoco.MjSpec()
     match_options(spec, scene)
     scene.attach(spec, prefix=PREFIX, frame=scene.worldbody.add_frame())
     model = scene.compile()
     data = mujoco.MjData(model)
-    for joint, value in zip(config.arm_joints, config.home(), strict=True):
+    for joint, value in zip(config.arm_joints, joints, strict=True):
         data.qpos[model.joint(PREFIX + joint).qposadr[0]] = value
         data.ctrl[model.actuator(PREFIX + config.arm_actuators[config.arm_joints.index(joint)]).id] = value
     mujoco.mj_forward(model, data)
@@ -62,20 +63,22 @@ def test_model_loads_with_every_named_part(robot: str) -> None:
         assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, PREFIX + body) >= 0, body
 
 
-def test_home_is_inside_the_joint_limits_and_free_of_self_collision(robot: str) -> None:
+def test_home_and_stow_are_inside_the_joint_limits_and_free_of_self_collision(robot: str) -> None:
     config = load_robot_specs()[robot]
-    model, data = _alone(robot)
-    for joint, value in zip(config.arm_joints, config.home(), strict=True):
-        j = model.joint(PREFIX + joint)
-        if model.jnt_limited[j.id]:
-            low, high = j.range
-            assert low <= value <= high, f"{joint}: home {value} outside [{low}, {high}]"
-    penetrating = [
-        (model.body(model.geom_bodyid[c.geom1]).name, model.body(model.geom_bodyid[c.geom2]).name)
-        for c in data.contact[: data.ncon]
-        if c.dist < -1e-3
-    ]
-    assert not penetrating, penetrating
+    poses = {"home": config.arm.home} | ({"stow": config.arm.stow} if config.arm.stow is not None else {})
+    for pose, joints in poses.items():
+        model, data = _alone(robot, pose)
+        for joint, value in zip(config.arm_joints, joints, strict=True):
+            j = model.joint(PREFIX + joint)
+            if model.jnt_limited[j.id]:
+                low, high = j.range
+                assert low <= value <= high, f"{joint}: {pose} {value} outside [{low}, {high}]"
+        penetrating = [
+            (model.body(model.geom_bodyid[c.geom1]).name, model.body(model.geom_bodyid[c.geom2]).name)
+            for c in data.contact[: data.ncon]
+            if c.dist < -1e-3
+        ]
+        assert not penetrating, (pose, penetrating)
 
 
 def test_tcp_frame_points_the_fingers_and_closes_across_them(tube_world: World) -> None:
