@@ -48,6 +48,8 @@ LIFT_CHECK = 0.015
 PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
 TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
+BAR_GAP = 0.02
+"""Metres of room under a handle bar that a finger taking it from in front needs."""
 
 
 @dataclass(frozen=True)
@@ -107,10 +109,11 @@ def plan_grasp(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
         )
+    bar = _grip_geom(ctx, name, point, at) if at is not None and not round_ else None
     return _first_reachable(
         ctx,
         name,
-        _top_candidates(ctx, point, closing, shape, width, lying, round_ and not lying),
+        _top_candidates(ctx, point, closing, shape, width, lying, round_ and not lying, bar),
         "across" if lying else "axis",
         then=then,
     )
@@ -267,10 +270,12 @@ def _top_candidates(
     width: float,
     lying: bool,
     round_: bool = False,
+    bar: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> list[Grasp]:
     """Straight down, then pitched: toward the robot where the fingers then close across the grip (a
     round object from any side), else tilted along the grip (a lying tool along its length, a bar
-    facing the robot along the bar), so the fingers still close across it."""
+    facing the robot along the bar), so the fingers still close across it. A ``bar`` (centre and
+    half-size of a handle's grip geom) lying across the robot's view is last taken from in front."""
     out = []
     above = max(0.10, shape.top - point[2] + 0.06)
     radial = horizontal(point - ctx.base)
@@ -289,6 +294,26 @@ def _top_candidates(
             back = point - rot[:, 2] * above
             back[2] = max(back[2], point[2] + above * 0.5)
             out.append(Grasp("top", point.copy(), rot, [back], width))
+    if bar is not None and abs(length @ radial) < 0.5:
+        out += _front_of_bar(ctx, bar, radial)
+    return out
+
+
+def _front_of_bar(ctx: SkillContext, bar: tuple[np.ndarray, np.ndarray], radial: np.ndarray) -> list[Grasp]:
+    """A bar across the robot's view (a lid's handle) taken from in front, the hand level (the short
+    arm's way: no reaching over it): the lower finger slides in just under the bar, where there is
+    room above the surface below, and closing lifts the bar onto it."""
+    center, half = bar
+    bottom = center - half[2] * UP
+    gap, _ = ctx.scene.ray(bottom - 0.001 * UP, -UP)
+    if gap < BAR_GAP:
+        return []
+    tcp = center.copy()
+    tcp[2] = max(center[2], bottom[2] - 0.003 + ctx.robot.gripper.max_opening / 2)
+    out = []
+    for closing in (UP, -UP):  # the two rolls of a symmetric gripper: one may suit the wrist better
+        approach = [tcp - 0.10 * radial, tcp - 0.04 * radial]
+        out.append(Grasp("front", tcp.copy(), tool_frame(radial, closing), approach, 2 * float(half[2])))
     return out
 
 

@@ -72,6 +72,9 @@ class Leg:
     speed: float
     straight: bool = False
     """Along a straight tool line (IK every control step) rather than through joint space."""
+    joints: bool = False
+    """Through joint space even below transit speed: a slow final leg whose straight tool line the arm
+    cannot follow (a big turn on a short way, a wrist that would run into its limit)."""
 
 
 @dataclass(frozen=True)

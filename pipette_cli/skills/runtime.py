@@ -154,9 +154,19 @@ class SkillContext:
             self.gripper = gripper
         return Move(pos, rot, self.gripper, float(seconds), solution.qpos, free=free)
 
-    def planned(self, pos: np.ndarray, rot: np.ndarray, q: np.ndarray, *, speed: float, straight: bool = False) -> Move:
-        """A move to a pose whose joints ``q`` were already planned (and checked) by :meth:`transit`."""
-        free = speed >= TRANSIT_SPEED and not straight
+    def planned(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray,
+        q: np.ndarray,
+        *,
+        speed: float,
+        straight: bool = False,
+        joints: bool = False,
+    ) -> Move:
+        """A move to a pose whose joints ``q`` were already planned (and checked) by :meth:`transit`:
+        through joint space at transit speed or where ``joints`` says so, else along a straight line."""
+        free = (speed >= TRANSIT_SPEED or joints) and not straight
         if free:  # through joint space the tool ends where the joints put it (within the free tolerance)
             pos, rot = self.ik.tool_pose(q)
         seconds = self._seconds(pos, rot, speed, q if free else None)
@@ -224,9 +234,11 @@ class SkillContext:
 
     def straight_line(self, start: Leg, point: np.ndarray, rot: np.ndarray, tolerance: float) -> np.ndarray | None:
         """Joints at ``point``/``rot`` reached along a straight tool line from ``start`` (the way a straight
-        move is executed), checked for reach and collisions every 2 cm; ``None`` if it fails."""
+        move is executed), checked for reach and collisions every 2 cm and every 8 degrees of turn (a
+        big turn on a short line is where the warm-started IK can wander off); ``None`` if it fails."""
         point = np.asarray(point, float)
-        n = max(2, int(np.ceil(float(np.linalg.norm(point - start.pos)) / 0.02)) + 1)
+        steps = max(float(np.linalg.norm(point - start.pos)) / 0.02, rotation_angle(start.rot, rot) / np.deg2rad(8.0))
+        n = max(2, int(np.ceil(steps)) + 1)
         q = start.q
         for t in np.linspace(0.0, 1.0, n)[1:]:
             p = (1 - t) * start.pos + t * point

@@ -48,7 +48,7 @@ def transit(
             "that touches nothing on the way"
         )
     for leg in legs:
-        yield ctx.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight)
+        yield ctx.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight, joints=leg.joints)
 
 
 def can_reach(ctx: SkillContext, pos: np.ndarray, rot: np.ndarray, exclude: AbstractSet[int] = frozenset()) -> bool:
@@ -253,9 +253,14 @@ def _feasible(
                 target, solution = ctx.solve_flip(point, target, q, best=True)
             if solution.ok(tolerance) and ctx.clear_path(q, solution.qpos):
                 turned = turned or not keep
+                if final and precise:  # slow, so followed as a straight tool line where the arm can
+                    begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
+                    line = ctx.straight_line(begin, point, target, tolerance)
+                    q, current = solution.qpos if line is None else line, target
+                    out.append(Leg(point, target, q, APPROACH_SPEED, joints=line is None))
+                    break
                 q, current = solution.qpos, target
-                speed = APPROACH_SPEED if final and precise else TRANSIT_SPEED
-                out.append(Leg(point, target, q, speed))
+                out.append(Leg(point, target, q, TRANSIT_SPEED))
                 break
         else:
             return None
