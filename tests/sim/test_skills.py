@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.world import World
 from pipette_cli.skills.program import ProgramExpert
@@ -38,9 +39,11 @@ def run(
     seed: int = 0,
     seconds: float = 25.0,
     watch: Callable[[World], None] | None = None,
+    robot: str | None = None,
 ) -> tuple[World, ProgramExpert]:
-    """Run a program (the task's own by default) to its end, whatever the evaluator says; `watch` sees every step."""
-    task = REGISTRY.get(task_id)
+    """Run a program (the task's own by default) to its end, whatever the evaluator says; `watch` sees
+    every step. ``robot``: on another robot (placed by ``on_robot``)."""
+    task = on_robot(REGISTRY.get(task_id), robot)
     world = World(task)
     world.reset(seed)
     expert = ProgramExpert(steps if steps is not None else list(task.expert or []))
@@ -209,7 +212,6 @@ def test_same_seed_same_skill_actions() -> None:
 def test_moves_give_a_damped_joint_the_time_its_actuator_needs() -> None:
     """The UR5e's wrists (28 Nm against damping 20) top out near 1.4 rad/s: a move that swings a
     wrist is timed by that joint, not by the tool's speed; the Panda's joints are not held back."""
-    from pipette_cli.demos.embodiment import on_robot
     from pipette_cli.skills.moves import TRANSIT_SPEED
     from pipette_cli.skills.runtime import JOINT_SPEED_SHARE, MIN_JERK_PEAK, SkillContext, joint_speeds
 
@@ -224,3 +226,28 @@ def test_moves_give_a_damped_joint_the_time_its_actuator_needs() -> None:
     nudge = panda.q + 0.05
     far = panda.pos + np.array([0.3, 0.0, 0.0])
     assert panda._seconds(far, panda.rot, TRANSIT_SPEED, nudge) == pytest.approx(0.3 / TRANSIT_SPEED)
+
+
+def test_a_short_arm_takes_a_lid_handle_bar_from_in_front() -> None:
+    """The Piper cannot reach over the water bath's handle bar: it takes it from in front, the hand
+    level and the lower finger under the bar, and lifts the lid off (the Panda still comes from
+    above). The way into that grasp turns the wrist a lot on a short way, which the arm follows
+    through joint space: a straight line would run its forearm roll into its limit."""
+    from pipette_cli.skills.grasp import plan_grasp
+    from pipette_cli.skills.runtime import SkillContext
+
+    piper = World(on_robot(REGISTRY.get("OpenWaterBathLid"), "piper"))
+    piper.reset(0)
+    grasp = plan_grasp(SkillContext(piper, np.random.default_rng(0)), "lid", at="lid/lid_handle")
+    bar = piper.model.geom("lid/handle_bar_col").id
+    bar_bottom = piper.data.geom_xpos[bar][2] - piper.model.geom_size[bar][2]
+    assert grasp.kind == "front" and abs(grasp.rot[2, 2]) < 0.05  # level
+    assert grasp.pos[2] - piper.robot.gripper.max_opening / 2 < bar_bottom  # the lower finger under the bar
+    panda = World(REGISTRY.get("OpenWaterBathLid"))
+    panda.reset(0)
+    assert plan_grasp(SkillContext(panda, np.random.default_rng(0)), "lid", at="lid/lid_handle").kind == "top"
+
+    start = piper.position("lid").copy()
+    world, _ = run("OpenWaterBathLid", robot="piper")
+    moved = world.position("lid") - start
+    assert moved[2] > 0.10 and moved[0] < -0.30  # the task's criterion: lifted and drawn back
