@@ -32,11 +32,6 @@ log = logging.getLogger(__name__)
 
 COMFORT = 0.9
 """Work points stay within this fraction of the robot's stated reach from its base axis."""
-SNUG = 0.8
-"""Where the base must move, a pose with every work point within this fraction of the reach is
-worth :data:`SNUG_SHIFT` metres more of moving (a point at the edge of the comfortable band leaves a
-short arm no room to turn its hand)."""
-SNUG_SHIFT = 0.1
 CLEARANCE = 0.02
 """Metres kept between the robot's base footprint and any object's collision geometry."""
 STEP = 0.025
@@ -184,8 +179,7 @@ def check_payload(task: TaskSpec, config: RobotSpec, space: Workspace) -> None:
 
 def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple[PoseSpec, list[float]]:
     """The task's base pose if every work point is within ``COMFORT`` of the robot's reach (and no
-    closer than its ``min_reach``), else the nearest such pose on the bench top clear of the objects
-    (the nearest within ``SNUG`` of the reach, if there is one);
+    closer than its ``min_reach``), else the nearest such pose on the bench top clear of the objects;
     with the arm joints the robot starts in there: its home pose, or its stow pose (``arm.stow``)
     where the home pose's arm would come within ``CLEARANCE`` of an object.
 
@@ -199,7 +193,9 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple
     points3 = np.array(list(space.points.values())).reshape(-1, 3)
     # what the program picks up off the bench top is grasped from above: the hand-down reach applies
     low = points3[:, 2] < home[2] + LOW
-    reach = np.where(low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach)
+    limit = COMFORT * np.where(
+        low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach
+    )
     points = points3[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench
@@ -209,11 +205,7 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple
         arm = robot_boxes(config.name, tuple(home), tuple(joints))
         arms.append((joints, arm[arm[:, 5] > home[2] + 0.002]))  # the arm above the bench top
     best_miss = (np.inf, "")
-    found: tuple[float, float, float, list[float]] | None = None  # (cost, dx, dy, joints)
     for dx, dy in grid:
-        cost = abs(dx) + 2.0 * abs(dy)
-        if found is not None and cost >= found[0]:
-            break
         xy = home[:2] + (dx, dy)
         if not (x0 + r <= xy[0] <= x1 - r and y0 + r <= xy[1] <= y1 - r):
             continue
@@ -225,27 +217,19 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple
         if not clear:
             continue
         dist = np.linalg.norm(points - xy, axis=1)
-        far = dist - COMFORT * reach
+        far = dist - limit
         near = config.min_reach - dist
         worst = max(far.max(initial=-np.inf), near.max(initial=-np.inf))
         if worst <= 0:
             if dx == 0 and dy == 0:
                 return task.embodiment.base, list(clear[0])
-            snug = bool(np.all(dist <= SNUG * reach))
-            cost += 0.0 if snug else SNUG_SHIFT
-            if found is None or cost < found[0]:
-                found = (cost, float(dx), float(dy), list(clear[0]))
-            continue
+            return PoseSpec(
+                pos=(round(float(xy[0]), 4), round(float(xy[1]), 4), float(home[2])),
+                euler_deg=task.embodiment.base.euler_deg,
+            ), list(clear[0])
         if worst < best_miss[0]:
             i = int(np.argmax(np.maximum(far, near)))
             best_miss = (worst, f"{list(space.points)[i]} is {dist[i]:.2f} m away")
-    if found is not None:
-        xy = home[:2] + found[1:3]
-        pose = PoseSpec(
-            pos=(round(float(xy[0]), 4), round(float(xy[1]), 4), float(home[2])),
-            euler_deg=task.embodiment.base.euler_deg,
-        )
-        return pose, found[3]
     raise InfeasibleTask(
         f"{task.id} on the {config.name}: reach: no base pose on the bench puts every work point between "
         f"{config.min_reach:.2f} m and {100 * COMFORT:.0f} % of its reach ({config.reach:.2f} m; "

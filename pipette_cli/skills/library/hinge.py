@@ -182,6 +182,13 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     candidates = [(reach, pitch) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
     chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
     if chosen is None:
+        if not any(ctx.reachable(*poses(c)[1]) for c in candidates):
+            edge_now = push_point(PUSH_REACHES[0], angle0, 0.0)
+            raise SkillFailure(
+                f"reach: the push on {joint!r} starts {edge_now[2] - ctx.base[2]:.2f} m above the "
+                f"{ctx.robot.name}'s base and {np.linalg.norm((edge_now - ctx.base)[:2]):.2f} m out; no hand "
+                "pose reaches it"
+            )
         raise SkillFailure(f"no reachable way to push {joint!r} to {goal:.0f} deg without touching anything else")
     reach, pitch = chosen
     rot = frame(reach, pitch)
