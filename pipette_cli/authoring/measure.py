@@ -146,6 +146,27 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
     )
 
 
+HOLD_SECONDS = 3.0
+"""Seconds a part is left alone at an angle to see whether its hinge friction holds it there."""
+HOLD_SHARE = 0.75
+"""Share of the angle it must keep (a friction-held lid creeps back a few degrees)."""
+
+
+@cache
+def holds_open(asset_id: str, joint: str, angle: float) -> bool:
+    """Whether the part on ``joint`` (a hinge) of ``asset_id`` left alone at ``angle`` degrees stays
+    open (keeps :data:`HOLD_SHARE` of it) on its friction, with the asset's own drives off."""
+    model = load_asset_spec(asset_id, free_joint=False).compile()
+    model.actuator_gainprm[:] = 0.0
+    model.actuator_biasprm[:] = 0.0
+    data = mujoco.MjData(model)
+    adr = model.jnt_qposadr[model.joint(joint).id]
+    data.qpos[adr] = np.deg2rad(angle)
+    for _ in range(int(HOLD_SECONDS / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    return abs(float(np.rad2deg(data.qpos[adr]))) >= HOLD_SHARE * abs(angle)
+
+
 STAND_SECONDS = 1.5
 """Seconds an object is left alone on a flat floor to see whether it stays as put."""
 STAND_NUDGES = ((3.0, 0.0, 0.0), (0.0, 3.0, 0.0), (0.0, 0.0, 0.05))

@@ -6,9 +6,11 @@ An item that does not stay put on a flat bench by itself (a conical tube tips ov
 rolls: :func:`~.measure.stands_alone`) and is not taken from anywhere named starts in a rack of the
 library whose holes fit it, added to the scene.
 
-Joint states follow the steps: a lid the task opens starts closed, one it closes starts open, and a
-lid, door or drawer in the way of a placement starts open unless a step opens it first. A step that
-needs a part open after an earlier step closed it is refused.
+Joint states follow the steps: a lid the task opens starts closed, one it closes starts open (a
+latched lid at the angle its release pops it to when its friction holds it there: the arm reaches
+over it; others near their open limit), and a lid, door or drawer in the way of a placement starts
+open unless a step opens it first. A step that needs a part open after an earlier step closed it
+is refused.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.authoring.layout import Footprint, Layout, PlacedObject
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset, stands_alone
+from pipette_cli.authoring.measure import AssetGeometry, JointInfo, holds_open, measure_asset, stands_alone
+from pipette_cli.authoring.motors import release_angle
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
 from pipette_cli.authoring.resolve import choose_pair, holders_that_fit
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid
@@ -148,7 +151,7 @@ class SceneBuilder:
                 joint = hatch_joint(geom, step.part, self.human(step.object))
                 key = (step.object, joint.name)
                 if key not in start:
-                    start[key] = 0.0 if step.action == "open" else open_value(joint)
+                    start[key] = 0.0 if step.action == "open" else self.open_to_close(step.object, geom, joint)
                 state[key] = "open" if step.action == "open" else "closed"
             elif step.action == "press":
                 geom = self.geom(step.object)
@@ -210,6 +213,8 @@ class SceneBuilder:
                 "shut at reset (0)"
                 if value == 0.0
                 else f"open at reset: {OPEN_FRACTION:.0%} of its limit; VERIFY it stays open by itself"
+                if value == open_value(self.geom(name).joints[joint])
+                else "open at reset where its release button leaves it (lid_open_angle_deg)"
             )
             self.out.joint_states.append((f"{name}/{joint}", r(value, 3), comment))
         return self.out
@@ -227,7 +232,10 @@ class SceneBuilder:
         pressed = False
         closed = measure_asset(self.checked.asset(name))
         for step in self._steps_on(name):
-            if step.action in ("open", "close") and step.object == name:
+            if step.action == "open" and step.object == name and self._released(name):
+                keys.append(geom.sites["button"][:2])  # a latched lid: its release button is pressed
+                pressed = True
+            elif step.action in ("open", "close") and step.object == name:
                 keys += [closed.sites[h][:2] for h in HANDLES if h in closed.sites]  # where the hand takes it shut
                 if "lid_seat" in geom.sites:
                     keys.append(geom.sites["lid_seat"][:2])
@@ -242,6 +250,27 @@ class SceneBuilder:
                 elif site is not None:
                     keys.append(geom.sites[site][:2])
         return keys, pressed
+
+    def open_to_close(self, name: str, geom: AssetGeometry, joint: JointInfo) -> float:
+        """Where a part a step closes starts: a latched lid at the angle its release pops it to, when
+        its friction holds it there (the arm reaches over it; near its limit a back-hinged lid stands
+        past upright, out of reach behind the hinge), else near its open limit."""
+        release = self.release(name, geom, joint)
+        return release if release is not None else open_value(joint)
+
+    def release(self, name: str, geom: AssetGeometry, joint: JointInfo) -> float | None:
+        """The angle a latched lid pops open to when its release button is pressed
+        (:func:`~.motors.release_angle`), if its friction then holds it open there; else ``None``
+        (the lid is worked by hand)."""
+        angle = release_angle(geom, joint)
+        if angle is None or not holds_open(self.checked.asset(name), joint.name, angle):
+            return None
+        return angle
+
+    def _released(self, name: str) -> bool:
+        """Whether ``name`` has a latched lid its release button opens (:meth:`release`)."""
+        geom = self.geom(name)
+        return "lid_hinge" in geom.joints and self.release(name, geom, geom.joints["lid_hinge"]) is not None
 
     def _place_static(self, name: str, joints: dict[tuple[str, str], float], lane: float, alone: bool) -> None:
         asset = self.checked.asset(name)

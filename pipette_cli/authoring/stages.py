@@ -11,6 +11,7 @@ saying where every derived number comes from.
 | place into a deep bin | disc over the opening, below its rim | ``pick`` + ``move`` over it + ``retreat`` (let go) |
 | remove | ``displacement`` to a free bench spot (and down, off a raised source) | ``remove_from`` to that spot |
 | open / close a hinge or slide | ``joint_threshold`` past 75 % open / within 5 deg (1 cm) of shut | ``open_hinge`` / ``close_hinge`` / ``slide`` |
+| open a latched lid (a release ``button``) | ``joint_threshold`` past 75 % of the angle it pops to | ``press`` + ``wait`` |
 | open / close a lift-off lid | lid lifted 10 cm and drawn back / seated on ``lid_seat`` | ``pick`` + ``move`` / ``place_on`` |
 | press | ``mechanism_triggered`` (a ``button_release`` mechanism) | ``press`` + ``wait`` |
 | position | ``near_target`` above the target | ``pick`` + ``position_over`` |
@@ -349,11 +350,26 @@ class StageBuilder:
             timeout_s=self.timeout(10),
         )
         handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
+        release = self.scene.release(name, geom, joint)
+        if release is not None and opening:  # a latched lid (a centrifuge's): its release pops it open
+            motor = motorised(name, joint, "button", release)
+            goal = r(0.75 * release)  # it creeps back a few degrees on its friction once let go
+            criterion = criterion.model_copy(update={"bound": BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)})
+            ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
+            program: list[sk.StepSpec] = [
+                sk.PressSpec(button=f"{name}/button"),
+                sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
+            ]
+            comments = {
+                "bound": f"VERIFY: open past 75 % of the {release:g} deg its release opens it to",
+                "": "the lid is latched: its release button opens it",
+            }
+            return Stage(step, criterion, program, comments, [name], instruments=[motor])
         button = motor_button(geom, joint)
         if button is not None:  # a motorised lid or drawer (a thermal cycler's, a plate reader's): its button
             motor = motorised(name, joint, button)
             ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
-            program: list[sk.StepSpec] = [
+            program = [
                 sk.PressSpec(button=f"{name}/{button}"),
                 sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
             ]

@@ -44,9 +44,11 @@ def test_lids_start_open_and_close_to_within_five_degrees_with_the_right_sign() 
     spectro = drafted("Close the lid of the spectrophotometer").spec
     assert spectro.scene.joint_states[0].value == pytest.approx(0.95 * 110)
     assert spectro.success.bound.max == 5.0 and spectro.success.bound.min is None
-    centrifuge = drafted("Close the centrifuge lid").spec
-    assert centrifuge.scene.joint_states[0].value == pytest.approx(-0.95 * 100)
+    centrifuge = drafted("Close the centrifuge lid").spec  # latched: open where its release leaves it
+    assert centrifuge.scene.joint_states[0].value == pytest.approx(-40.0)
     assert centrifuge.success.bound.min == -5.0
+    micro = drafted("Close the lid of the microcentrifuge").spec  # its light lid falls shut from -40
+    assert micro.scene.joint_states[0].value == pytest.approx(-0.95 * 100)
     opening = drafted("Open the plate reader drawer").spec
     assert opening.success.unit == "m" and opening.success.bound.min == pytest.approx(0.75 * 0.16)
 
@@ -163,6 +165,28 @@ def test_a_motorised_lid_or_drawer_is_worked_by_its_button() -> None:
     assert reader.expert[0].button == "reader/drawer_button"
     beaker_free = drafted("Close the centrifuge lid").spec  # a release button only: pushed shut by hand
     assert beaker_free.expert[0].skill == "close_hinge"
+
+
+def test_a_latched_lid_is_opened_by_its_release_and_closed_from_where_it_pops_to() -> None:
+    """The benchtop centrifuge's lid is latched and has nothing to grasp at its front edge: opening
+    presses the release (an instrument with a release motor to its lid_open_angle_deg), and a
+    later close pushes it down from there, within the arm's reach (not from past upright)."""
+    spec = drafted("Open and close the centrifuge lid").spec
+    assert [step.skill for step in spec.expert] == ["press", "wait", "close_hinge"]
+    assert spec.expert[0].button == "centrifuge/button"
+    (instrument,) = spec.scene.mechanisms
+    assert instrument.type == "instrument" and instrument.motor.mode == "release"
+    assert instrument.motor.open == -40.0 and instrument.closure.joint == "centrifuge/lid_hinge"
+    opened, closed = spec.success.of
+    assert opened.bound.max == pytest.approx(-30.0) and closed.bound.min == -5.0
+    assert spec.scene.joint_states[0].value == 0.0
+
+
+def test_holds_open_tells_a_friction_held_lid_from_one_that_falls_shut() -> None:
+    from pipette_cli.authoring.measure import holds_open
+
+    assert holds_open("centrifuge_benchtop", "lid_hinge", -40.0)
+    assert not holds_open("microcentrifuge", "lid_hinge", -40.0)
 
 
 def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) -> None:
