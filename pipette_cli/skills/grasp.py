@@ -50,6 +50,8 @@ PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
 BAR_GAP = 0.02
 """Metres of room under a handle bar that a finger taking it from in front needs."""
+SITE_SLACK = 0.03
+"""Metres a grip geom's centre may lie from the named site it is found at."""
 
 
 @dataclass(frozen=True)
@@ -110,6 +112,8 @@ def plan_grasp(
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
         )
     bar = _grip_geom(ctx, name, point, at) if at is not None and not round_ else None
+    if bar is not None and np.linalg.norm(bar[0] - point) > SITE_SLACK:
+        bar = None  # the plate a flush site sits on the edge of, not a bar
     return _first_reachable(
         ctx,
         name,
@@ -253,7 +257,9 @@ def _side_candidates(ctx: SkillContext, name: str, at: str) -> list[Grasp]:
         closing = UP.copy()  # a grip wider than tall (a lid's front lip): the fingers close above and below it
     else:
         closing = across  # a bar standing up (a door's handle): the fingers close round it sideways
-    center = point if grip is None else grip[0]
+    # centred on the grip's cross-section; a "grip" whose centre is far from the site is the plate the
+    # site sits on the edge of (a flush lid), not a handle: then the site itself
+    center = point if grip is None or np.linalg.norm(grip[0] - point) > SITE_SLACK else grip[0]
     out = []
     for tilt in (0.0, 20.0, -20.0):
         approach = np.cos(np.deg2rad(tilt)) * -normal - np.sin(np.deg2rad(tilt)) * UP

@@ -255,9 +255,11 @@ def _feasible(
                 turned = turned or not keep
                 if final and precise:  # slow, so followed as a straight tool line where the arm can
                     begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
-                    line = ctx.straight_line(begin, point, target, tolerance)
-                    q, current = solution.qpos if line is None else line, target
-                    out.append(Leg(point, target, q, APPROACH_SPEED, joints=line is None))
+                    # (an empty hand only: what the hand holds swings on a joint-space arc)
+                    line = ctx.straight_line(begin, point, target, tolerance) if ctx.held is None else None
+                    joints = ctx.held is None and line is None
+                    q, current = solution.qpos, target
+                    out.append(Leg(point, target, q, APPROACH_SPEED, joints=joints))
                     break
                 q, current = solution.qpos, target
                 out.append(Leg(point, target, q, TRANSIT_SPEED))
