@@ -16,6 +16,7 @@ from pipette_cli.skills.moves import (
     CLEARANCE,
     COVER_ROOM,
     FINAL_APPROACH,
+    FINE_SPEED,
     FREE_TOLERANCE,
     HAND_HEIGHT,
     TRANSIT_SPEED,
@@ -29,6 +30,10 @@ if TYPE_CHECKING:
     from pipette_cli.skills.runtime import SkillContext
 
 log = logging.getLogger(__name__)
+
+SETTLE_TOLERANCE = 0.001
+"""Metres the tcp may stand from its planned pose after :func:`settle`."""
+SETTLE_TRIES = 2
 
 
 def transit(
@@ -299,6 +304,22 @@ def lift_clear(
             continue
         yield move
         return
+
+
+def settle(ctx: SkillContext, seconds: float, *, what: str) -> Iterator[Move]:
+    """Hold still ``seconds``, then bring the tcp to where the last move planned it: a position servo
+    under gravity stops a few millimetres short of its target (an outstretched arm sags), which is
+    too much where the fingers close round a 12 mm vial (one finger pushes it over before the other
+    arrives) or set something down on a surface. The target is moved by the error measured, up to
+    :data:`SETTLE_TRIES` times, until the tcp is within :data:`SETTLE_TOLERANCE` of the plan."""
+    goal, rot = ctx.pos.copy(), ctx.rot
+    yield ctx.hold(seconds)
+    for _ in range(SETTLE_TRIES):
+        error = goal - ctx.world.tcp_position()
+        if float(np.linalg.norm(error)) < SETTLE_TOLERANCE:
+            break
+        yield ctx.move(ctx.pos + error, rot, speed=FINE_SPEED, what=what)
+        yield ctx.hold(seconds)
 
 
 def withdraw(ctx: SkillContext, distance: float) -> Iterator[Move]:
