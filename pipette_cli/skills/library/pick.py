@@ -12,7 +12,6 @@ from pipette_cli.skills.grasp import FollowThrough, _support_of, plan_grasp
 from pipette_cli.skills.library.place import put_down, resolve_target
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
 
 SETTLE_S = 0.25
@@ -44,7 +43,7 @@ def grasp(
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
-        yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}")
+        yield ctx.hold(SETTLE_S)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.attach(name)
 

@@ -90,7 +90,9 @@ def put_down(
         yield ctx.move(tool_pos, tool_rot, speed=FINE_SPEED, what=f"setting {name!r} down")
         if not release:
             return
-        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down")  # not pressed into the surface
+        # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
+        # the air, the fingers springing open throw a light object
+        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down", vertical=False)
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.held = None
         with ctx.touching(ctx.scene.bodies(name)):
