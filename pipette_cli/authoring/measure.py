@@ -103,8 +103,15 @@ def quat_to_euler_deg(quat: Iterable[float]) -> tuple[float, float, float]:
 
 
 @cache
-def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = ()) -> AssetGeometry:
-    """Compile ``asset_id`` alone (rest pose, joints at ``joint_values``: deg / m) and measure it."""
+def measure_asset(
+    asset_id: str, joint_values: tuple[tuple[str, float], ...] = (), *, standing: bool = False
+) -> AssetGeometry:
+    """Compile ``asset_id`` alone (rest pose, joints at ``joint_values``: deg / m) and measure it.
+
+    With ``standing``, a free object is measured in its authored frame (its own z axis up, as it
+    stands in a rack's hole) instead of the pose it rests in on a bench (a conical tube lies on its
+    side); ``semantics["upright"]`` then says it stands.
+    """
     entry = load_asset_library().get(asset_id)
     semantics = entry.semantics()
     free = entry.category in FREE_CATEGORIES
@@ -112,6 +119,9 @@ def measure_asset(asset_id: str, joint_values: tuple[tuple[str, float], ...] = (
     model = spec.compile()
     data = mujoco.MjData(model)
     rest = semantics.get("rest_quat") or [1.0, 0.0, 0.0, 0.0]
+    if standing and free:
+        rest = [1.0, 0.0, 0.0, 0.0]
+        semantics = {**semantics, "upright": True}
     if free and model.njnt and int(model.jnt_type[0]) == int(mujoco.mjtJoint.mjJNT_FREE):
         data.qpos[3:7] = rest
     joints: dict[str, JointInfo] = {}

@@ -402,8 +402,8 @@ class SceneBuilder:
             site = self.pick_slot(source, sgeom)
             local = sgeom.sites[site]
             pos = (r(holder.pos[0] + local[0]), r(holder.pos[1] + local[1]), r(holder.pos[2] + local[2] + 0.001, 4))
-            euler = (0.0, 0.0, 0.0)
-            boxes = measure_asset(self.checked.asset(name)).boxes
+            euler = (0.0, 0.0, 0.0)  # standing in its hole, whatever pose it rests in on a bench
+            boxes = measure_asset(self.checked.asset(name), standing=True).boxes
         else:
             local = sgeom.sites[site]
             cx, cy = (0.5 * (item.low[:2] + item.high[:2])).tolist()

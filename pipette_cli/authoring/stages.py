@@ -86,7 +86,13 @@ class StageBuilder:
         self.held_at: dict[str, tuple[str, str]] = dict(scene.out.start_site)  # item -> (holder, site) now
 
     def geom(self, name: str) -> AssetGeometry:
-        return measure_asset(self.placed[name].asset)
+        """``name``'s geometry in the pose it starts in, which the skills keep while carrying it: an
+        object that rests lying on a bench but starts standing in a rack (a conical tube) is
+        measured standing, so a criterion for where it is set down expects it standing."""
+        placed = self.placed[name]
+        rest = measure_asset(placed.asset)
+        standing = rest.free and rest.rest_euler_deg != (0.0, 0.0, 0.0) and placed.euler_deg == (0.0, 0.0, 0.0)
+        return measure_asset(placed.asset, standing=True) if standing else rest
 
     def human(self, name: str) -> str:
         return self.scene.human(name)

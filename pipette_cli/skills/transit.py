@@ -16,6 +16,7 @@ from pipette_cli.skills.moves import (
     CLEARANCE,
     COVER_ROOM,
     FINAL_APPROACH,
+    FINE_SPEED,
     FREE_TOLERANCE,
     HAND_HEIGHT,
     TRANSIT_SPEED,
@@ -29,6 +30,10 @@ if TYPE_CHECKING:
     from pipette_cli.skills.runtime import SkillContext
 
 log = logging.getLogger(__name__)
+
+SETTLE_TOLERANCE = 0.001
+"""Metres the tcp may stand from its planned pose after :func:`settle`."""
+SETTLE_TRIES = 2
 
 
 def transit(
@@ -306,6 +311,24 @@ def lift_clear(
             continue
         yield move
         return
+
+
+def settle(ctx: SkillContext, seconds: float, *, what: str, vertical: bool = True) -> Iterator[Move]:
+    """Hold still ``seconds``, then bring the tcp to where the last move planned it: a position servo
+    under gravity stops a few millimetres short of its target (an outstretched arm sags), so a held
+    object is set down off the spot planned. The target is moved by the error measured, up to
+    :data:`SETTLE_TRIES` times, until the tcp is within :data:`SETTLE_TOLERANCE` of the plan;
+    without ``vertical`` only sideways (what the hand holds stays pressed on the surface under it)."""
+    goal, rot = ctx.pos.copy(), ctx.rot
+    yield ctx.hold(seconds)
+    for _ in range(SETTLE_TRIES):
+        error = goal - ctx.world.tcp_position()
+        if not vertical:
+            error[2] = 0.0
+        if float(np.linalg.norm(error)) < SETTLE_TOLERANCE:
+            break
+        yield ctx.move(ctx.pos + error, rot, speed=FINE_SPEED, what=what)
+        yield ctx.hold(seconds)
 
 
 def withdraw(ctx: SkillContext, distance: float) -> Iterator[Move]:

@@ -196,3 +196,16 @@ def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) 
     monkeypatch.setattr(Layout, "place", lambda self, footprint, z: None)
     with pytest.raises(PlanError, match="no place for the 15 mL conical tube rack"):
         drafted("Pick up the 15 mL falcon tube")
+
+
+def test_a_tube_that_starts_standing_in_a_rack_is_judged_standing_where_it_is_set_down() -> None:
+    # a 50 mL conical tube rests lying on a bench, so it starts standing in a rack; the expert carries
+    # it upright and stands it on the pan, so the criterion must not expect its lying middle there
+    d = drafted("Put the 50 mL conical tube on the balance")
+    assert d.spec.object("tube_rack") is not None
+    s = d.spec.success
+    standing = measure_asset("conical_tube_50ml", standing=True)
+    assert standing.height > 0.1 and standing.semantics["upright"]
+    assert s.object == "tube" and s.max_tilt_deg == 15.0
+    assert s.within.radius == pytest.approx(0.5 * 0.13 / 2)  # its 33 mm footprint leaves the paper's disc
+    assert s.z.max == pytest.approx(0.55 + 0.09 + 0.03)  # its base on the pan, not its middle 57 mm up

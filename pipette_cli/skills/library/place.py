@@ -17,6 +17,7 @@ from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_fr
 from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Held, Move, SkillFailure, fmt
 from pipette_cli.skills.runtime import SkillContext, skill
+from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
 
 log = logging.getLogger(__name__)
@@ -30,6 +31,8 @@ SHIFTS = 8
 """Where the exact spot is out of reach, how far (steps of SHIFT_STEP) toward the robot a placement
 may move while staying on the same surface."""
 RELEASE_S = 0.4
+SETTLE_S = 0.2
+"""Seconds the arm holds still where it sets an object down before its tcp is corrected."""
 
 
 def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool = True) -> np.ndarray:
@@ -87,6 +90,9 @@ def put_down(
         yield ctx.move(tool_pos, tool_rot, speed=FINE_SPEED, what=f"setting {name!r} down")
         if not release:
             return
+        # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
+        # the air, the fingers springing open throw a light object
+        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down", vertical=False)
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.held = None
         with ctx.touching(ctx.scene.bodies(name)):
