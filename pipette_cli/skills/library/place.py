@@ -92,7 +92,7 @@ def put_down(
             return
         # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
         # the air, the fingers springing open throw a light object
-        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down", vertical=False)
+        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down")
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.held = None
         with ctx.touching(ctx.scene.bodies(name)):
