@@ -21,7 +21,7 @@ FINE_SPEED = 0.05
 TURN_SPEED = 1.6
 """rad/s of the tool's rotation."""
 MIN_SECONDS = 0.2
-MAX_SWING = 0.3
+MAX_SWING = 0.2
 """Radians a held object may turn away from the straight (slerped) rotation on a joint-space move."""
 FREE_TOLERANCE = 0.015
 """Metres a waypoint through free space may be missed by (what matters there is clearance)."""
