@@ -348,15 +348,15 @@ class StageBuilder:
         else:
             bound = shut_bound(joint)
             note = f"VERIFY: within {SHUT_TOLERANCE[joint.kind]:g} {joint.unit} of shut (0)"
+        release = self.scene.release(name, geom, joint)
         criterion = ev.JointThresholdSpec(
             joint=ref,
             bound=bound,
             unit="m" if joint.kind == "slide" else "deg",
             hold_s=hold,
-            timeout_s=self.timeout(10),
+            timeout_s=self.timeout(20 if opening and joint.kind != "slide" and release is None else 10),  # by hand
         )
         handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
-        release = self.scene.release(name, geom, joint)
         if release is not None and opening:  # a latched lid (a centrifuge's): its release pops it open
             motor = motorised(name, joint, "button", release)
             goal = r(0.75 * release)  # it creeps back a few degrees on its friction once let go

@@ -43,6 +43,8 @@ FOLLOW = (1.0, 0.5, 0.0)
 PULL_STEP = 8.0
 """Degrees per move while pulling a handle along its arc (the joint is read after each)."""
 SETTLED_RAD_S = 0.05
+TIP_PITCHES = (0.0, 30.0)
+"""Degrees below the horizon a hand pushing with its fingertips points, in the order tried."""
 
 
 @dataclass(frozen=True)
@@ -153,34 +155,52 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     sign = float(np.sign(goal - hinge.angle))
     angle0 = hinge.angle
     overshoot = goal + sign * 2.0
-    off = STANDOFF + thickness
+    fingers = ctx.robot.gripper
+    gap = STANDOFF - 0.5 * fingers.finger_thickness
+    """Metres between the fingers and the face at the push's standoff."""
+    room = (hinge.high - overshoot) if sign > 0 else (overshoot - hinge.low)
+    length = float(np.linalg.norm(edge - hinge.anchor))
 
     def push_point(reach: float, angle: float, standoff: float) -> np.ndarray:
         p = hinge.point(hinge.anchor + reach * (edge - hinge.anchor), angle0, angle)
         return p - standoff * hinge.motion(p, sign)
 
-    def sweep(reach: float, start: float) -> list[np.ndarray]:
+    def sweep(candidate: tuple[float, float, bool], start: float) -> list[np.ndarray]:
+        reach, _, tips = candidate
         behind = min(max(start - sign * 4.0, hinge.low), hinge.high)  # a little behind the part as it stands
-        return [push_point(reach, float(a), off) for a in np.linspace(behind, overshoot, 8)]
+        # the fingers trail the tcp by the gap: sweep on by that much where the range leaves room (a lid
+        # lifted against its weight stays where the fingers leave it)
+        end = overshoot + sign * max(0.0, min(np.rad2deg(gap / (reach * length)), room))
+        off = thickness + gap + (fingers.fingertip if tips else 0.5 * fingers.finger_thickness)
+        return [push_point(reach, float(a), off) for a in np.linspace(behind, end, 8)]
 
-    def frame(reach: float, pitch: float) -> np.ndarray:
+    def frame(candidate: tuple[float, float, bool]) -> np.ndarray:
+        reach, pitch, tips = candidate
         p = push_point(reach, angle0, 0.0)
+        if tips:  # the fingertips first along the push: the wrist stays back from the part's face
+            return pitched_frame(hinge.motion(p, sign), pitch)
         if pitch >= 89.9:
             closing = np.cross(hinge.motion(p, sign), UP)
             return down_frame(closing if np.linalg.norm(closing[:2]) > 0.1 else hinge.axis)
         return pitched_frame(p - ctx.base, pitch)
 
-    def approach_of(candidate: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-        first = sweep(candidate[0], angle0)[0]
-        return first - 0.05 * hinge.motion(first, sign) + 0.02 * UP, frame(*candidate)
+    def approach_of(candidate: tuple[float, float, bool]) -> tuple[np.ndarray, np.ndarray]:
+        first = sweep(candidate, angle0)[0]
+        return first - 0.05 * hinge.motion(first, sign) + 0.02 * UP, frame(candidate)
 
-    def poses(candidate: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray]]:
-        rot = frame(*candidate)
-        points = sweep(candidate[0], angle0)
+    def poses(candidate: tuple[float, float, bool]) -> list[tuple[np.ndarray, np.ndarray]]:
+        rot = frame(candidate)
+        points = sweep(candidate, angle0)
         return [approach_of(candidate), *((p, rot) for p in points[::2]), (points[-1], rot)]
 
-    candidates = [(reach, pitch) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
+    # the side of the closed fingers, the hand pitched down; where none reaches (the wrist would touch a
+    # door's face, a lid far out), the fingertips first along the push
+    candidates = [(reach, pitch, False) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
+    tips = [(reach, pitch, True) for reach in PUSH_REACHES for pitch in TIP_PITCHES]
     chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
+    if chosen is None:
+        chosen = ctx.choose(tips, poses, via=approach_of, touch=moving)
+        candidates += tips
     if chosen is None:
         if not any(ctx.reachable(*poses(c)[1]) for c in candidates):
             edge_now = push_point(PUSH_REACHES[0], angle0, 0.0)
@@ -190,11 +210,10 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
                 "pose reaches it"
             )
         raise SkillFailure(f"no reachable way to push {joint!r} to {goal:.0f} deg without touching anything else")
-    reach, pitch = chosen
-    rot = frame(reach, pitch)
+    rot = frame(chosen)
     start = angle0
     for attempt in range(MAX_PASSES):
-        points = sweep(reach, start)
+        points = sweep(chosen, start)
         approach = (
             approach_of(chosen)[0] if attempt == 0 else points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP
         )
@@ -284,11 +303,18 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
         tcp0, rot0 = ctx.pos.copy(), ctx.rot.copy()
         with ctx.touching(moving):
             for target in targets:
-                pos, rot = pull_pose(tcp0, rot0, target, follow)
-                try:
-                    move = ctx.move(pos, rot, speed=FINE_SPEED * 3, what=f"opening {step.joint!r}")
-                except SkillFailure as exc:
-                    log.debug("pulling %s stops at %.0f deg: %s", step.joint, ctx.world.joint(step.joint), exc)
+                # the hand turns with the handle as far as the arm lets it (less from here on where not)
+                move = None
+                for f in (x for x in FOLLOW if x <= follow):
+                    pos, rot = pull_pose(tcp0, rot0, target, f)
+                    try:
+                        move = ctx.move(pos, rot, speed=FINE_SPEED * 3, what=f"opening {step.joint!r}")
+                    except SkillFailure as exc:
+                        log.debug("pulling %s stops at %.0f deg: %s", step.joint, ctx.world.joint(step.joint), exc)
+                        continue
+                    follow = f
+                    break
+                if move is None:
                     break  # the arm cannot follow further: let go and push the rest
                 yield move
                 if abs(ctx.world.joint(step.joint) - target) > 15.0:
