@@ -19,49 +19,31 @@ saying where every derived number comes from.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from pipette_cli.authoring.fit import check_hole_fit, fit_radius
-from pipette_cli.authoring.layout import Footprint, PlacedObject
+from pipette_cli.authoring.hatch_stages import HatchStages
+from pipette_cli.authoring.layout import Footprint
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
-from pipette_cli.authoring.plan import PlanError, PlanStepSpec, PlanThresholdsSpec
+from pipette_cli.authoring.plan import PlanError, PlanStepSpec
 from pipette_cli.authoring.scene import (
-    HANDLES,
-    SceneBuilder,
     covered,
     hatch_joint,
     open_value,
     r,
     receiving_site,
 )
-from pipette_cli.authoring.validate import separate_lid
+from pipette_cli.authoring.stage_base import Stage
 from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
-from pipette_cli.specs.mechanisms import ButtonReleaseSpec, InstrumentSpec
+from pipette_cli.specs.mechanisms import ButtonReleaseSpec
 
 SLOTS = ("cuvette_slot",)
 """Receptacles an object goes *into* (``insert_into``); the others are surfaces it is set on."""
 DEEP = 0.05
 """Metres a container's walls rise above its floor site for objects to be dropped in rather than set down."""
-
-
-@dataclass
-class Stage:
-    """One step as a criterion and the skills that satisfy it."""
-
-    step: PlanStepSpec
-    criterion: ev.EvaluatorSpec
-    program: list[sk.StepSpec]
-    comments: dict[str, str] = field(default_factory=dict)  # criterion field path -> comment
-    targets: list[str] = field(default_factory=list)
-    mechanisms: list[ButtonReleaseSpec] = field(default_factory=list)
-    instruments: list[InstrumentSpec] = field(default_factory=list)
-    """Motorised lids and drawers the stage works with their button (one per instrument and task)."""
 
 
 def _reference(name: str, geom: AssetGeometry) -> tuple[str, float]:
@@ -72,38 +54,8 @@ def _reference(name: str, geom: AssetGeometry) -> tuple[str, float]:
     return name, geom.origin_height
 
 
-class StageBuilder:
+class StageBuilder(HatchStages):
     """Turns the steps of a laid-out plan into stages (see the module docstring)."""
-
-    def __init__(self, scene: SceneBuilder, thresholds: PlanThresholdsSpec, multi: bool) -> None:
-        self.scene = scene
-        self.checked = scene.checked
-        self.placed: dict[str, PlacedObject] = scene.out.placed
-        self.th = thresholds
-        self.multi = multi
-        self.ws = scene.ws
-        self.bench = scene.ws.bench_z
-        self.held_at: dict[str, tuple[str, str]] = dict(scene.out.start_site)  # item -> (holder, site) now
-
-    def geom(self, name: str) -> AssetGeometry:
-        """``name``'s geometry in the pose it starts in, which the skills keep while carrying it: an
-        object that rests lying on a bench but starts standing in a rack (a conical tube) is
-        measured standing, so a criterion for where it is set down expects it standing."""
-        placed = self.placed[name]
-        rest = measure_asset(placed.asset)
-        standing = rest.free and rest.rest_euler_deg != (0.0, 0.0, 0.0) and placed.euler_deg == (0.0, 0.0, 0.0)
-        return measure_asset(placed.asset, standing=True) if standing else rest
-
-    def human(self, name: str) -> str:
-        return self.scene.human(name)
-
-    def hold(self, default: float) -> float:
-        return self.th.hold_s if self.th.hold_s is not None and not self.multi else default
-
-    def timeout(self, default: float) -> float | None:
-        if self.multi:
-            return default
-        return self.th.timeout_s or default
 
     def build(self, step: PlanStepSpec) -> Stage:
         stage: Stage = getattr(self, f"_{step.action}")(step)
@@ -323,115 +275,6 @@ class StageBuilder:
         program: list[sk.StepSpec] = [sk.RemoveFromSpec(object=item, source=source, to=target, hold_s=0.2)]
         self.held_at.pop(item, None)
         return Stage(step, criterion, program, comments, [item, source])
-
-    # ------------------------------------------------------------------ open / close
-    def _open(self, step: PlanStepSpec) -> Stage:
-        return self._hatch(step, opening=True)
-
-    def _close(self, step: PlanStepSpec) -> Stage:
-        return self._hatch(step, opening=False)
-
-    def _hatch(self, step: PlanStepSpec, opening: bool) -> Stage:
-        name = step.object
-        geom = measure_asset(self.placed[name].asset)
-        if not geom.joints and separate_lid(geom):
-            return self._lift_off_lid(step, geom, opening)
-        joint = hatch_joint(geom, step.part, self.human(name))
-        limit = joint.open_limit
-        sign = 1.0 if limit > 0 else -1.0
-        ref = f"{name}/{joint.name}"
-        hold = self.hold(0.5)
-        if opening:
-            goal = r(0.75 * limit)
-            bound = BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)
-            note = f"VERIFY: open past 75 % of the {limit:g} {joint.unit} limit"
-        else:
-            bound = shut_bound(joint)
-            note = f"VERIFY: within {SHUT_TOLERANCE[joint.kind]:g} {joint.unit} of shut (0)"
-        release = self.scene.release(name, geom, joint)
-        criterion = ev.JointThresholdSpec(
-            joint=ref,
-            bound=bound,
-            unit="m" if joint.kind == "slide" else "deg",
-            hold_s=hold,
-            timeout_s=self.timeout(20 if opening and joint.kind != "slide" and release is None else 10),  # by hand
-        )
-        handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
-        if release is not None and opening:  # a latched lid (a centrifuge's): its release pops it open
-            motor = motorised(name, joint, "button", release)
-            goal = r(0.75 * release)  # it creeps back a few degrees on its friction once let go
-            criterion = criterion.model_copy(update={"bound": BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)})
-            ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
-            program: list[sk.StepSpec] = [
-                sk.PressSpec(button=f"{name}/button"),
-                sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
-            ]
-            comments = {
-                "bound": f"VERIFY: open past 75 % of the {release:g} deg its release opens it to",
-                "": "the lid is latched: its release button opens it",
-            }
-            return Stage(step, criterion, program, comments, [name], instruments=[motor])
-        button = motor_button(geom, joint)
-        if button is not None:  # a motorised lid or drawer (a thermal cycler's, a plate reader's): its button
-            motor = motorised(name, joint, button)
-            ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
-            program = [
-                sk.PressSpec(button=f"{name}/{button}"),
-                sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
-            ]
-            comments = {
-                "bound": note,
-                "": f"the {joint.name.split('_')[0]} is motorised: its {button} drives it (a toggle)",
-            }
-            return Stage(step, criterion, program, comments, [name], instruments=[motor])
-        if joint.kind == "slide":
-            skill: sk.StepSpec = sk.SlideSpec(
-                joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3
-            )
-        elif opening:
-            skill = sk.OpenHingeSpec(
-                joint=ref, to_deg=r(0.75 * limit + 3.0 * sign, 1), handle=handle, hold_s=hold + 0.3
-            )
-        else:
-            skill = sk.CloseHingeSpec(joint=ref, hold_s=hold + 0.3)
-        return Stage(step, criterion, [skill], {"bound": note}, [name])
-
-    def _lift_off_lid(self, step: PlanStepSpec, geom: AssetGeometry, opening: bool) -> Stage:
-        name = step.object
-        lid = self.scene.out.lids.get(name)
-        if lid is None:
-            raise PlanError(f"the {self.human(name)}'s lid must be opened or closed once per task")
-        lid_geom = self.geom(lid)
-        handle = f"{lid}/lid_handle" if "lid_handle" in lid_geom.sites else None
-        seat = geom.sites["lid_seat"]
-        if opening:
-            depth = r(2 * lid_geom.half_xy[0], 2)
-            criterion: ev.EvaluatorSpec = ev.DisplacementSpec(
-                object=lid,
-                delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),
-                hold_s=self.hold(0.3),
-                timeout_s=self.timeout(15),
-            )
-            comments = {
-                "delta": f"lifted 10 cm (paper A.8) and drawn toward the robot by its own depth ({depth * 1000:.0f} mm)"
-            }
-            program: list[sk.StepSpec] = [
-                sk.PickSpec(object=lid, at=handle, lift=0.14),
-                sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0),
-            ]
-        else:
-            z = self.placed[name].pos[2] + seat[2]
-            criterion = ev.RegionHoldSpec(
-                object=lid,
-                within=ev.CircleSpec(center=f"{name}/lid_seat", radius=0.015),
-                z=BoundSpec(min=r(z - 0.015), max=r(z + 0.015)),
-                max_tilt_deg=5.0,
-                hold_s=self.hold(0.5),
-                timeout_s=self.timeout(20),
-            )
-            comments = {"z": "VERIFY: seated on the rim (lid_seat site height)"}
-            program = [sk.PickSpec(object=lid, at=handle), sk.PlaceOnSpec(object=lid, target=f"{name}/lid_seat")]
-        return Stage(step, criterion, program, comments, [lid, name])
 
     # ------------------------------------------------------------------ press
     def _press(self, step: PlanStepSpec) -> Stage:

@@ -1,0 +1,135 @@
+"""Stages that open or close an instrument: a hinge or slide by hand, a latched lid by its release,
+a motorised lid or drawer by its button, a lift-off lid by its handle (table in :mod:`.stages`)."""
+
+from __future__ import annotations
+
+from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
+from pipette_cli.authoring.plan import PlanError, PlanStepSpec
+from pipette_cli.authoring.scene import HANDLES, hatch_joint, r
+from pipette_cli.authoring.stage_base import Stage, StageBase
+from pipette_cli.authoring.validate import separate_lid
+from pipette_cli.specs import evaluators as ev
+from pipette_cli.specs import expert as sk
+from pipette_cli.specs.base import BoundSpec
+from pipette_cli.specs.mechanisms import InstrumentSpec
+
+
+class HatchStages(StageBase):
+    """The open and close stages of :class:`~pipette_cli.authoring.stages.StageBuilder`."""
+
+    def _open(self, step: PlanStepSpec) -> Stage:
+        return self._hatch(step, opening=True)
+
+    def _close(self, step: PlanStepSpec) -> Stage:
+        return self._hatch(step, opening=False)
+
+    def _hatch(self, step: PlanStepSpec, opening: bool) -> Stage:
+        name = step.object
+        geom = measure_asset(self.placed[name].asset)
+        if not geom.joints and separate_lid(geom):
+            return self._lift_off_lid(step, geom, opening)
+        joint = hatch_joint(geom, step.part, self.human(name))
+        limit = joint.open_limit
+        sign = 1.0 if limit > 0 else -1.0
+        ref = f"{name}/{joint.name}"
+        hold = self.hold(0.5)
+        if opening:
+            goal = r(0.75 * limit)
+            bound = BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)
+            note = f"VERIFY: open past 75 % of the {limit:g} {joint.unit} limit"
+        else:
+            bound = shut_bound(joint)
+            note = f"VERIFY: within {SHUT_TOLERANCE[joint.kind]:g} {joint.unit} of shut (0)"
+        release = self.scene.release(name, geom, joint)
+        criterion = ev.JointThresholdSpec(
+            joint=ref,
+            bound=bound,
+            unit="m" if joint.kind == "slide" else "deg",
+            hold_s=hold,
+            timeout_s=self.timeout(20 if opening and joint.kind != "slide" and release is None else 10),  # by hand
+        )
+        handle = next((f"{name}/{h}" for h in HANDLES if h in geom.sites and h.split("_")[0] in joint.name), None)
+        if release is not None and opening:  # a latched lid (a centrifuge's): its release pops it open
+            goal = r(0.75 * release)  # it creeps back a few degrees on its friction once let go
+            criterion = criterion.model_copy(update={"bound": BoundSpec(min=goal) if sign > 0 else BoundSpec(max=goal)})
+            comments = {
+                "bound": f"VERIFY: open past 75 % of the {release:g} deg its release opens it to",
+                "": "the lid is latched: its release button opens it",
+            }
+            return _by_button(step, criterion, motorised(name, joint, "button", release), "button", comments, hold)
+        button = motor_button(geom, joint)
+        if button is not None:  # a motorised lid or drawer (a thermal cycler's, a plate reader's): its button
+            comments = {
+                "bound": note,
+                "": f"the {joint.name.split('_')[0]} is motorised: its {button} drives it (a toggle)",
+            }
+            return _by_button(step, criterion, motorised(name, joint, button), button, comments, hold)
+        if joint.kind == "slide":
+            skill: sk.StepSpec = sk.SlideSpec(
+                joint=ref, to="open" if opening else "closed", handle=handle, hold_s=hold + 0.3
+            )
+        elif opening:
+            skill = sk.OpenHingeSpec(
+                joint=ref, to_deg=r(0.75 * limit + 3.0 * sign, 1), handle=handle, hold_s=hold + 0.3
+            )
+        else:
+            skill = sk.CloseHingeSpec(joint=ref, hold_s=hold + 0.3)
+        return Stage(step, criterion, [skill], {"bound": note}, [name])
+
+    def _lift_off_lid(self, step: PlanStepSpec, geom: AssetGeometry, opening: bool) -> Stage:
+        name = step.object
+        lid = self.scene.out.lids.get(name)
+        if lid is None:
+            raise PlanError(f"the {self.human(name)}'s lid must be opened or closed once per task")
+        lid_geom = self.geom(lid)
+        handle = f"{lid}/lid_handle" if "lid_handle" in lid_geom.sites else None
+        seat = geom.sites["lid_seat"]
+        if opening:
+            depth = r(2 * lid_geom.half_xy[0], 2)
+            criterion: ev.EvaluatorSpec = ev.DisplacementSpec(
+                object=lid,
+                delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),
+                hold_s=self.hold(0.3),
+                timeout_s=self.timeout(15),
+            )
+            comments = {
+                "delta": f"lifted 10 cm (paper A.8) and drawn toward the robot by its own depth ({depth * 1000:.0f} mm)"
+            }
+            program: list[sk.StepSpec] = [
+                sk.PickSpec(object=lid, at=handle, lift=0.14),
+                sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0),
+            ]
+        else:
+            z = self.placed[name].pos[2] + seat[2]
+            criterion = ev.RegionHoldSpec(
+                object=lid,
+                within=ev.CircleSpec(center=f"{name}/lid_seat", radius=0.015),
+                z=BoundSpec(min=r(z - 0.015), max=r(z + 0.015)),
+                max_tilt_deg=5.0,
+                hold_s=self.hold(0.5),
+                timeout_s=self.timeout(20),
+            )
+            comments = {"z": "VERIFY: seated on the rim (lid_seat site height)"}
+            program = [sk.PickSpec(object=lid, at=handle), sk.PlaceOnSpec(object=lid, target=f"{name}/lid_seat")]
+        return Stage(step, criterion, program, comments, [lid, name])
+
+
+def _by_button(
+    step: PlanStepSpec,
+    criterion: ev.EvaluatorSpec,
+    motor: InstrumentSpec,
+    button: str,
+    comments: dict[str, str],
+    hold: float,
+) -> Stage:
+    """Press the instrument's ``button`` and wait for its motor to move the part (and the hold)."""
+    ramp = motor.motor.ramp_s if motor.motor is not None else 1.5
+    program: list[sk.StepSpec] = [
+        sk.PressSpec(button=f"{step.object}/{button}"),
+        sk.WaitSpec(seconds=r(ramp + hold + 0.5, 1)),
+    ]
+    return Stage(step, criterion, program, comments, [step.object], instruments=[motor])
+
+
+__all__ = ["HatchStages"]

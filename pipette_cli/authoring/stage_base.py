@@ -1,0 +1,65 @@
+"""A stage (one plan step as a criterion and the skills that satisfy it) and what every stage
+builder reads: the laid-out scene, the plan's thresholds and each object's geometry."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from pipette_cli.authoring.layout import PlacedObject
+from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.plan import PlanStepSpec, PlanThresholdsSpec
+from pipette_cli.authoring.scene import SceneBuilder
+from pipette_cli.specs import evaluators as ev
+from pipette_cli.specs import expert as sk
+from pipette_cli.specs.mechanisms import ButtonReleaseSpec, InstrumentSpec
+
+
+@dataclass
+class Stage:
+    """One step as a criterion and the skills that satisfy it."""
+
+    step: PlanStepSpec
+    criterion: ev.EvaluatorSpec
+    program: list[sk.StepSpec]
+    comments: dict[str, str] = field(default_factory=dict)  # criterion field path -> comment
+    targets: list[str] = field(default_factory=list)
+    mechanisms: list[ButtonReleaseSpec] = field(default_factory=list)
+    instruments: list[InstrumentSpec] = field(default_factory=list)
+    """Motorised lids and drawers the stage works with their button (one per instrument and task)."""
+
+
+class StageBase:
+    """The scene, thresholds and geometry lookups the stage builders share."""
+
+    def __init__(self, scene: SceneBuilder, thresholds: PlanThresholdsSpec, multi: bool) -> None:
+        self.scene = scene
+        self.checked = scene.checked
+        self.placed: dict[str, PlacedObject] = scene.out.placed
+        self.th = thresholds
+        self.multi = multi
+        self.ws = scene.ws
+        self.bench = scene.ws.bench_z
+        self.held_at: dict[str, tuple[str, str]] = dict(scene.out.start_site)  # item -> (holder, site) now
+
+    def geom(self, name: str) -> AssetGeometry:
+        """``name``'s geometry in the pose it starts in, which the skills keep while carrying it: an
+        object that rests lying on a bench but starts standing in a rack (a conical tube) is
+        measured standing, so a criterion for where it is set down expects it standing."""
+        placed = self.placed[name]
+        rest = measure_asset(placed.asset)
+        standing = rest.free and rest.rest_euler_deg != (0.0, 0.0, 0.0) and placed.euler_deg == (0.0, 0.0, 0.0)
+        return measure_asset(placed.asset, standing=True) if standing else rest
+
+    def human(self, name: str) -> str:
+        return self.scene.human(name)
+
+    def hold(self, default: float) -> float:
+        return self.th.hold_s if self.th.hold_s is not None and not self.multi else default
+
+    def timeout(self, default: float) -> float | None:
+        if self.multi:
+            return default
+        return self.th.timeout_s or default
+
+
+__all__ = ["Stage", "StageBase"]
