@@ -146,19 +146,11 @@ def test_close_hinge_shuts_lids(task_id: str, joint: str) -> None:
     assert abs(world.joint(joint)) < 4
 
 
-@pytest.mark.parametrize(
-    ("task_id", "joint", "opened"),
-    [
-        # a flush lid on a horizontal hinge, pulled up by its front ridge and pushed on past upright
-        ("skills/OpenSpectroLid-v1", "spectro/lid_hinge", 85.0),
-        # a door on a vertical hinge, pulled by its bar as far as the arm follows (the hand turning less
-        # with it on the way), then pushed open with the fingertips on its inner face
-        ("skills/OpenIncubatorDoor-v1", "incubator/door_hinge", 60.0),
-    ],
-)
-def test_open_hinge_opens_a_lid_and_a_door(task_id: str, joint: str, opened: float) -> None:
-    world, _ = run(task_id)
-    assert world.joint(joint) > opened
+def test_open_hinge_pulls_a_door_and_pushes_it_open() -> None:
+    """A door on a vertical hinge, pulled by its bar as far as the arm follows (the hand turning less
+    with it on the way), then pushed open with the fingertips on its inner face."""
+    world, _ = run("skills/OpenIncubatorDoor-v1")
+    assert world.joint("incubator/door_hinge") > 60.0
 
 
 def test_press_fires_the_release_of_two_centrifuges() -> None:
