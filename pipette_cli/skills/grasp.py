@@ -111,9 +111,7 @@ def plan_grasp(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"
         )
-    bar = _grip_geom(ctx, name, point, at) if at is not None and not round_ else None
-    if bar is not None and np.linalg.norm(bar[0] - point) > SITE_SLACK:
-        bar = None  # the plate a flush site sits on the edge of, not a bar
+    bar = _at_site(_grip_geom(ctx, name, point, at), point) if at is not None and not round_ else None
     return _first_reachable(
         ctx,
         name,
@@ -223,6 +221,12 @@ def _grip_geom(
     return None if best is None else (best[1], best[2])
 
 
+def _at_site(grip: tuple[np.ndarray, np.ndarray] | None, site: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """``grip`` (a :func:`_grip_geom` found at a named site), or ``None`` where its centre lies more than
+    :data:`SITE_SLACK` from the site: the plate a flush site sits on the edge of, not a handle."""
+    return grip if grip is not None and np.linalg.norm(grip[0] - site) <= SITE_SLACK else None
+
+
 def _local_closing(
     ctx: SkillContext, name: str, point: np.ndarray, shape: Shape, site: str | None = None
 ) -> tuple[np.ndarray, float, bool]:
@@ -257,9 +261,8 @@ def _side_candidates(ctx: SkillContext, name: str, at: str) -> list[Grasp]:
         closing = UP.copy()  # a grip wider than tall (a lid's front lip): the fingers close above and below it
     else:
         closing = across  # a bar standing up (a door's handle): the fingers close round it sideways
-    # centred on the grip's cross-section; a "grip" whose centre is far from the site is the plate the
-    # site sits on the edge of (a flush lid), not a handle: then the site itself
-    center = point if grip is None or np.linalg.norm(grip[0] - point) > SITE_SLACK else grip[0]
+    handle = _at_site(grip, point)
+    center = point if handle is None else handle[0]  # centred on the grip's cross-section
     out = []
     for tilt in (0.0, 20.0, -20.0):
         approach = np.cos(np.deg2rad(tilt)) * -normal - np.sin(np.deg2rad(tilt)) * UP

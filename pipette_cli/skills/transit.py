@@ -258,16 +258,14 @@ def _feasible(
                 target, solution = ctx.solve_flip(point, target, q, best=True)
             if solution.ok(tolerance) and ctx.clear_path(q, solution.qpos):
                 turned = turned or not keep
-                if final and precise:  # slow, so followed as a straight tool line where the arm can
+                slow = final and precise
+                joints = False
+                if slow and ctx.held is None:  # followed as a straight tool line where the arm can, else
+                    # through joint space (an empty hand only: what it holds would swing on the arc)
                     begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
-                    # (an empty hand only: what the hand holds swings on a joint-space arc)
-                    line = ctx.straight_line(begin, point, target, tolerance) if ctx.held is None else None
-                    joints = ctx.held is None and line is None
-                    q, current = solution.qpos, target
-                    out.append(Leg(point, target, q, APPROACH_SPEED, joints=joints))
-                    break
+                    joints = ctx.straight_line(begin, point, target, tolerance) is None
                 q, current = solution.qpos, target
-                out.append(Leg(point, target, q, TRANSIT_SPEED))
+                out.append(Leg(point, target, q, APPROACH_SPEED if slow else TRANSIT_SPEED, joints=joints))
                 break
         else:
             return None

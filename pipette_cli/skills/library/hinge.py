@@ -156,8 +156,7 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     angle0 = hinge.angle
     overshoot = goal + sign * 2.0
     fingers = ctx.robot.gripper
-    gap = STANDOFF - 0.5 * fingers.finger_thickness
-    """Metres between the fingers and the face at the push's standoff."""
+    gap = STANDOFF - 0.5 * fingers.finger_thickness  # metres between the fingers and the face at the standoff
     room = (hinge.high - overshoot) if sign > 0 else (overshoot - hinge.low)
     length = float(np.linalg.norm(edge - hinge.anchor))
 
