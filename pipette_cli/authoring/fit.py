@@ -73,6 +73,8 @@ def fit_radius(igeom: AssetGeometry, dgeom: AssetGeometry, site: str, *, item: s
             f"impossible request: the {item} weighs {mass:.2f} kg, over the {capacity} kg capacity of the {dest}"
         )
     low = 0.01 if site in RECEPTACLES else 0.005
+    if site.startswith("shelf_"):  # anywhere on a shelf is in the instrument (place_on sets an object down
+        return r(max(low, room), 4)  # at the front of a deep shelf where the arm cannot reach in further)
     return r(max(low, min(0.5 * half, room)), 4)
 
 

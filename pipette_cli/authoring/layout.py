@@ -89,6 +89,8 @@ class Footprint:
     margin: float = 0.0  # extra clearance (randomisation amplitude)
     pressed: bool = False  # a front-panel button is pressed: keep the front at press_front
     origin_in_reach: bool = True  # the scene check wants the origin of a task target within reach
+    start_boxes: np.ndarray | None = None  # its boxes as the task starts (default: ``boxes``); only
+    # these must clear the robot's home pose: the arm is elsewhere when a door or lid moves later
 
 
 class Layout:
@@ -96,10 +98,9 @@ class Layout:
 
     def __init__(self, robot: str) -> None:
         self.workspace = Workspace.of(robot)
-        self.obstacles = robot_boxes(robot).copy()
-        self.obstacles = self.obstacles[
-            self.obstacles[:, 5] > BENCH_Z + 0.002
-        ]  # parts below the bench top never collide
+        arm = robot_boxes(robot)
+        self.robot = arm[arm[:, 5] > BENCH_Z + 0.002]  # parts below the bench top never collide
+        self.obstacles = np.zeros((0, 6))
         xs = np.arange(0.1, BENCH_X[1] + 1e-9, GRID_STEP)
         ys = np.arange(-0.45, 0.45 + 1e-9, GRID_STEP)
         self.grid = np.array([(x, y) for x in xs for y in ys])
@@ -133,11 +134,7 @@ class Layout:
         pad: float,
     ) -> tuple[float, float] | None:
         grid = self.grid
-        boxes = fp.boxes
-        world = np.repeat(boxes[None], len(grid), axis=0).copy()
-        world[:, :, [0, 3]] += grid[:, None, 0:1]
-        world[:, :, [1, 4]] += grid[:, None, 1:2]
-        world[:, :, [2, 5]] += z
+        world = _at_grid(fp.boxes, grid, z)
         lo, hi = world[:, :, :3].min(axis=1), world[:, :, 3:].max(axis=1)
         on_bench = (
             (lo[:, 0] >= BENCH_X[0]) & (hi[:, 0] <= BENCH_X[1]) & (lo[:, 1] >= BENCH_Y[0]) & (hi[:, 1] <= BENCH_Y[1])
@@ -156,14 +153,14 @@ class Layout:
         if away is not None:
             ok &= np.hypot(grid[:, 0] - away[0][0], grid[:, 1] - away[0][1]) >= away[1]
         key = grid + np.asarray((fp.keys or [(0.0, 0.0)])[0])
-        if len(self.obstacles):
-            obs = self.obstacles
-            a_lo = world[ok][:, :, None, :3] - pad
-            a_hi = world[ok][:, :, None, 3:] + pad
-            overlap = np.all((a_lo < obs[None, None, :, 3:]) & (a_hi > obs[None, None, :, :3]), axis=3)
-            clear = ~overlap.any(axis=(1, 2))
-            idx = np.flatnonzero(ok)
-            ok[idx[~clear]] = False
+        start = world if fp.start_boxes is None else _at_grid(fp.start_boxes, grid, z)
+        for mine, obs in ((world, self.obstacles), (start, self.robot)):
+            if len(obs) and ok.any():
+                a_lo = mine[ok][:, :, None, :3] - pad
+                a_hi = mine[ok][:, :, None, 3:] + pad
+                overlap = np.all((a_lo < obs[None, None, :, 3:]) & (a_hi > obs[None, None, :, :3]), axis=3)
+                idx = np.flatnonzero(ok)
+                ok[idx[overlap.any(axis=(1, 2))]] = False
         if not ok.any():
             return None
         cost = np.hypot(key[:, 0] - fp.preferred[0], key[:, 1] - fp.preferred[1])
@@ -182,3 +179,12 @@ class Layout:
         shifted[:, :2] -= margin
         shifted[:, 3:5] += margin
         self.obstacles = np.vstack([self.obstacles, shifted])
+
+
+def _at_grid(boxes: np.ndarray, grid: np.ndarray, z: float) -> np.ndarray:
+    """``boxes`` (n, 6, own frame) placed at every grid point: (len(grid), n, 6)."""
+    world = np.repeat(boxes[None], len(grid), axis=0).copy()
+    world[:, :, [0, 3]] += grid[:, None, 0:1]
+    world[:, :, [1, 4]] += grid[:, None, 1:2]
+    world[:, :, [2, 5]] += z
+    return world

@@ -290,7 +290,8 @@ class SceneBuilder:
             shifted[:, [2, 5]] += seat[2]
             boxes.append(shifted)
         spot = self.layout.place(
-            Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed), self.ws.bench_z
+            Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed, start_boxes=geom.boxes),
+            self.ws.bench_z,
         )
         if spot is None:
             raise self._no_room(name)

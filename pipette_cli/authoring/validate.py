@@ -21,6 +21,8 @@ from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
 from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 
+ROUND = 0.006
+"""Metres within which a flat object's footprint sides count as equal (a dish, not a plate)."""
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 
 
@@ -72,11 +74,14 @@ def resolve_asset(words: str, vocab: Vocabulary) -> str:
 
 def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
     """Metres across the object where the skills' grasp (:mod:`pipette_cli.skills.grasp`) would take
-    it, from its resting collision boxes; None for a flat object, which is pinched at the rim."""
+    it, from its resting collision boxes; None for a flat round object (a dish), which is pinched
+    across a chord near its rim as narrow as the gripper needs. A flat rectangle (a plate, a slide) is
+    pinched across a whole side: its narrower one at best."""
     boxes = geom.boxes
     low, high = geom.low, geom.high
     if float(high[2] - low[2]) < FLAT:
-        return None
+        footprint = high[:2] - low[:2]
+        return None if abs(float(footprint[0] - footprint[1])) < ROUND else float(min(footprint))
     if geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2]):
         return float(min(high[:2] - low[:2]))  # lying: across its long axis
     top = float(high[2])

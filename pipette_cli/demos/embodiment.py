@@ -23,7 +23,8 @@ import numpy as np
 
 from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.errors import InfeasibleTask, SimError, SpecError
-from pipette_cli.sim.scene import collision_boxes, compile_scene, make_scene_spec, robot_boxes
+from pipette_cli.sim.scene import ROBOT_PREFIX, collision_boxes, compile_scene, make_scene_spec, robot_boxes
+from pipette_cli.skills.moves import COVER_ROOM, SHIFT_STEP, SHIFTS
 from pipette_cli.specs.base import PoseSpec
 from pipette_cli.specs.robot import RobotSpec, robot_spec
 from pipette_cli.specs.task import TaskSpec
@@ -40,6 +41,7 @@ MAX_SHIFT = 0.6
 """Farthest the base moves from the task's own base pose, metres."""
 LOW = 0.1
 """Metres over the bench top below which a picked object counts against the hand-down reach."""
+UP = np.array([0.0, 0.0, 1.0])
 HOLDING_SKILLS = ("pick", "remove_from")
 """Skills whose ``object`` the robot carries (its mass counts against the payload)."""
 
@@ -143,7 +145,51 @@ def measure_workspace(task: TaskSpec) -> Workspace:
         if step.skill in HOLDING_SKILLS and name in objects:
             body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, objects[name].root_body)
             carried[name] = float(model.body_subtreemass[body])
+    for step in steps:  # a spot inside an enclosure: set down at its front, through its mouth
+        target, name = getattr(step, "target", None), getattr(step, "object", None)
+        if step.skill == "place_on" and isinstance(target, str) and target in points and isinstance(name, str):
+            if name not in carried:
+                continue
+            held = boxes_of(model, data, owners, name)
+            half = float(np.max(held[:, 3:5] - held[:, :2])) / 2 if len(held) else 0.05
+            front = _enclosure_front(model, data, points[target], np.asarray(task.embodiment.base.pos), half)
+            if front is not None:
+                points[target], points[f"{target} (entry)"] = front
     return Workspace(points, boxes, bench, carried)
+
+
+def boxes_of(model: mujoco.MjModel, data: mujoco.MjData, owners: np.ndarray, name: str) -> np.ndarray:
+    """Collision boxes (n, 6) of scene object ``name``."""
+    return collision_boxes(model, data, np.flatnonzero(owners == name))
+
+
+def _enclosure_front(
+    model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray, base: np.ndarray, half: float
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """For a spot under a roof (a shelf in an incubator), where an object of half-size ``half`` is set
+    down (as near the mouth as ``place_on`` shifts it toward the robot) and where the hand enters,
+    the object clear of the mouth; ``None`` for a spot in the open."""
+    toward = base - point
+    toward[2] = 0.0
+    toward /= np.linalg.norm(toward) + 1e-12
+    if not _overhead(model, data, point):
+        return None
+    mouth = next((s for s in np.arange(0.0, 1.0, 0.01) if not _overhead(model, data, point + s * toward)), 1.0)
+    inside = point + float(np.clip(mouth - half - 0.01, 0.0, SHIFT_STEP * SHIFTS)) * toward
+    return inside, point + (mouth + half + 0.04) * toward
+
+
+def _overhead(model: mujoco.MjModel, data: mujoco.MjData, point: np.ndarray) -> bool:
+    """Whether scene geometry (not the robot's) is within ``COVER_ROOM`` above ``point``."""
+    start, geom = np.asarray(point, float) + 0.01 * UP, np.zeros(1, dtype=np.int32)
+    for _ in range(8):
+        dist = mujoco.mj_ray(model, data, start, UP, None, 1, -1, geom)
+        if dist < 0 or start[2] + dist - point[2] > COVER_ROOM:
+            return False
+        if not model.body(model.geom_bodyid[geom[0]]).name.startswith(ROBOT_PREFIX):
+            return True
+        start = start + (dist + 0.001) * UP  # through the robot's arm
+    return False
 
 
 def _position(model: mujoco.MjModel, data: mujoco.MjData, ref: str, objects: dict) -> np.ndarray | None:

@@ -21,7 +21,6 @@ the robot in steps until it can.
 from __future__ import annotations
 
 from collections.abc import Callable
-from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +46,10 @@ LIFT_CHECK = 0.015
 """Metres above the grasp the arm must also reach, to take the object off its support."""
 PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
+PINCH_TURNS = (35.0, -35.0)
+"""Degrees the pinch direction turns from facing the robot, in the order tried."""
+PINCH_DROP = 0.08
+"""Metres above the rim a pinch from straight above starts."""
 TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
 BAR_GAP = 0.02
 """Metres of room under a handle bar that a finger taking it from in front needs."""
@@ -83,11 +86,14 @@ def plan_grasp(
     height: float | None = None,
     toward: np.ndarray | None = None,
     then: FollowThrough | None = None,
+    later: FollowThrough | None = None,
 ) -> Grasp:
     """The first reachable grasp of ``name`` (see the module docstring). ``toward`` is the horizontal
     direction the hand should point for what comes next (into an enclosure): pinches and pitched
     grasps try it first. ``then`` gives the tool poses the hand must reach after the grasp, in straight
-    lines (pulling a handle along its arc): a grasp the arm cannot follow through with is not taken."""
+    lines (pulling a handle along its arc): a grasp the arm cannot follow through with is not taken.
+    ``later`` gives poses the hand goes to afterwards through free space (where what it holds is
+    taken next): a grasp that leaves one of them out of reach is not taken either."""
     shape = ctx.scene.shape(name)
     opening = ctx.robot.gripper.max_opening
     half = shape.world_half()
@@ -96,11 +102,15 @@ def plan_grasp(
     footprint = np.sort(np.delete(shape.half, shape.vertical_axis()))  # its own box: yaw does not matter
     long_ = bool(footprint[1] > LONG * footprint[0])
     if mode == "pinch" or (mode == "auto" and at is None and low and not long_):
-        return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then=then)
+        try:
+            return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then, later)
+        except SkillFailure:  # a near rim too close to the base to come at from the side: from straight above
+            above = _pinch_candidates(ctx, name, shape, toward, above=True)
+            return _first_reachable(ctx, name, above, "pinch", then, later)
     if mode == "side":
         if at is None:
             raise SkillFailure(f"a side grasp of {name!r} needs a site to grasp at ('at:')")
-        return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then=then)
+        return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then, later)
     axis_obj = shape.axes[:, shape.vertical_axis()]
     lying = abs(axis_obj[2]) < 0.7 or (
         at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
@@ -117,7 +127,8 @@ def plan_grasp(
         name,
         _top_candidates(ctx, point, closing, shape, width, lying, round_ and not lying, bar),
         "across" if lying else "axis",
-        then=then,
+        then,
+        later,
     )
 
 
@@ -292,6 +303,7 @@ def _top_candidates(
     along = [length if length @ radial >= 0 else -length]
     if abs(length @ radial) < 0.5:  # lying across the radial direction: either end may be the one
         along.append(-along[0])
+    late = []  # lying along it: tilted toward the near end last (what comes next may need that tilt)
     for pitch in TOP_PITCHES:
         if pitch >= 89.9:
             rots = [down_frame(closing)]
@@ -299,13 +311,21 @@ def _top_candidates(
             rots = [pitched_frame(radial, pitch)]  # toward the robot: the fingers close across the radial
         else:  # tilted along the grip (a lying tool, a bar facing the robot): the fingers still close across it
             rots = [pitched_frame(toward, pitch) for toward in along]
+            if lying and len(along) == 1:
+                late.append(pitched_frame(-along[0], pitch))
         for rot in rots:
-            back = point - rot[:, 2] * above
-            back[2] = max(back[2], point[2] + above * 0.5)
-            out.append(Grasp("top", point.copy(), rot, [back], width))
+            out.append(_from_above(point, rot, above, width))
+    out += [_from_above(point, rot, above, width) for rot in late]
     if bar is not None and abs(length @ radial) < 0.5:
         out += _front_of_bar(ctx, bar, radial)
     return out
+
+
+def _from_above(point: np.ndarray, rot: np.ndarray, above: float, width: float) -> Grasp:
+    """A grasp at ``point`` approached back along the hand's axis, at least half ``above`` over it."""
+    back = point - rot[:, 2] * above
+    back[2] = max(back[2], point[2] + above * 0.5)
+    return Grasp("top", point.copy(), rot, [back], width)
 
 
 def _front_of_bar(ctx: SkillContext, bar: tuple[np.ndarray, np.ndarray], radial: np.ndarray) -> list[Grasp]:
@@ -326,25 +346,28 @@ def _front_of_bar(ctx: SkillContext, bar: tuple[np.ndarray, np.ndarray], radial:
     return out
 
 
-def _pinch_candidates(ctx: SkillContext, name: str, shape: Shape, toward: np.ndarray | None) -> list[Grasp]:
+def _pinch_candidates(
+    ctx: SkillContext, name: str, shape: Shape, toward: np.ndarray | None, above: bool = False
+) -> list[Grasp]:
     out = []
     radial = horizontal(shape.center - ctx.base)
-    directions = [radial, *(axis_rotation(UP, np.deg2rad(a)) @ radial for a in (35.0, -35.0))]
+    # facing the robot first; from the side where the near rim is too close to the base to come from
+    directions = [radial, *(axis_rotation(UP, np.deg2rad(a)) @ radial for a in PINCH_TURNS)]
     if toward is not None:
         directions.insert(0, horizontal(toward))
     for radial in directions:
-        out += _pinches(ctx, name, shape, radial)
+        out += _pinches(ctx, name, shape, radial, above)
     return out
 
 
-def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> list[Grasp]:
+def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, above: bool = False) -> list[Grasp]:
+    """Pinches facing ``radial``: over the rim from behind it, or (``above``) from straight above it."""
     opening = ctx.robot.gripper.max_opening
     center = shape.center
-    half = shape.world_half()
     round_ = abs(shape.half[0] - shape.half[1]) < 0.003 if shape.vertical_axis() == 2 else False
     chord = opening - 2 * GRIP_MARGIN / 3
     if round_:
-        r = float(max(half[0], half[1]))
+        r = float(max(shape.half[0], shape.half[1]))  # its own box: a turned dish is as wide as ever
         c = min(2 * r, chord)
         depth = float(np.sqrt(max(0.0, r * r - (c / 2) ** 2)))
     else:
@@ -359,14 +382,15 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray) -> 
         c, depth = across, 0.0
     height = shape.top - shape.bottom
     out = []
-    for rise in (height * 0.5 + 0.015, 0.004):
+    for rise in (height * 0.5 + 0.015,) if above else (height * 0.5 + 0.015, 0.004):
         for pitch in PINCH_PITCHES:
             pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
             rot = pitched_frame(radial, pitch)
             # over the rim and down onto the chord; or (under a shelf) level, where the open fingers slide
             # in until the rim itself stops them at the chord
             over = pinch + rise * UP
-            out.append(Grasp("pinch", pinch, rot, [over - 0.12 * radial, over], c))
+            start = over + PINCH_DROP * UP if above else over - 0.12 * radial
+            out.append(Grasp("pinch", pinch, rot, [start, over], c))
     return out
 
 
@@ -375,10 +399,12 @@ def _first_reachable(
     name: str,
     candidates: list[Grasp],
     kind: str,
-    touch: AbstractSet[int] = frozenset(),
     then: FollowThrough | None = None,
+    later: FollowThrough | None = None,
 ) -> Grasp:
-    touch = set(touch) | ctx.scene.bodies(name) | _support_of(ctx, name)
+    touch = ctx.scene.bodies(name) | _support_of(ctx, name)
+    if later is not None:
+        candidates = [g for g in candidates if ctx.margin(later(g), touch, collisions=False) is not None]
 
     def poses(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
         after = then(g) if then is not None else [(g.pos + LIFT_CHECK * UP, g.rot)]

@@ -13,6 +13,7 @@ arm's joints move (every other degree of freedom has no cost but damping and sta
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
 from functools import cached_property
@@ -33,6 +34,8 @@ COMFORTABLE = 0.3
 """Radians from every joint limit at which the nearest solution is kept without trying the seeds."""
 HOPELESS = 0.05
 """Metres of tool error after 25 iterations at which a careful solve gives up."""
+ROOM_SEEN = 0.02
+"""Metres from the scene within which the arm's contacts are reported (the most room a caller asks for)."""
 
 
 @dataclass(frozen=True)
@@ -50,14 +53,18 @@ class ArmIK:
 
     def __init__(self, world: World) -> None:
         self.world = world
-        model = world.model
+        # a copy whose robot geoms report contacts ROOM_SEEN early, so a dry run can ask for room
+        # around the arm; the world's own model (and its physics) stays as it is
+        model = copy.copy(world.model)
+        self.robot_bodies = {b for b in range(model.nbody) if model.body(b).name.startswith(ROBOT_PREFIX)}
+        robot_geoms = np.isin(model.geom_bodyid, list(self.robot_bodies))
+        model.geom_margin[robot_geoms] = np.maximum(model.geom_margin[robot_geoms], ROOM_SEEN)
         self.configuration = mink.Configuration(model, world.data.qpos.copy())
         self.tool = mink.FrameTask(
             ROBOT_PREFIX + "tcp", "site", position_cost=1.0, orientation_cost=1.0, lm_damping=1e-6
         )
         self.posture = mink.PostureTask(model, cost=POSTURE_COST)
         self.distal, self.proximal = _arm_halves(world)
-        self.robot_bodies = {b for b in range(model.nbody) if model.body(b).name.startswith(ROBOT_PREFIX)}
         ee = model.body(ROBOT_PREFIX + world.robot.end_effector.body).id
         self.hand_bodies = {b for b in self.robot_bodies if _descends(model, b, ee)}
         self.limits: list[mink.Limit] = [mink.ConfigurationLimit(model)]
@@ -174,14 +181,20 @@ class ArmIK:
         return float(best)
 
     def collisions(
-        self, q_arm: np.ndarray, allow: AbstractSet[int] = frozenset(), carried: AbstractSet[int] = frozenset()
+        self,
+        q_arm: np.ndarray,
+        allow: AbstractSet[int] = frozenset(),
+        carried: AbstractSet[int] = frozenset(),
+        room: float = 0.0,
     ) -> list[tuple[int, int]]:
         """Robot bodies touching something at ``q_arm`` (the scene as it stands now), as
         ``(robot body, other body)`` pairs. The hand (gripper) touching bodies in ``allow`` (what it
         grasps, pushes or holds) and the fingers touching each other do not count; the arm's links
         touching anything does, except what the hand carries (``carried``): it moves with the hand,
         so where it stands now says nothing about the arm at ``q_arm`` (a wrist lowered onto the
-        spot a tall tube occupied before it was carried down)."""
+        spot a tall tube occupied before it was carried down). With ``room`` (metres, at most
+        :data:`ROOM_SEEN`), coming that close to the scene counts as touching."""
+        touching, near = -0.0005, min(room, ROOM_SEEN) if room > 0 else -0.0005
         q = self.world.data.qpos.copy()
         q[self._adr] = q_arm
         self.configuration.update(q)
@@ -190,10 +203,12 @@ class ArmIK:
         out = []
         for i in range(data.ncon):
             contact = data.contact[i]
-            if contact.dist >= -0.0005:
+            if contact.dist >= near:
                 continue
             b1, b2 = int(model.geom_bodyid[contact.geom1]), int(model.geom_bodyid[contact.geom2])
             r1, r2 = b1 in self.robot_bodies, b2 in self.robot_bodies
+            if r1 == r2 and contact.dist >= touching:
+                continue  # the room is kept from the scene, not between the arm's own links
             if r1 == r2 and (not r1 or (b1 in self.hand_bodies and b2 in self.hand_bodies)):
                 continue  # scene-scene contacts, or the fingers touching each other
             robot, other = (b1, b2) if r1 else (b2, b1)

@@ -23,6 +23,9 @@ TURN_SPEED = 1.6
 MIN_SECONDS = 0.2
 MAX_SWING = 0.2
 """Radians a held object may turn away from the straight (slerped) rotation on a joint-space move."""
+TRANSIT_ROOM = 0.015
+"""Metres a transit through joint space keeps the arm from the scene where it can: a fast move's
+joints trail their targets (2-3 cm at the Piper's hand), so the arm leaves the planned path."""
 FREE_TOLERANCE = 0.015
 """Metres a waypoint through free space may be missed by (what matters there is clearance)."""
 EASY_TRAVEL = 1.5
@@ -34,9 +37,13 @@ CLEARANCE = 0.04
 FINAL_APPROACH = 0.04
 """Metres of the last descent onto a target done as a straight tool line (the rest through free space)."""
 HAND_HEIGHT = 0.15
+"""Metres the hand stands above its tcp (pointing down): the band a path must keep free."""
 COVER_ROOM = 0.4
 """Metres: something overhead closer than this (a shelf, a roof) means a place is reached level, not from above."""
-"""Metres the hand stands above its tcp (pointing down): the band a path must keep free."""
+SHIFT_STEP = 0.02
+SHIFTS = 8
+"""Where the exact spot is out of reach, how far (steps of SHIFT_STEP) toward the robot a placement
+may move while staying on the same surface."""
 COMFORT = 0.25
 ENOUGH = 3
 """Feasible but uncomfortable candidates looked at before taking the best of them."""

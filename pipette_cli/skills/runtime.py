@@ -260,10 +260,11 @@ class SkillContext:
                 return f"hit {m.body(other).name} with its {m.body(robot).name.removeprefix('robot/')}"
         return f"swing {self.held.name!r} round on the way" if self.held else "leave its path"
 
-    def hits(self, q: np.ndarray) -> list[tuple[int, int]]:
-        """What the arm touches at joints ``q``, besides what the hand may touch (:attr:`allowed`) and
-        what it carries (which moves with it): ``(robot body, other body)`` pairs."""
-        return self.ik.collisions(q, self.allowed, self.held_bodies())
+    def hits(self, q: np.ndarray, room: float = 0.0) -> list[tuple[int, int]]:
+        """What the arm touches (or comes within ``room`` metres of) at joints ``q``, besides what the
+        hand may touch (:attr:`allowed`) and what it carries (which moves with it): ``(robot body,
+        other body)`` pairs."""
+        return self.ik.collisions(q, self.allowed, self.held_bodies(), room)
 
     @contextmanager
     def touching(self, bodies: set[int]) -> Iterator[None]:
@@ -275,9 +276,11 @@ class SkillContext:
         finally:
             self.allowed = before
 
-    def clear_path(self, q0: np.ndarray, q1: np.ndarray, samples: int | None = None) -> bool:
+    def clear_path(self, q0: np.ndarray, q1: np.ndarray, samples: int | None = None, room: float = 0.0) -> bool:
         """Whether the arm moves from joints ``q0`` to ``q1`` (interpolated) without touching the
-        scene: anything but what the hand holds or is about to touch (:attr:`allowed`)."""
+        scene: anything but what the hand holds or is about to touch (:attr:`allowed`). With
+        ``room``, it keeps that many metres from the scene on the way, less over the last quarter
+        (where the move slows down onto its end, which may be close to something)."""
         if samples is None:  # a sample every 0.08 rad of the joint that moves most
             samples = max(4, int(np.ceil(float(np.max(np.abs(q1 - q0))) / 0.08)) + 1)
         r0 = r1 = None
@@ -285,7 +288,7 @@ class SkillContext:
             r0, r1 = self.ik.tool_pose(q0)[1], self.ik.tool_pose(q1)[1]
         for t in np.linspace(0.0, 1.0, samples)[1:]:
             q = (1 - t) * q0 + t * q1
-            if self.hits(q):
+            if self.hits(q, room * min(1.0, 4.0 * (1.0 - t))):
                 return False
             if (
                 r0 is not None

@@ -19,6 +19,7 @@ from pipette_cli.skills.moves import (
     FINE_SPEED,
     FREE_TOLERANCE,
     HAND_HEIGHT,
+    TRANSIT_ROOM,
     TRANSIT_SPEED,
     Leg,
     Move,
@@ -68,9 +69,11 @@ def plan_transit(
     *,
     exclude: AbstractSet[int] = frozenset(),
     radius: float = 0.04,
+    rooms: tuple[float, ...] = (TRANSIT_ROOM, 0.0),
 ) -> list[Leg] | None:
     """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything
-    (dry run of the IK and of the arm's collisions), or ``None``.
+    (dry run of the IK and of the arm's collisions), or ``None``. The fast legs keep the first of
+    ``rooms`` (metres from the scene) that some path has.
 
     Out of an enclosure the hand is in, level; then up to a safe height over the corridor (surfaces
     under the path plus what hangs below the hand), across and down, or, when that is out of the
@@ -99,7 +102,7 @@ def plan_transit(
         route.insert(0, pos + direction * (mouth + radius + 0.02))
     first = route[0]
     if np.linalg.norm(first[:2] - start.pos[:2]) > 0.01:
-        crossing = _route(ctx, start, first, rot, skip, radius, hang, precise=len(route) == 1)
+        crossing = _route(ctx, start, first, rot, skip, radius, hang, precise=len(route) == 1, rooms=rooms)
         if crossing is None:
             log.debug("no route to %s", fmt(first))
             return None
@@ -154,9 +157,10 @@ def _route(
     radius: float,
     hang: float,
     precise: bool = True,
+    rooms: tuple[float, ...] = (TRANSIT_ROOM, 0.0),
 ) -> list[Leg] | None:
     """Legs from ``start`` to ``goal``: straight over the top, at the hand's height, or by a detour to
-    either side; the first the arm reaches touching nothing."""
+    either side; the first the arm reaches touching nothing, keeping the first of ``rooms`` it can."""
     here = start.pos
     heading = goal[:2] - here[:2]
     heading = heading / (np.linalg.norm(heading) + 1e-12)
@@ -170,16 +174,17 @@ def _route(
     paths += [
         ([here_flat + s * d * side, goal + s * d * side, goal], True, 0.0) for d in (0.3, 0.42) for s in (1.0, -1.0)
     ]
-    for path, low, extra in paths:
-        if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
-            points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]
-        else:
-            points = _waypoints(ctx, here, path, goal, skip, radius, hang, low, extra)
-        if points is None:
-            continue
-        resolved = _feasible(ctx, start, points, rot, precise)
-        if resolved is not None:
-            return resolved
+    for room in rooms:
+        for path, low, extra in paths:
+            if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
+                points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]
+            else:
+                points = _waypoints(ctx, here, path, goal, skip, radius, hang, low, extra)
+            if points is None:
+                continue
+            resolved = _feasible(ctx, start, points, rot, precise, room)
+            if resolved is not None:
+                return resolved
     return None
 
 
@@ -224,11 +229,17 @@ def _waypoints(
 
 
 def _feasible(
-    ctx: SkillContext, start: Leg, points: list[tuple[np.ndarray, bool | None]], rot: np.ndarray, precise: bool = True
+    ctx: SkillContext,
+    start: Leg,
+    points: list[tuple[np.ndarray, bool | None]],
+    rot: np.ndarray,
+    precise: bool = True,
+    room: float = 0.0,
 ) -> list[Leg] | None:
-    """Legs through ``points`` when the arm reaches each in turn touching nothing, else ``None``. The
-    hand keeps its rotation while climbing and crossing and turns on the last leg; it turns earlier
-    where keeping it is out of reach up there, and arrives unturned where turning is."""
+    """Legs through ``points`` when the arm reaches each in turn touching nothing (keeping ``room``
+    on the fast legs), else ``None``. The hand keeps its rotation while climbing and crossing and
+    turns on the last leg; it turns earlier where keeping it is out of reach up there, and arrives
+    unturned where turning is."""
     q, current = start.q, start.rot
     out: list[Leg] = []
     turned = False
@@ -256,17 +267,20 @@ def _feasible(
                 solution = ctx.solve(point, target, q)
             else:
                 target, solution = ctx.solve_flip(point, target, q, best=True)
-            if solution.ok(tolerance) and ctx.clear_path(q, solution.qpos):
-                turned = turned or not keep
-                slow = final and precise
-                joints = False
-                if slow and ctx.held is None:  # followed as a straight tool line where the arm can, else
-                    # through joint space (an empty hand only: what it holds would swing on the arc)
-                    begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
-                    joints = ctx.straight_line(begin, point, target, tolerance) is None
-                q, current = solution.qpos, target
-                out.append(Leg(point, target, q, APPROACH_SPEED if slow else TRANSIT_SPEED, joints=joints))
-                break
+            slow = final and precise
+            if not solution.ok(tolerance) or not ctx.clear_path(q, solution.qpos, room=0.0 if slow else room):
+                continue
+            joints = False
+            if slow and ctx.held is None:  # followed as a straight tool line where the arm can, else
+                # through joint space (an empty hand only: what it holds would swing on the arc)
+                begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
+                joints = ctx.straight_line(begin, point, target, tolerance) is None
+                if joints and room > 0 and not ctx.clear_path(q, solution.qpos, room=room):
+                    continue  # a joint-space leg keeps its room, slow or not
+            turned = turned or not keep
+            q, current = solution.qpos, target
+            out.append(Leg(point, target, q, APPROACH_SPEED if slow else TRANSIT_SPEED, joints=joints))
+            break
         else:
             return None
     return out

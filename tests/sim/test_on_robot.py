@@ -72,3 +72,20 @@ def test_payload_and_reach_refusals_name_the_limit() -> None:
     short = robot_spec("panda").model_copy(update={"reach": 0.1, "top_down_reach": 0.1})
     with pytest.raises(InfeasibleTask, match=r"reach: no base pose on the bench puts every work point"):
         reachable_base(task, short, space)
+
+
+def test_a_spot_inside_an_enclosure_counts_at_its_front_and_where_the_hand_enters() -> None:
+    # the shelf's centre is deep inside the incubator; place_on sets the dish down at the shelf's
+    # front when the centre is out of reach, and the hand carries it in level through the mouth: the
+    # base must leave that entry point outside the arm's min_reach
+    task = REGISTRY.get("PlacePetriDishInIncubator")
+    space = measure_workspace(task)
+    shelf = "incubator/shelf_0_center"
+    assert f"{shelf} (entry)" in space.points
+    inside, entry = space.points[shelf], space.points[f"{shelf} (entry)"]
+    assert 0.55 < inside[0] < 0.65  # the front of the shelf (its centre is at 0.755), still inside
+    assert entry[0] < 0.5  # in front of the door opening (0.53), the dish clear of it
+    piper = robot_spec("piper")
+    base = np.asarray(on_robot(task, "piper").embodiment.base.pos)
+    assert np.linalg.norm(entry[:2] - base[:2]) >= piper.min_reach
+    assert "(entry)" not in " ".join(measure_workspace(REGISTRY.get("PlaceTubeOnBalance")).points)  # in the open

@@ -71,6 +71,7 @@ def upright(world: World, name: str) -> float:
     [
         ("PickUpTestTube", "tube", 0.1),  # upright tube, about its axis
         ("PlacePetriDishInIncubator", "dish", 0.05),  # flat dish, pinched at the rim
+        ("skills/PickTurnedDish-v1", "dish", 0.05),  # turned about the vertical: as wide as ever
         ("PipetteToPetriDish", "pipette", 0.1),  # lying tool, across its body
         ("skills/PickLyingTools-v1", "syringe", 0.08),  # low lying tools too, whatever their yaw
         ("skills/PickLyingTools-v1", "marker", 0.08),
@@ -258,3 +259,23 @@ def test_a_short_arm_takes_a_lid_handle_bar_from_in_front() -> None:
     world, _ = run("OpenWaterBathLid", robot="piper")
     moved = world.position("lid") - start
     assert moved[2] > 0.10 and moved[0] < -0.30  # the task's criterion: lifted and drawn back
+
+
+def test_a_dry_run_can_ask_for_room_around_the_arm() -> None:
+    # the hand pointing down, its fingertips 1 cm over the bench top: it touches nothing, but is within
+    # 1.5 cm of the bench; a fast joint-space transit (whose joints trail their targets) keeps that room
+    from pipette_cli.skills.frames import down_frame
+    from pipette_cli.skills.moves import TRANSIT_ROOM
+    from pipette_cli.skills.runtime import SkillContext
+
+    world = World(REGISTRY.get("PickUpTestTube"))
+    world.reset(0)
+    ctx = SkillContext(world, np.random.default_rng(0))
+    top = ctx.scene.surface_below(0.4, 0.25, set(), from_z=1.0)
+    pos = np.array([0.4, 0.25, top + 0.01 + ctx.robot.gripper.fingertip])
+    solution = ctx.solve(pos, down_frame(np.array([0.0, 1.0, 0.0])), ctx.q)
+    assert solution.ok()
+    bench = {b for b in range(world.model.nbody) if world.model.body(b).name.startswith("bench")}
+    assert not any(other in bench for _, other in ctx.hits(solution.qpos))
+    assert any(other in bench for _, other in ctx.hits(solution.qpos, room=TRANSIT_ROOM))
+    assert world.model.geom_margin.max() == 0.0  # the world's own physics is untouched

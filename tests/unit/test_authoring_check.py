@@ -11,11 +11,11 @@ from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.demos.experts import base as experts
 from pipette_cli.specs.task import TaskSpec
 
-TEXT = "Put the 96-well plate on the orbital shaker"
+TEXT = "Put the 90 mm petri dish on the orbital shaker"
 
 
 @pytest.fixture(scope="module")
-def plate_task() -> TaskSpec:
+def dish_task() -> TaskSpec:
     return draft_task(TEXT, make_backend("offline")).spec
 
 
@@ -24,8 +24,8 @@ def with_changes(spec: TaskSpec, success: dict | None = None, lift: float = 0.0)
     if success is not None:
         data["success"] = success
     if lift:
-        plate = next(o for o in data["scene"]["objects"] if o["name"] == "plate")
-        plate["pose"]["pos"][2] += lift
+        dish = next(o for o in data["scene"]["objects"] if o["name"] == "dish")
+        dish["pose"]["pos"][2] += lift
     return TaskSpec.model_validate(data)
 
 
@@ -38,12 +38,12 @@ class StandStill:
 
 
 @pytest.fixture
-def no_program(monkeypatch, plate_task):
+def no_program(monkeypatch, dish_task):
     """The drafted task without an expert program, and none derivable from its criterion."""
     from pipette_cli.skills import derive
 
-    monkeypatch.delitem(derive.DERIVERS._items, plate_task.success.type)
-    return plate_task.model_copy(update={"expert": None})
+    monkeypatch.delitem(derive.DERIVERS._items, dish_task.success.type)
+    return dish_task.model_copy(update={"expert": None})
 
 
 def test_a_drafted_task_passes_the_idle_checks(no_program) -> None:
@@ -54,23 +54,23 @@ def test_a_drafted_task_passes_the_idle_checks(no_program) -> None:
     assert report.solve.status == "not_checked" and "no expert program can be read off" in report.solve.summary()
 
 
-def test_a_task_solved_by_doing_nothing_is_refused(plate_task) -> None:
+def test_a_task_solved_by_doing_nothing_is_refused(dish_task) -> None:
     trivial = with_changes(
-        plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.5, "timeout_s": 5}
+        dish_task, {"type": "region_hold", "object": "dish", "z": {"min": 0.5}, "hold_s": 0.5, "timeout_s": 5}
     )
     report = check_task(trivial, episodes=1, solve=False)
     assert not report.ok and "the task is trivial" in report.problems[0]
 
 
-def test_an_object_that_does_not_rest_is_reported(plate_task) -> None:
-    floating = with_changes(plate_task, lift=0.3)  # starts 30 cm in the air and falls
+def test_an_object_that_does_not_rest_is_reported(dish_task) -> None:
+    floating = with_changes(dish_task, lift=0.3)  # starts 30 cm in the air and falls
     report = check_task(floating, episodes=1, solve=False)
-    assert any("plate moved" in p for p in report.problems) and report.max_drift_m > 0.05
+    assert any("dish moved" in p for p in report.problems) and report.max_drift_m > 0.05
 
 
-def test_solve_check_runs_the_tasks_expert(plate_task, monkeypatch) -> None:
-    monkeypatch.setitem(experts._CUSTOM, plate_task.id.rsplit("-v", 1)[0], StandStill)
-    report = solve_check(plate_task, episodes=2)
+def test_solve_check_runs_the_tasks_expert(dish_task, monkeypatch) -> None:
+    monkeypatch.setitem(experts._CUSTOM, dish_task.id.rsplit("-v", 1)[0], StandStill)
+    report = solve_check(dish_task, episodes=2)
     assert report.status == "unsolved" and report.expert.endswith("StandStill") and report.successes == 0
     assert report.reasons == [
         "seed 0: the criterion not met; evaluator: out_of_region",
@@ -78,7 +78,7 @@ def test_solve_check_runs_the_tasks_expert(plate_task, monkeypatch) -> None:
     ]
     assert "seeds 0, 1: the criterion not met" in report.summary()
     easy = with_changes(
-        plate_task, {"type": "region_hold", "object": "plate", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3}
+        dish_task, {"type": "region_hold", "object": "dish", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3}
     )
     solved = solve_check(easy, episodes=2)
     assert solved.status == "solved" and solved.successes == 2

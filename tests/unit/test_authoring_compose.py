@@ -209,3 +209,17 @@ def test_a_tube_that_starts_standing_in_a_rack_is_judged_standing_where_it_is_se
     assert s.object == "tube" and s.max_tilt_deg == 15.0
     assert s.within.radius == pytest.approx(0.5 * 0.13 / 2)  # its 33 mm footprint leaves the paper's disc
     assert s.z.max == pytest.approx(0.55 + 0.09 + 0.03)  # its base on the pan, not its middle 57 mm up
+
+
+@pytest.mark.parametrize("robot", ["franka_panda", "ur5e_robotiq", "agilex_piper"])
+def test_a_flat_plate_wider_than_the_gripper_is_refused_a_dish_is_pinched(robot: str) -> None:
+    from pipette_cli.authoring.validate import grip_problem, grip_width
+    from pipette_cli.specs.robot import robot_spec
+
+    spec = robot_spec(robot)
+    plate = measure_asset("well_plate_96")  # SBS footprint: 127.8 x 85.5 mm, pinched across a whole side
+    assert grip_width(plate, spec) == pytest.approx(0.0855, abs=0.001)
+    problem = grip_problem(plate, spec, "96-well plate")
+    assert problem is not None and f"gripper opens {spec.gripper.max_opening * 1000:.0f} mm" in problem
+    assert grip_width(measure_asset("petri_dish_90mm"), spec) is None  # round: a chord near the rim
+    assert grip_problem(measure_asset("microscope_slide"), spec, "slide") is None  # 25 mm across

@@ -25,13 +25,8 @@ CASES = YAML(typ="safe").load((Path(__file__).parents[1] / "fixtures" / "authori
 TASKS = [c for c in CASES if "steps" in c]
 REFUSALS = [c for c in CASES if "refuse" in c]
 KNOWN_GAPS = {
-    # the incubator's open door needs room in front of the robot's home pose that its shelves' reach
-    # does not leave on the Panda's bench (the registry's hand-made incubator tasks sit closer)
-    "Place the petri dish on the top shelf of the incubator",
-    "Put the 60 mm dish in the incubator",
-    "Close the door of the incubator",
-    "Close the incubator door",
-    "Take the petri dish out of the incubator",
+    # the incubator's door, closed at the start, stands where the Panda's hand is in its home pose
+    # wherever its shelves are in reach (an open door at the start leaves room: those tasks draft)
     "Open the incubator and put the petri dish on the shelf",
     "First open the incubator door and then put the petri dish on the top shelf",
 }
@@ -78,6 +73,6 @@ def test_refusals_are_one_clear_line(case) -> None:
 
 
 def test_same_description_gives_the_same_yaml() -> None:
-    text = "Open the PCR machine, load the PCR plate, then close the lid"
+    text = "Open the microcentrifuge, put the 1.5 mL tube in, then close the lid"
     first = draft_task(text, make_backend("offline")).yaml_text
     assert draft_task(text, make_backend("offline")).yaml_text == first

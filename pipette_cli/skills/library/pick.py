@@ -7,12 +7,12 @@ from collections.abc import Set as AbstractSet
 
 import numpy as np
 
-from pipette_cli.skills.frames import UP
-from pipette_cli.skills.grasp import FollowThrough, _support_of, plan_grasp
-from pipette_cli.skills.library.place import put_down, resolve_target
-from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Move, SkillFailure
+from pipette_cli.skills.frames import UP, horizontal
+from pipette_cli.skills.grasp import FollowThrough, Grasp, _support_of, plan_grasp, semantics
+from pipette_cli.skills.library.place import insertion, put_down, resolve_target, upright_rotations
+from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Held, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.specs.expert import PickSpec, RemoveFromSpec
+from pipette_cli.specs.expert import InsertIntoSpec, PickSpec, PositionOverSpec, RemoveFromSpec
 
 SETTLE_S = 0.25
 """Seconds to let the arm's servos catch up with the grasp pose before closing."""
@@ -33,7 +33,15 @@ def grasp(
     The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
     if ctx.held is not None:
         raise SkillFailure(f"the hand already holds {ctx.held.name!r}; put it down first")
-    plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=entry_direction(ctx, name), then=then)
+    toward = entry_direction(ctx, name)
+    after = tool_follow_through(ctx, name)
+    try:
+        plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=toward, then=then, later=after)
+    except SkillFailure:
+        if after is None:
+            raise
+        # no grasp leaves the next step's pose in reach: the next step turns what it holds as it can
+        plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=toward, then=then)
     exclude = ctx.scene.bodies(name)
     if ctx.gripper != OPEN:
         yield ctx.grip(OPEN, 0.3)
@@ -62,6 +70,42 @@ def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
         return None
     direction, _ = ctx.scene.way_out(point + 0.01 * UP, skip, prefer=ctx.base - point)
     return -direction
+
+
+def tool_follow_through(ctx: SkillContext, name: str) -> FollowThrough | None:
+    """If the program's next step holds ``name``'s working point over a target (``position_over``)
+    or stands it upright in a holder (``insert_into``), the hand's poses for it, as grasped: a grasp
+    the arm can lift and take there is preferred."""
+    step = ctx.next_step
+    if isinstance(step, InsertIntoSpec) and step.object == name and step.axis == "auto":
+        return _upright_follow_through(ctx, step)
+    if not isinstance(step, PositionOverSpec) or step.object != name:
+        return None
+    site = step.point or (f"{name}/tip" if "tip" in semantics(ctx, name).get("sites", []) else None)
+    point = ctx.world.position(site) if site else ctx.world.position(name)
+    goal = resolve_target(ctx, step.target, surface=False) + step.height * UP
+
+    def then(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
+        local = g.rot.T @ (point - g.pos)
+        return [(goal - g.rot @ local, g.rot)]
+
+    return then
+
+
+def _upright_follow_through(ctx: SkillContext, step: InsertIntoSpec) -> FollowThrough:
+    """The entry pose over the holder for a grasp, the object turned upright with the hand pointing
+    as far away from the base as the turn allows (how a short arm reaches out and down)."""
+    final, rise = insertion(ctx, step, ctx.scene.bodies(step.object))
+    site = ctx.world.position(step.target)
+    out = horizontal(site - ctx.base)
+    obj_pos, obj_rot = ctx.world.position(step.object), ctx.world.rotation(step.object)
+
+    def then(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
+        held = Held(step.object, g.rot.T @ (obj_pos - g.pos), g.rot.T @ obj_rot)
+        rot = max(upright_rotations(held, g.rot), key=lambda r: float(r[:, 2] @ out - r[2, 2]))
+        return [(final(rot, held) + rise * UP, rot)]
+
+    return then
 
 
 @skill("pick")

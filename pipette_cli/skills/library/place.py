@@ -9,13 +9,24 @@ with (it stays level), and its base, measured in the hand after the grasp, lands
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_frame, unit
 from pipette_cli.skills.grasp import semantics
-from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Held, Move, SkillFailure, fmt
+from pipette_cli.skills.moves import (
+    APPROACH_SPEED,
+    CLOSED,
+    FINE_SPEED,
+    OPEN,
+    SHIFT_STEP,
+    SHIFTS,
+    Held,
+    Move,
+    SkillFailure,
+    fmt,
+)
 from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
@@ -26,10 +37,6 @@ DROP = 0.002
 """Metres above the surface where a placed object is let go."""
 YAWS = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 135.0, -135.0, 180.0)
 """Degrees the held object may be turned about the vertical when set down, in the order tried."""
-SHIFT_STEP = 0.02
-SHIFTS = 8
-"""Where the exact spot is out of reach, how far (steps of SHIFT_STEP) toward the robot a placement
-may move while staying on the same surface."""
 RELEASE_S = 0.4
 SETTLE_S = 0.2
 """Seconds the arm holds still where it sets an object down before its tcp is corrected."""
@@ -173,27 +180,42 @@ def mating_point(ctx: SkillContext, name: str) -> np.ndarray:
 
 def upright_tool(ctx: SkillContext, name: str) -> list[np.ndarray]:
     """Tool rotations that hold ``name`` with its own z axis straight up, nearest the current one first."""
-    held = ctx.holding(name)
-    out = []
-    for yaw in np.deg2rad(np.arange(0.0, 360.0, 30.0)):
-        obj_rot = axis_rotation(UP, yaw)
-        out.append(obj_rot @ held.rot.T)
-    return sorted(out, key=lambda r: rotation_angle(ctx.rot, r))
+    return upright_rotations(ctx.holding(name), ctx.rot)
+
+
+def upright_rotations(held: Held, reference: np.ndarray) -> list[np.ndarray]:
+    """Tool rotations holding ``held`` with its own z axis straight up, nearest ``reference`` first."""
+    out = [axis_rotation(UP, yaw) @ held.rot.T for yaw in np.deg2rad(np.arange(0.0, 360.0, 30.0))]
+    return sorted(out, key=lambda r: rotation_angle(reference, r))
+
+
+def insertion(
+    ctx: SkillContext, step: InsertIntoSpec, skip: set[int]
+) -> tuple[Callable[[np.ndarray, Held], np.ndarray], float]:
+    """Where the tcp ends for ``step`` given the tool rotation and the held pose (the object's mating
+    point on the target site), and how high over that it enters (over the holder's rim, with what
+    the object reaches below its mating point)."""
+    site = ctx.world.position(step.target)
+    mate = mating_point(ctx, step.object)
+    rim = ctx.scene.corridor_top(site, site, 0.02, skip)
+    below = mate[2] - _lowest_along_axis(ctx, step.object)  # how far the object reaches below its mating point
+    rise = max(0.0, rim - site[2]) + below + 0.02
+
+    def final(tool_rot: np.ndarray, held: Held) -> np.ndarray:
+        return site + 0.003 * UP - (tool_rot @ held.rot) @ mate - tool_rot @ held.pos
+
+    return final, rise
 
 
 @skill("insert_into")
 def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     held = ctx.holding(step.object)
-    site = ctx.world.position(step.target)
-    mate = mating_point(ctx, step.object)
     rotations = upright_tool(ctx, step.object) if step.axis == "auto" else [ctx.rot]
-    rim = ctx.scene.corridor_top(site, site, 0.02, ctx.held_bodies())
-    below = mate[2] - _lowest_along_axis(ctx, step.object)  # how far the object reaches below its mating point
-    rise = max(0.0, rim - site[2]) + below + 0.02
     holder = ctx.scene.bodies(step.target.split("/", 1)[0])
+    placed, rise = insertion(ctx, step, ctx.held_bodies())
 
     def final(tool_rot: np.ndarray, held: Held = held) -> np.ndarray:
-        return site + 0.003 * UP - (tool_rot @ held.rot) @ mate - tool_rot @ held.pos
+        return placed(tool_rot, held)
 
     tool_rot = ctx.choose(
         rotations,

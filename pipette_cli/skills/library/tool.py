@@ -1,7 +1,8 @@
 """``position_over`` and ``tilt``: use what the hand holds as a tool.
 
 ``position_over`` brings a point of the held tool (its ``tip`` site by default: a pipette's tip,
-a loop's end) to a height above a target and holds it there, the tool kept as it was grasped.
+a loop's end) to a height above a target and holds it there, the tool kept as it was grasped (turned
+about the vertical where the arm cannot get there otherwise).
 ``tilt`` turns the held object about the horizontal axis across the hand (pouring) and back.
 """
 
@@ -13,7 +14,7 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation
 from pipette_cli.skills.grasp import semantics
-from pipette_cli.skills.library.place import resolve_target
+from pipette_cli.skills.library.place import YAWS, resolve_target
 from pipette_cli.skills.moves import APPROACH_SPEED, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
@@ -35,8 +36,13 @@ def position_over(ctx: SkillContext, step: PositionOverSpec) -> Iterator[Move]:
     offset = tool_point(ctx, step.object, step.point)
     target = resolve_target(ctx, step.target, surface=False)
     goal = target + step.height * UP
-    tool_pos = goal - ctx.rot @ offset
-    yield from ctx.transit(tool_pos, ctx.rot, what=f"bringing {step.object!r} over {step.target!r}")
+    tool_pos, tool_rot = goal - ctx.rot @ offset, ctx.rot
+    for yaw in YAWS:  # as grasped where the arm gets there, else turned about the vertical (still level)
+        rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.rot
+        if ctx.can_reach(goal - rot @ offset, rot):
+            tool_pos, tool_rot = goal - rot @ offset, rot
+            break
+    yield from ctx.transit(tool_pos, tool_rot, what=f"bringing {step.object!r} over {step.target!r}")
     ctx.check_holding(step.object)
     if step.hold_s:
         yield ctx.hold(step.hold_s)
