@@ -39,7 +39,7 @@ def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
     except InfeasibleTask as exc:
         return {"task": task.id, "robot": robot, "refused": str(exc)}
     report = check_expert(placed, episodes, seed)
-    return {
+    row = {
         "task": task.id,
         "robot": robot,
         "base": list(placed.embodiment.base.pos),
@@ -51,6 +51,18 @@ def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
         "median_episode_s": report.median_seconds,
         "seconds": report.seconds,
     }
+    # a skill that finds before moving that a physical limit rules the task out ("reach: ...") on
+    # every seed: the robot cannot do it, and the cell says which limit
+    limits = [LIMIT.search(v) for v in report.expert_failures.values()]
+    if report.successes == 0 and len(limits) == report.episodes and all(limits):
+        first = limits[0]
+        assert first is not None
+        row["refused"] = f"{task.id} on the {robot}: {first.group(1)}"
+    return row
+
+
+LIMIT = re.compile(r"\): ((?:reach|payload|gripper): .*)$")
+"""An expert failure naming a physical limit (the skills' refusals: ``step N (...): reach: ...``)."""
 
 
 def cell_text(row: dict) -> str:
@@ -155,7 +167,8 @@ def markdown(rows: list[dict], ids: list[str], robots: list[str], episodes: int,
     notes = []
     for row in rows:
         if "refused" in row:
-            notes.append(f"- {row['refused']}")
+            tried = f" (found by the expert on all {row['episodes']} seeds)" if "episodes" in row else ""
+            notes.append(f"- {row['refused']}{tried}")
         elif row["failures"]:
             reasons = ", ".join(f"{k}: {v}" for k, v in row["failures"].items())
             why = Counter(

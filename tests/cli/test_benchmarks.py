@@ -214,3 +214,19 @@ def test_bench_robots_fills_the_task_by_robot_table(tmp_path) -> None:
     assert cells["agilex_piper"]["successes"] == 1 and cells["agilex_piper"]["base"][0] > 0  # placed, then picked
     assert "| pipette/PickUpTestTube-v1 | 1/1 | 1/1 |" in md.read_text()
     assert "agilex_piper" in result.stdout
+
+
+def test_bench_robots_shows_a_limit_every_seed_ran_into_as_a_refusal() -> None:
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "bench_robots.py"
+    spec = importlib.util.spec_from_file_location("bench_robots", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    why = "step 1 (close_hinge lid): reach: the push on 'lid' starts 0.61 m above the base; no hand pose reaches it"
+    assert module.LIMIT.search(why).group(1).startswith("reach: the push")
+    assert module.LIMIT.search("step 2 (pick dish): the grasp on 'dish' did not hold") is None
+    row = {"task": "t", "robot": "r", "refused": "t on the r: reach: the push ...", "episodes": 3}
+    assert module.cell_text(row) == "refused (reach)"
+    assert "found by the expert on all 3 seeds" in module.markdown([row], ["t"], ["r"], 3, 0, "abc")
