@@ -10,15 +10,15 @@ import pytest
 
 from pipette_cli.registry import load_registry, load_task_file
 
-TEXT = "Put the 96-well plate on the orbital shaker"
-TASK_ID = "generated/PlaceWellPlate96OnOrbitalShaker-v1"
+TEXT = "Put the 90 mm petri dish on the orbital shaker"
+TASK_ID = "generated/PlacePetriDish90mmOnOrbitalShaker-v1"
 
 
 def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
     result = run_cli("new-task", TEXT, "--out", tmp_path, "--yes")
     assert result.exit_code == 0, result.stderr
-    path = tmp_path / "place_well_plate96_on_orbital_shaker.yaml"
-    assert path.is_file() and "instruction: Put the 96-well plate on the orbital shaker." in result.stdout
+    path = tmp_path / "place_petri_dish90mm_on_orbital_shaker.yaml"
+    assert path.is_file() and "instruction: Put the 90 mm petri dish on the orbital shaker." in result.stdout
     assert result.stdout == path.read_text()  # what the user confirmed is what was written
     assert load_task_file(path).id == TASK_ID
     assert run_cli("tasks", "validate", path).exit_code == 0
@@ -51,7 +51,7 @@ def test_check_failure_names_the_stage_and_writes_nothing_without_force(run_cli,
     monkeypatch.setattr(check, "SOLVE_SHARE", 1.01)  # no expert can pass: the gate must refuse
     result = run_cli("new-task", TEXT, "--check", "--episodes", "1", "--out", tmp_path, "--yes")
     text = " ".join(result.stderr.split())
-    assert result.exit_code == 1 and "--check failed for generated/PlaceWellPlate96OnOrbitalShaker-v1" in text
+    assert result.exit_code == 1 and f"--check failed for {TASK_ID}" in text
     assert "Traceback" not in result.stderr and not list(tmp_path.iterdir())
     forced = run_cli("new-task", TEXT, "--check", "--episodes", "1", "--out", tmp_path, "--yes", "--force")
     assert forced.exit_code == 0 and "FAILED (written anyway: --force)" in " ".join(forced.stderr.split())
@@ -79,7 +79,7 @@ def test_json_has_the_plan_and_the_check(run_cli) -> None:
 
 def test_multi_step_description_becomes_a_sequence_task(run_cli, tmp_path) -> None:
     result = run_cli(
-        "new-task", "Open the PCR machine, load the PCR plate, and then close the lid", "--out", tmp_path, "--yes"
+        "new-task", "Open the PCR machine, load the PCR strip, and then close the lid", "--out", tmp_path, "--yes"
     )
     assert result.exit_code == 0, result.stderr
     path = next(tmp_path.iterdir())

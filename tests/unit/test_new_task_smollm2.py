@@ -57,7 +57,7 @@ def server() -> Iterator[str]:
     "text",
     [
         "Put the 50 mL falcon tube on the balance",
-        "Open the PCR machine, load the PCR plate, then close the lid",
+        "Open the PCR machine, load the PCR strip, then close the lid",
         "Close the spectrophotometer lid",
     ],
 )
