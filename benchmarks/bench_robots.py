@@ -31,6 +31,9 @@ from pipette_cli.registry import load_registry
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TaskSpec
 
+LIMIT = re.compile(r"\): ((?:reach|payload|gripper): .*)$")
+"""An expert failure naming a physical limit (the skills' refusals: ``step N (...): reach: ...``)."""
+
 
 def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
     """One task on one robot: success over ``episodes`` seeds, or the refusal."""
@@ -59,10 +62,6 @@ def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:
         assert first is not None
         row["refused"] = f"{task.id} on the {robot}: {first.group(1)}"
     return row
-
-
-LIMIT = re.compile(r"\): ((?:reach|payload|gripper): .*)$")
-"""An expert failure naming a physical limit (the skills' refusals: ``step N (...): reach: ...``)."""
 
 
 def cell_text(row: dict) -> str:

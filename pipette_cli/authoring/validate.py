@@ -18,11 +18,9 @@ from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, 
 from pipette_cli.authoring.resolve import Wanted, candidates
 from pipette_cli.authoring.text import normalise, tokenise
 from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
-from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN
+from pipette_cli.skills.grasp import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN, ROUND
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 
-ROUND = 0.006
-"""Metres within which a flat object's footprint sides count as equal (a dish, not a plate)."""
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.errors import InfeasibleTask, SimError, SpecError
 from pipette_cli.sim.scene import ROBOT_PREFIX, collision_boxes, compile_scene, make_scene_spec, robot_boxes
+from pipette_cli.skills.frames import UP
 from pipette_cli.skills.moves import COVER_ROOM, SHIFT_STEP, SHIFTS
 from pipette_cli.specs.base import PoseSpec
 from pipette_cli.specs.robot import RobotSpec, robot_spec
@@ -41,7 +42,6 @@ MAX_SHIFT = 0.6
 """Farthest the base moves from the task's own base pose, metres."""
 LOW = 0.1
 """Metres over the bench top below which a picked object counts against the hand-down reach."""
-UP = np.array([0.0, 0.0, 1.0])
 HOLDING_SKILLS = ("pick", "remove_from")
 """Skills whose ``object`` the robot carries (its mass counts against the payload)."""
 
@@ -147,20 +147,13 @@ def measure_workspace(task: TaskSpec) -> Workspace:
             carried[name] = float(model.body_subtreemass[body])
     for step in steps:  # a spot inside an enclosure: set down at its front, through its mouth
         target, name = getattr(step, "target", None), getattr(step, "object", None)
-        if step.skill == "place_on" and isinstance(target, str) and target in points and isinstance(name, str):
-            if name not in carried:
-                continue
-            held = boxes_of(model, data, owners, name)
+        if step.skill == "place_on" and isinstance(target, str) and target in points and name in carried:
+            held = collision_boxes(model, data, np.flatnonzero(owners == name))
             half = float(np.max(held[:, 3:5] - held[:, :2])) / 2 if len(held) else 0.05
             front = _enclosure_front(model, data, points[target], np.asarray(task.embodiment.base.pos), half)
             if front is not None:
                 points[target], points[f"{target} (entry)"] = front
     return Workspace(points, boxes, bench, carried)
-
-
-def boxes_of(model: mujoco.MjModel, data: mujoco.MjData, owners: np.ndarray, name: str) -> np.ndarray:
-    """Collision boxes (n, 6) of scene object ``name``."""
-    return collision_boxes(model, data, np.flatnonzero(owners == name))
 
 
 def _enclosure_front(

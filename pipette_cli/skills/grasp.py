@@ -44,6 +44,8 @@ LONG = 2.5
 lying on the bench) is taken across its long axis from above, not pinched at a rim."""
 LIFT_CHECK = 0.015
 """Metres above the grasp the arm must also reach, to take the object off its support."""
+ROUND = 0.006
+"""Metres within which a flat object's footprint sides count as equal: round (a dish), not a plate."""
 PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
 PINCH_TURNS = (35.0, -35.0)
@@ -364,7 +366,7 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, abo
     """Pinches facing ``radial``: over the rim from behind it, or (``above``) from straight above it."""
     opening = ctx.robot.gripper.max_opening
     center = shape.center
-    round_ = abs(shape.half[0] - shape.half[1]) < 0.003 if shape.vertical_axis() == 2 else False
+    round_ = 2 * abs(shape.half[0] - shape.half[1]) < ROUND if shape.vertical_axis() == 2 else False
     chord = opening - 2 * GRIP_MARGIN / 3
     if round_:
         r = float(max(shape.half[0], shape.half[1]))  # its own box: a turned dish is as wide as ever

@@ -53,6 +53,11 @@ def transit(
             f"{what}: no path to {fmt(np.asarray(pos))} within the {ctx.robot.name}'s reach "
             "that touches nothing on the way"
         )
+    yield from follow(ctx, legs)
+
+
+def follow(ctx: SkillContext, legs: list[Leg]) -> Iterator[Move]:
+    """The moves along legs :func:`plan_transit` planned."""
     for leg in legs:
         yield ctx.planned(leg.pos, leg.rot, leg.q, speed=leg.speed, straight=leg.straight, joints=leg.joints)
 
@@ -69,11 +74,10 @@ def plan_transit(
     *,
     exclude: AbstractSet[int] = frozenset(),
     radius: float = 0.04,
-    rooms: tuple[float, ...] = (TRANSIT_ROOM, 0.0),
 ) -> list[Leg] | None:
     """The legs from the hand to ``pos``/``rot``, each reached by the arm without touching anything
-    (dry run of the IK and of the arm's collisions), or ``None``. The fast legs keep the first of
-    ``rooms`` (metres from the scene) that some path has.
+    (dry run of the IK and of the arm's collisions), or ``None``. The fast legs keep
+    :data:`TRANSIT_ROOM` from the scene where some path has that room.
 
     Out of an enclosure the hand is in, level; then up to a safe height over the corridor (surfaces
     under the path plus what hangs below the hand), across and down, or, when that is out of the
@@ -102,7 +106,7 @@ def plan_transit(
         route.insert(0, pos + direction * (mouth + radius + 0.02))
     first = route[0]
     if np.linalg.norm(first[:2] - start.pos[:2]) > 0.01:
-        crossing = _route(ctx, start, first, rot, skip, radius, hang, precise=len(route) == 1, rooms=rooms)
+        crossing = _route(ctx, start, first, rot, skip, radius, hang, precise=len(route) == 1)
         if crossing is None:
             log.debug("no route to %s", fmt(first))
             return None
@@ -157,10 +161,10 @@ def _route(
     radius: float,
     hang: float,
     precise: bool = True,
-    rooms: tuple[float, ...] = (TRANSIT_ROOM, 0.0),
 ) -> list[Leg] | None:
     """Legs from ``start`` to ``goal``: straight over the top, at the hand's height, or by a detour to
-    either side; the first the arm reaches touching nothing, keeping the first of ``rooms`` it can."""
+    either side; the first the arm reaches touching nothing, with :data:`TRANSIT_ROOM` to spare where
+    any path has it."""
     here = start.pos
     heading = goal[:2] - here[:2]
     heading = heading / (np.linalg.norm(heading) + 1e-12)
@@ -174,7 +178,7 @@ def _route(
     paths += [
         ([here_flat + s * d * side, goal + s * d * side, goal], True, 0.0) for d in (0.3, 0.42) for s in (1.0, -1.0)
     ]
-    for room in rooms:
+    for room in (TRANSIT_ROOM, 0.0):
         for path, low, extra in paths:
             if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
                 points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]

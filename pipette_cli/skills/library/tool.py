@@ -17,6 +17,7 @@ from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.library.place import YAWS, resolve_target
 from pipette_cli.skills.moves import APPROACH_SPEED, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
+from pipette_cli.skills.transit import follow
 from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
 
 
@@ -36,13 +37,15 @@ def position_over(ctx: SkillContext, step: PositionOverSpec) -> Iterator[Move]:
     offset = tool_point(ctx, step.object, step.point)
     target = resolve_target(ctx, step.target, surface=False)
     goal = target + step.height * UP
-    tool_pos, tool_rot = goal - ctx.rot @ offset, ctx.rot
-    for yaw in YAWS:  # as grasped where the arm gets there, else turned about the vertical (still level)
-        rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.rot
-        if ctx.can_reach(goal - rot @ offset, rot):
-            tool_pos, tool_rot = goal - rot @ offset, rot
+    # as grasped where the arm gets there, else turned about the vertical (still level)
+    rotations = [axis_rotation(UP, np.deg2rad(yaw)) @ ctx.rot for yaw in YAWS]
+    for rot in rotations:
+        legs = ctx.plan_transit(goal - rot @ offset, rot)
+        if legs is not None:
+            yield from follow(ctx, legs)
             break
-    yield from ctx.transit(tool_pos, tool_rot, what=f"bringing {step.object!r} over {step.target!r}")
+    else:  # none: the refusal names the pose as grasped
+        yield from ctx.transit(goal - ctx.rot @ offset, ctx.rot, what=f"bringing {step.object!r} over {step.target!r}")
     ctx.check_holding(step.object)
     if step.hold_s:
         yield ctx.hold(step.hold_s)
