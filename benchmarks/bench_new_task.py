@@ -89,9 +89,12 @@ def main() -> None:
     parser.add_argument("--no-solve", action="store_true", help="Skip running the experts (plans and builds only).")
     parser.add_argument("--episodes", type=int, default=5)
     parser.add_argument("--limit", type=int, default=0, help="Only the first N sentences of each set.")
+    parser.add_argument(
+        "--stride", type=int, default=1, help="Every Nth sentence of each set (a spread sample for slow backends)."
+    )
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
-    cases = [c for path in args.set for c in load_cases(path)[: args.limit or None]]
+    cases = [c for path in args.set for c in load_cases(path)[:: max(1, args.stride)][: args.limit or None]]
     started = time.perf_counter()
     with ExitStack() as stack:
         base_url, backend_name = args.base_url, args.backend
@@ -123,6 +126,9 @@ def main() -> None:
         "commit": git_state(),
         "sets": [str(p) for p in args.set],
         "backend": backend_name,
+        "model": args.model or ("smollm2" if args.local_llm else None),
+        "stride": args.stride,
+        "limit": args.limit or None,
         "sentences": n,
         "handled_right": right,
         "handled_right_share": right / max(1, n),

@@ -27,7 +27,7 @@ import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame, unit
-from pipette_cli.skills.moves import SkillFailure
+from pipette_cli.skills.moves import COMFORT, SkillFailure
 from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.skills.scene import Shape
 
@@ -89,13 +89,17 @@ def plan_grasp(
     toward: np.ndarray | None = None,
     then: FollowThrough | None = None,
     later: FollowThrough | None = None,
+    exact: bool = False,
 ) -> Grasp:
     """The first reachable grasp of ``name`` (see the module docstring). ``toward`` is the horizontal
     direction the hand should point for what comes next (into an enclosure): pinches and pitched
     grasps try it first. ``then`` gives the tool poses the hand must reach after the grasp, in straight
     lines (pulling a handle along its arc): a grasp the arm cannot follow through with is not taken.
     ``later`` gives poses the hand goes to afterwards through free space (where what it holds is
-    taken next): a grasp that leaves one of them out of reach is not taken either."""
+    taken next): a grasp that leaves one of them out of reach is not taken either. With ``exact`` (the
+    poses are the ones the next step goes to, not one of its choices), grasps leaving them in
+    comfortable reach come first: a long tool held at one end droops in the fingers, and the pose
+    moves with it."""
     shape = ctx.scene.shape(name)
     opening = ctx.robot.gripper.max_opening
     half = shape.world_half()
@@ -105,14 +109,14 @@ def plan_grasp(
     long_ = bool(footprint[1] > LONG * footprint[0])
     if mode == "pinch" or (mode == "auto" and at is None and low and not long_):
         try:
-            return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then, later)
+            return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then, later, exact)
         except SkillFailure:  # a near rim too close to the base to come at from the side: from straight above
             above = _pinch_candidates(ctx, name, shape, toward, above=True)
-            return _first_reachable(ctx, name, above, "pinch", then, later)
+            return _first_reachable(ctx, name, above, "pinch", then, later, exact)
     if mode == "side":
         if at is None:
             raise SkillFailure(f"a side grasp of {name!r} needs a site to grasp at ('at:')")
-        return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then, later)
+        return _first_reachable(ctx, name, _side_candidates(ctx, name, at), "side", then, later, exact)
     axis_obj = shape.axes[:, shape.vertical_axis()]
     lying = abs(axis_obj[2]) < 0.7 or (
         at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
@@ -131,6 +135,7 @@ def plan_grasp(
         "across" if lying else "axis",
         then,
         later,
+        exact,
     )
 
 
@@ -403,10 +408,13 @@ def _first_reachable(
     kind: str,
     then: FollowThrough | None = None,
     later: FollowThrough | None = None,
+    exact: bool = False,
 ) -> Grasp:
     touch = ctx.scene.bodies(name) | _support_of(ctx, name)
     if later is not None:
-        candidates = [g for g in candidates if ctx.margin(later(g), touch, collisions=False) is not None]
+        margins = [ctx.margin(later(g), touch, collisions=False) for g in candidates]
+        order = sorted((exact and m < COMFORT, i) for i, m in enumerate(margins) if m is not None)
+        candidates = [candidates[i] for _, i in order]
 
     def poses(g: Grasp) -> list[tuple[np.ndarray, np.ndarray]]:
         after = then(g) if then is not None else [(g.pos + LIFT_CHECK * UP, g.rot)]

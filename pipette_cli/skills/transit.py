@@ -329,13 +329,14 @@ def lift_clear(
         return
 
 
-def settle(ctx: SkillContext, seconds: float, *, what: str) -> Iterator[Move]:
+def settle(ctx: SkillContext, seconds: float, *, what: str, required: bool = True) -> Iterator[Move]:
     """Hold still ``seconds``, then bring the tcp sideways to where the last move planned it: a
     position servo under gravity stops a few millimetres short of its target (an outstretched arm
     sags), so a held object is set down off the spot planned. The target is moved by the sideways
     error measured, up to :data:`SETTLE_TRIES` times, until the tcp is within
     :data:`SETTLE_TOLERANCE` of the plan; the height is left alone (what the hand holds stays
-    pressed on the surface under it)."""
+    pressed on the surface under it). Unless ``required``, a correction the arm cannot make is
+    left out."""
     goal, rot = ctx.pos.copy(), ctx.rot
     yield ctx.hold(seconds)
     for _ in range(SETTLE_TRIES):
@@ -343,7 +344,13 @@ def settle(ctx: SkillContext, seconds: float, *, what: str) -> Iterator[Move]:
         error[2] = 0.0
         if float(np.linalg.norm(error)) < SETTLE_TOLERANCE:
             break
-        yield ctx.move(ctx.pos + error, rot, speed=FINE_SPEED, what=what)
+        try:
+            move = ctx.move(ctx.pos + error, rot, speed=FINE_SPEED, what=what)
+        except SkillFailure:
+            if required:
+                raise
+            return
+        yield move
         yield ctx.hold(seconds)
 
 

@@ -12,6 +12,7 @@ from pipette_cli.skills.grasp import FollowThrough, Grasp, _support_of, plan_gra
 from pipette_cli.skills.library.place import insertion, put_down, resolve_target, upright_rotations
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Held, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
+from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import InsertIntoSpec, PickSpec, PositionOverSpec, RemoveFromSpec
 
 SETTLE_S = 0.25
@@ -35,8 +36,11 @@ def grasp(
         raise SkillFailure(f"the hand already holds {ctx.held.name!r}; put it down first")
     toward = entry_direction(ctx, name)
     after = tool_follow_through(ctx, name)
+    exact = isinstance(ctx.next_step, PositionOverSpec)  # the pose it goes to, not one of its choices
     try:
-        plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=toward, then=then, later=after)
+        plan = plan_grasp(
+            ctx, name, at=at, mode=mode, height=height, toward=toward, then=then, later=after, exact=exact
+        )
     except SkillFailure:
         if after is None:
             raise
@@ -51,7 +55,9 @@ def grasp(
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
-        yield ctx.hold(SETTLE_S)
+        # the servos stop a few millimetres short under gravity: centred on the fingers before they
+        # close, or the first finger to arrive pushes a small object over
+        yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.attach(name)
 
