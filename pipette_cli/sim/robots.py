@@ -95,14 +95,7 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         act = spec.actuator(config.gripper.actuator)
         if drive.kp is not None:
             act.gainprm[0] = drive.kp
-            act.biasprm[:3] = [0.0, -drive.kp, 0.0]
-            # the damping is the fingers' own (their tendon's or joint's), not the servo's: MuJoCo's
-            # implicit step leaves a servo's damping out while its force is at the limit, and light
-            # fingers then chatter and bounce off a small object instead of closing on it
-            if act.trntype == mujoco.mjtTrn.mjTRN_TENDON:
-                spec.tendon(act.target).damping = [drive.kv or 0.0, 0.0, 0.0]
-            else:
-                spec.joint(act.target).damping = [drive.kv or 0.0, 0.0, 0.0]
+            act.biasprm[:3] = [0.0, -drive.kp, -(drive.kv or 0.0)]
         lo, hi = sorted((config.gripper.closed_ctrl, config.gripper.open_ctrl))
         if not config.arm.limit_ctrl_to_joint_range:
             act.ctrlrange = [lo, hi]

@@ -86,6 +86,15 @@ def test_pick_lifts_objects_of_every_shape(task_id: str, name: str, lift: float)
     assert expert._ctx is not None and expert._ctx.held is not None and expert._ctx.held.name == name
 
 
+@pytest.mark.parametrize("seed", [0, 1])
+def test_pick_takes_a_small_upright_object_without_tipping_it(seed: int) -> None:
+    """A 2 mL cryovial, light and tall: the first finger to touch it must not push it over."""
+    leans: list[float] = []
+    world, _ = run("skills/PickSmallUpright-v1", seed=seed, watch=lambda w: leans.append(upright(w, "vial")))
+    assert world.verdict.success, world.verdict
+    assert max(leans) < 10.0, f"the cryovial leaned {max(leans):.0f} deg on the way"
+
+
 def test_place_on_sets_a_tube_on_a_pan_and_a_dish_on_a_shelf() -> None:
     world, _ = run("PlaceTubeOnBalance")
     pan = world.position("balance/pan_center")
