@@ -57,9 +57,11 @@ class StageBase:
         return self.th.hold_s if self.th.hold_s is not None and not self.multi else default
 
     def timeout(self, default: float) -> float | None:
+        """The description's time limit, else ``default`` plus any hold it asks for (the defaults
+        leave room for the default holds only)."""
         if self.multi:
             return default
-        return self.th.timeout_s or default
+        return self.th.timeout_s or default + (self.th.hold_s or 0.0)
 
 
 __all__ = ["Stage", "StageBase"]

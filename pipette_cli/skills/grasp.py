@@ -36,8 +36,6 @@ GRIP_MARGIN = 0.006
 PALM_MARGIN = 0.008
 """Metres kept between the object's top and the palm."""
 FINGERTIP_LIFT = 0.012
-SURFACE_CLEARANCE = 0.002
-"""Metres a pinch's fingertips keep above the surface the object stands on."""
 """Lowest tcp height above the supporting surface for a straight-down grasp (fingertips' reach)."""
 FLAT = 0.03
 """Objects lower than this are pinched at the rim rather than taken around an axis (unless long)."""
@@ -323,18 +321,10 @@ def _top_candidates(
             if lying and len(along) == 1:
                 late.append(pitched_frame(-along[0], pitch))
         for rot in rots:
-            out.append(_from_above(_over_surface(ctx, point, shape, rot), rot, above, width))
-    out += [_from_above(_over_surface(ctx, point, shape, rot), rot, above, width) for rot in late]
+            out.append(_from_above(point, rot, above, width))
+    out += [_from_above(point, rot, above, width) for rot in late]
     if bar is not None and abs(length @ radial) < 0.5:
         out += _front_of_bar(ctx, bar, radial)
-    return out
-
-
-def _over_surface(ctx: SkillContext, point: np.ndarray, shape: Shape, rot: np.ndarray) -> np.ndarray:
-    """``point``, raised where the fingers turned ``rot`` would reach the surface the object stands on:
-    pressed on it, they stick there instead of closing."""
-    out = point.copy()
-    out[2] = max(out[2], shape.bottom + _fingers_below(ctx, rot) + SURFACE_CLEARANCE)
     return out
 
 
@@ -403,21 +393,12 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, abo
         for pitch in PINCH_PITCHES:
             pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
             rot = pitched_frame(radial, pitch)
-            pinch = _over_surface(ctx, pinch, shape, rot)
             # over the rim and down onto the chord; or (under a shelf) level, where the open fingers slide
             # in until the rim itself stops them at the chord
             over = pinch + rise * UP
             start = over + PINCH_DROP * UP if above else over - 0.12 * radial
             out.append(Grasp("pinch", pinch, rot, [start, over], c))
     return out
-
-
-def _fingers_below(ctx: SkillContext, rot: np.ndarray) -> float:
-    """How far the fingers reach below the tcp with the hand turned ``rot``: their tips along the
-    approach axis and their half thickness across it."""
-    fingers = ctx.robot.gripper
-    approach, across = rot[:, 2], np.cross(rot[:, 2], rot[:, 1])
-    return fingers.fingertip * max(0.0, -float(approach[2])) + 0.5 * fingers.finger_thickness * abs(float(across[2]))
 
 
 def _first_reachable(

@@ -77,6 +77,13 @@ def test_position_needs_the_tip_lifted_above_the_target() -> None:
     assert s.min_z >= dish_top + 0.03 and s.max_xy_distance == pytest.approx(0.0924 / 2, abs=0.002)
 
 
+def test_a_longer_hold_asked_for_lengthens_the_time_limit_by_as_much() -> None:
+    plain = drafted("Hold the pipette over the petri dish").spec.success
+    longer = drafted("Hold the pipette over the petri dish and keep it there for 3 seconds").spec.success
+    assert longer.hold_s == 3.0
+    assert longer.timeout_s == pytest.approx(plain.timeout_s + 3.0)
+
+
 def test_removal_from_the_balance_must_come_down_to_the_bench() -> None:
     spec = drafted("Take the skirted tube off the balance").spec
     assert spec.success.type == "displacement" and spec.success.delta.z.max == pytest.approx(-(0.09 - 0.01), abs=0.002)
