@@ -95,6 +95,7 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args()
     cases = [c for path in args.set for c in load_cases(path)[:: max(1, args.stride)][: args.limit or None]]
+    model = args.model or ("smollm2" if args.local_llm else None)
     started = time.perf_counter()
     with ExitStack() as stack:
         base_url, backend_name = args.base_url, args.backend
@@ -102,9 +103,7 @@ def main() -> None:
             from pipette_cli.llm.local import local_llama_server
 
             base_url, backend_name = stack.enter_context(local_llama_server(n_ctx=4096)), "openai"
-        backend = make_backend(
-            backend_name, base_url=base_url, model=args.model or ("smollm2" if args.local_llm else None)
-        )
+        backend = make_backend(backend_name, base_url=base_url, model=model)
         rows = []
         for case in cases:
             row = judge(case, backend, solve=not args.no_solve, episodes=args.episodes)
@@ -126,7 +125,7 @@ def main() -> None:
         "commit": git_state(),
         "sets": [str(p) for p in args.set],
         "backend": backend_name,
-        "model": args.model or ("smollm2" if args.local_llm else None),
+        "model": model,
         "stride": args.stride,
         "limit": args.limit or None,
         "sentences": n,

@@ -55,9 +55,8 @@ def grasp(
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
-        # the servos stop a few millimetres short under gravity: centred on the fingers before they
-        # close (or the first finger to arrive pushes a small object over), the fingertips off the
-        # surface (or they stick there)
+        # the servos stop a few millimetres short under gravity: centred between the fingers before
+        # they close (or the first finger to arrive pushes a small object over)
         yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.attach(name)
