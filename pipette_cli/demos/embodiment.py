@@ -25,6 +25,7 @@ from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.errors import InfeasibleTask, SimError, SpecError
 from pipette_cli.sim.scene import ROBOT_PREFIX, collision_boxes, compile_scene, make_scene_spec, robot_boxes
 from pipette_cli.skills.frames import UP
+from pipette_cli.skills.grasp import pinched
 from pipette_cli.skills.moves import COVER_ROOM, SHIFT_STEP, SHIFTS
 from pipette_cli.specs.base import PoseSpec
 from pipette_cli.specs.robot import RobotSpec, robot_spec
@@ -49,12 +50,14 @@ HOLDING_SKILLS = ("pick", "remove_from")
 @dataclass(frozen=True)
 class Workspace:
     """What the base placement needs of a compiled scene: the program's work points (x, y, z), every
-    object's collision boxes (n, 6), the bench top's extent (x0, y0, x1, y1) and the carried masses."""
+    object's collision boxes (n, 6), the bench top's extent (x0, y0, x1, y1), the carried masses and
+    what of that is pinched at its rim, the hand pitched (not taken from above)."""
 
     points: dict[str, np.ndarray]
     boxes: np.ndarray
     bench: tuple[float, float, float, float]
     carried: dict[str, float]
+    pinched: frozenset[str] = frozenset()
 
 
 def resolve_robot(name: str) -> RobotSpec:
@@ -139,12 +142,17 @@ def measure_workspace(task: TaskSpec) -> Workspace:
     top = bench_boxes[bench_boxes[:, 5] > task.embodiment.base.pos[2] - 0.01]  # the top slab, not the legs
     bench = (float(top[:, 0].min()), float(top[:, 1].min()), float(top[:, 3].max()), float(top[:, 4].max()))
     boxes = collision_boxes(model, data, np.flatnonzero(np.isin(owners, [o.name for o in task.scene.objects])))
-    carried = {}
+    carried, pinches = {}, set()
     for step in steps:
         name = getattr(step, "object", None)
         if step.skill in HOLDING_SKILLS and name in objects:
             body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, objects[name].root_body)
             carried[name] = float(model.body_subtreemass[body])
+            held = collision_boxes(model, data, np.flatnonzero(owners == name))
+            if len(held):
+                size = held[:, 3:].max(axis=0) - held[:, :3].min(axis=0)
+                if pinched(size[2], size[:2], getattr(step, "grasp", "auto"), getattr(step, "at", None)):
+                    pinches.add(name)
     for step in steps:  # a spot inside an enclosure: set down at its front, through its mouth
         target, name = getattr(step, "target", None), getattr(step, "object", None)
         if step.skill == "place_on" and isinstance(target, str) and target in points and name in carried:
@@ -153,7 +161,7 @@ def measure_workspace(task: TaskSpec) -> Workspace:
             front = _enclosure_front(model, data, points[target], np.asarray(task.embodiment.base.pos), half)
             if front is not None:
                 points[target], points[f"{target} (entry)"] = front
-    return Workspace(points, boxes, bench, carried)
+    return Workspace(points, boxes, bench, carried, frozenset(pinches))
 
 
 def _enclosure_front(
@@ -231,10 +239,10 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple
     grid = grid[np.argsort(np.abs(grid[:, 0]) + 2.0 * np.abs(grid[:, 1]) + 1e-6 * np.arange(len(grid)), kind="stable")]
     points3 = np.array(list(space.points.values())).reshape(-1, 3)
     # what the program picks up off the bench top is grasped from above: the hand-down reach applies
+    # (not to a flat object pinched at its rim, the hand pitched)
     low = points3[:, 2] < home[2] + LOW
-    limit = COMFORT * np.where(
-        low & np.isin(list(space.points), list(space.carried)), config.top_down_reach, config.reach
-    )
+    from_above = np.isin(list(space.points), list(set(space.carried) - space.pinched))
+    limit = COMFORT * np.where(low & from_above, config.top_down_reach, config.reach)
     points = points3[:, :2]
     r = config.footprint_radius
     x0, y0, x1, y1 = space.bench

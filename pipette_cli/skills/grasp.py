@@ -79,6 +79,13 @@ def semantics(ctx: SkillContext, name: str) -> dict:
 FollowThrough = Callable[["Grasp"], list[tuple[np.ndarray, np.ndarray]]]
 
 
+def pinched(height: float, footprint: np.ndarray, mode: str = "auto", at: str | None = None) -> bool:
+    """Whether an object ``height`` tall with ``footprint`` (its two horizontal sizes) is pinched at
+    its rim, the hand pitched (a flat dish or plate), rather than taken from above."""
+    short, long_ = sorted(float(v) for v in footprint)
+    return mode == "pinch" or (mode == "auto" and at is None and height < FLAT and long_ <= LONG * short)
+
+
 def plan_grasp(
     ctx: SkillContext,
     name: str,
@@ -107,7 +114,7 @@ def plan_grasp(
     low = size[2] < FLAT
     footprint = np.sort(np.delete(shape.half, shape.vertical_axis()))  # its own box: yaw does not matter
     long_ = bool(footprint[1] > LONG * footprint[0])
-    if mode == "pinch" or (mode == "auto" and at is None and low and not long_):
+    if pinched(2 * half[2], 2 * footprint, mode, at):
         try:
             return _first_reachable(ctx, name, _pinch_candidates(ctx, name, shape, toward), "pinch", then, later, exact)
         except SkillFailure:  # a near rim too close to the base to come at from the side: from straight above

@@ -89,3 +89,18 @@ def test_a_spot_inside_an_enclosure_counts_at_its_front_and_where_the_hand_enter
     base = np.asarray(on_robot(task, "piper").embodiment.base.pos)
     assert np.linalg.norm(entry[:2] - base[:2]) >= piper.min_reach
     assert "(entry)" not in " ".join(measure_workspace(REGISTRY.get("PlaceTubeOnBalance")).points)  # in the open
+
+
+def test_a_flat_object_pinched_at_its_rim_counts_at_the_arm_s_full_reach() -> None:
+    # a dish is pinched at its rim with the hand pitched, not taken straight down: the hand-down reach
+    # does not bind it, so the Piper can stand back from the incubator and carry the dish in level
+    # (standing close, the hand pointing in at the door is beyond its wrist: 10/20 at 0.25 m, 20/20 now)
+    task = REGISTRY.get("PlacePetriDishInIncubator")
+    assert measure_workspace(task).pinched == {"dish"}
+    assert not measure_workspace(REGISTRY.get("PlaceTubeOnBalance")).pinched  # a tube: from above
+    piper = robot_spec("piper")
+    placed = on_robot(task, "piper")
+    base = np.asarray(placed.embodiment.base.pos)
+    dish = np.asarray(placed.object("dish").pose.pos)
+    assert 0.9 * piper.top_down_reach < np.linalg.norm(dish[:2] - base[:2]) <= 0.9 * piper.reach
+    assert placed.embodiment.initial_joints == piper.arm.home  # far enough from the door to start unfolded

@@ -156,6 +156,20 @@ def test_close_hinge_shuts_lids(task_id: str, joint: str) -> None:
     assert abs(world.joint(joint)) < 4
 
 
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_short_arm_closes_a_lid_leaning_back_coming_down_behind_it(seed: int) -> None:
+    # the spectrophotometer's lid stands past upright, 0.5 m out from the Piper: coming in level from
+    # behind it, the wrist of the pitched hand would cross the lid; from above, down its back, it does not
+    world, _ = run("CloseSpectrophotometerLid", seed=seed, robot="piper")
+    assert abs(world.joint("spectro/lid_hinge")) < 5
+
+
+def test_a_short_arm_carries_a_dish_into_an_incubator() -> None:
+    world, _ = run("PlacePetriDishInIncubator", seed=0, robot="piper")
+    dish = world.position("dish")
+    assert dish[0] > 0.55 and dish[2] > 0.6  # on the shelf, inside
+
+
 def test_open_hinge_pulls_a_door_and_pushes_it_open() -> None:
     """A door on a vertical hinge, pulled by its bar as far as the arm follows (the hand turning less
     with it on the way), then pushed open with the fingertips on its inner face."""

@@ -45,6 +45,14 @@ PULL_STEP = 8.0
 SETTLED_RAD_S = 0.05
 TIP_PITCHES = (0.0, 30.0)
 """Degrees below the horizon a hand pushing with its fingertips points, in the order tried."""
+APPROACHES = {"behind": (0.05, 0.02), "above": (0.01, 0.06)}
+"""How the hand comes to the push's first point: metres back from the face and up. From behind, level
+with it; from above, down along the face (a lid leaning back, past upright: the wrist behind a pitched
+hand would cross the lid on the way in from behind)."""
+
+
+Push = tuple[float, float, bool, str]
+"""A way to push a part: where along it (fraction), the hand's pitch, fingertips first, the approach."""
 
 
 @dataclass(frozen=True)
@@ -164,8 +172,12 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         p = hinge.point(hinge.anchor + reach * (edge - hinge.anchor), angle0, angle)
         return p - standoff * hinge.motion(p, sign)
 
-    def sweep(candidate: tuple[float, float, bool], start: float) -> list[np.ndarray]:
-        reach, _, tips = candidate
+    def lead_in(first: np.ndarray, way: str) -> np.ndarray:
+        back, up = APPROACHES[way]
+        return first - back * hinge.motion(first, sign) + up * UP
+
+    def sweep(candidate: Push, start: float) -> list[np.ndarray]:
+        reach, _, tips, _ = candidate
         behind = min(max(start - sign * 4.0, hinge.low), hinge.high)  # a little behind the part as it stands
         # the fingers trail the tcp by the gap: sweep on by that much where the range leaves room (a lid
         # lifted against its weight stays where the fingers leave it)
@@ -173,8 +185,8 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         off = thickness + gap + (fingers.fingertip if tips else 0.5 * fingers.finger_thickness)
         return [push_point(reach, float(a), off) for a in np.linspace(behind, end, 8)]
 
-    def frame(candidate: tuple[float, float, bool]) -> np.ndarray:
-        reach, pitch, tips = candidate
+    def frame(candidate: Push) -> np.ndarray:
+        reach, pitch, tips, _ = candidate
         p = push_point(reach, angle0, 0.0)
         if tips:  # the fingertips first along the push: the wrist stays back from the part's face
             return pitched_frame(hinge.motion(p, sign), pitch)
@@ -183,19 +195,21 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
             return down_frame(closing if np.linalg.norm(closing[:2]) > 0.1 else hinge.axis)
         return pitched_frame(p - ctx.base, pitch)
 
-    def approach_of(candidate: tuple[float, float, bool]) -> tuple[np.ndarray, np.ndarray]:
-        first = sweep(candidate, angle0)[0]
-        return first - 0.05 * hinge.motion(first, sign) + 0.02 * UP, frame(candidate)
+    def approach_of(candidate: Push) -> tuple[np.ndarray, np.ndarray]:
+        return lead_in(sweep(candidate, angle0)[0], candidate[3]), frame(candidate)
 
-    def poses(candidate: tuple[float, float, bool]) -> list[tuple[np.ndarray, np.ndarray]]:
+    def poses(candidate: Push) -> list[tuple[np.ndarray, np.ndarray]]:
         rot = frame(candidate)
         points = sweep(candidate, angle0)
         return [approach_of(candidate), *((p, rot) for p in points[::2]), (points[-1], rot)]
 
     # the side of the closed fingers, the hand pitched down; where none reaches (the wrist would touch a
-    # door's face, a lid far out), the fingertips first along the push
-    candidates = [(reach, pitch, False) for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)]
-    tips = [(reach, pitch, True) for reach in PUSH_REACHES for pitch in TIP_PITCHES]
+    # door's face, a lid far out), the fingertips first along the push; each coming in from behind the
+    # face, then (none of those clear) from above it
+    candidates = [
+        (reach, pitch, False, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)
+    ]
+    tips = [(reach, pitch, True, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in TIP_PITCHES]
     chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
     if chosen is None:
         chosen = ctx.choose(tips, poses, via=approach_of, touch=moving)
@@ -213,10 +227,7 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     start = angle0
     for attempt in range(MAX_PASSES):
         points = sweep(chosen, start)
-        approach = (
-            approach_of(chosen)[0] if attempt == 0 else points[0] - 0.05 * hinge.motion(points[0], sign) + 0.02 * UP
-        )
-        yield from ctx.transit(approach, rot, what=f"the approach to {joint!r}")
+        yield from ctx.transit(lead_in(points[0], chosen[3]), rot, what=f"the approach to {joint!r}")
         with ctx.touching(moving):
             yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {joint!r}")
             for point in points[1:]:
