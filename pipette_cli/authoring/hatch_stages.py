@@ -109,6 +109,7 @@ class HatchStages(StageBase):
                 max_tilt_deg=5.0,
                 hold_s=self.hold(0.5),
                 timeout_s=self.timeout(20),
+                released=True,
             )
             comments = {"z": "VERIFY: seated on the rim (lid_seat site height)"}
             program = [sk.PickSpec(object=lid, at=handle), sk.PlaceOnSpec(object=lid, target=f"{name}/lid_seat")]

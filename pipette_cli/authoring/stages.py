@@ -15,6 +15,9 @@ saying where every derived number comes from.
 | open / close a lift-off lid | lid lifted 10 cm and drawn back / seated on ``lid_seat`` | ``pick`` + ``move`` / ``place_on`` |
 | press | ``mechanism_triggered`` (a ``button_release`` mechanism) | ``press`` + ``wait`` |
 | position | ``near_target`` above the target | ``pick`` + ``position_over`` |
+
+A placement's criterion is ``released``: it counts once the hand has let go, not while the object is
+carried through its region or held where it goes.
 """
 
 from __future__ import annotations
@@ -151,6 +154,7 @@ class StageBuilder(HatchStages):
             max_tilt_deg=tilt,
             hold_s=self.hold(1.0),
             timeout_s=self.timeout(15),
+            released=True,
         )
         comments = {
             "within": "from the description"
@@ -201,7 +205,9 @@ class StageBuilder(HatchStages):
                 f"VERIFY: standing in a slot (floor {slot_z * 1000:.0f} mm), below 40 % of the "
                 f"{height * 1000:.0f} mm holder, so lying on top does not count"
             )
-        criterion = ev.RegionHoldSpec(object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15))
+        criterion = ev.RegionHoldSpec(
+            object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15), released=True
+        )
         return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{slot}")], comments, [item, dest])
 
     def _drop_in(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry, site: str) -> Stage:
@@ -214,6 +220,7 @@ class StageBuilder(HatchStages):
             z=BoundSpec(max=r(rim)),
             hold_s=self.hold(0.5),
             timeout_s=self.timeout(15),
+            released=True,
         )
         comments = {
             "z": f"inside: below its rim at z = {rim:.3f} m",

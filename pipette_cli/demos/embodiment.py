@@ -25,7 +25,6 @@ from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.errors import InfeasibleTask, SimError, SpecError
 from pipette_cli.sim.scene import ROBOT_PREFIX, collision_boxes, compile_scene, make_scene_spec, robot_boxes
 from pipette_cli.skills.frames import UP
-from pipette_cli.skills.grasp import pinched
 from pipette_cli.skills.moves import COVER_ROOM, SHIFT_STEP, SHIFTS
 from pipette_cli.specs.base import PoseSpec
 from pipette_cli.specs.robot import RobotSpec, robot_spec
@@ -121,6 +120,8 @@ def _fmt(pos: tuple[float, ...]) -> str:
 def measure_workspace(task: TaskSpec) -> Workspace:
     """Compile the task's scene at its nominal poses and read the program's work points, the
     objects' collision boxes and the masses of what the program carries."""
+    from pipette_cli.skills.grasp import pinched  # deferred: mink, scipy (~0.26 s)
+
     spec, _, objects = make_scene_spec(task)
     model = compile_scene(spec, task)
     data = mujoco.MjData(model)

@@ -55,6 +55,10 @@ class WorldState(Protocol):
         """State of a scene mechanism."""
         ...
 
+    def robot_touches(self, ref: str) -> bool:
+        """Whether the robot (any of its links or fingers) is in contact with the object ``ref``."""
+        ...
+
 
 @dataclass(frozen=True)
 class MechanismState:

@@ -11,7 +11,9 @@ updates (the first update compares with the height at reset).
 
 Unmet reasons (reported at the timeout): ``"out_of_region"`` (outside the x/y bounds or the
 disc), else ``"too_low"`` / ``"too_high"`` (only the z bound), else ``"unstable"``
-(stable_placement moving). ``max_tilt_deg`` fails at once with ``"tilted"``.
+(stable_placement moving). ``max_tilt_deg`` fails at once with ``"tilted"``. With ``released``, the
+region counts only while the robot touches the object nowhere (``"held"``): an object carried
+through the region, or held where it goes, is not yet placed.
 """
 
 from __future__ import annotations
@@ -73,6 +75,8 @@ class RegionHold(ConditionEvaluator[RegionHoldSpec]):
         if spec.max_tilt_deg is not None and metrics["tilt_deg"] > spec.max_tilt_deg:
             return Check(False, metrics, fail="tilted")
         unmet = self._region_unmet(pos, metrics)
+        if unmet is None and spec.released and state.robot_touches(spec.object):
+            unmet = "held"
         return Check(unmet is None, metrics, unmet=unmet)
 
     def _region_unmet(self, pos: np.ndarray, metrics: dict[str, float]) -> str | None:

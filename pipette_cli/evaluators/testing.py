@@ -49,6 +49,8 @@ class ScriptedWorld:
     joints: dict[str, float] = field(default_factory=dict)
     bboxes: dict[str, tuple[float, float]] = field(default_factory=dict)
     mechanisms: dict[str, MechanismState] = field(default_factory=dict)
+    touched: set[str] = field(default_factory=set)
+    """Objects the robot is in contact with."""
     control_dt: float = 1.0 / 30.0
     time: float = 0.0
     steps: int = 0
@@ -83,6 +85,10 @@ class ScriptedWorld:
 
     def mechanism(self, name: str) -> MechanismState:
         return self._get("mechanism", self.mechanisms, name, MechanismState(False, 0.0, 0.0))  # type: ignore[return-value]
+
+    def robot_touches(self, ref: str) -> bool:
+        self.reads.add(("robot_touches", ref))
+        return ref in self.touched
 
     def move(self, ref: str, pos: Vec) -> None:
         """Set the position of ``ref``."""

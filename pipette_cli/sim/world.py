@@ -205,6 +205,24 @@ class World:
             best = min(best, float(np.linalg.norm(nearest - point)))
         return best if np.isfinite(best) else float(np.linalg.norm(self.position(name)[:2] - point))
 
+    @cached_property
+    def _owners(self) -> list[str]:
+        """Each body's owner: the scene object (or ``robot``) whose name prefixes it."""
+        return [self.model.body(b).name.split("/", 1)[0] for b in range(self.model.nbody)]
+
+    def robot_touches(self, ref: str) -> bool:
+        m, d, owners = self.model, self.data, self._owners
+        if "/" not in ref and ref not in self.objects:
+            raise SimError(f"{self.task.id}: {ref!r} names no scene object; {suggest(ref, self.objects)}")
+        part = self.body_id(ref) if "/" in ref else None
+        robot = ROBOT_PREFIX.rstrip("/")
+        for contact in d.contact[: d.ncon]:
+            b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
+            for mine, other in ((b1, b2), (b2, b1)):
+                if owners[mine] == robot and (other == part if part is not None else owners[other] == ref):
+                    return True
+        return False
+
     def mechanism(self, name: str) -> MechanismState:
         try:
             return self.mechanisms[name].state()

@@ -84,6 +84,10 @@ class RegionHoldSpec(EvaluatorSpec):
     within: CircleSpec | None = None
     hold_s: HoldS = 0.5
     max_tilt_deg: TiltDeg | None = None
+    released: bool = Field(
+        False,
+        description="the robot touches the object nowhere while it holds (it was let go: set down, hung, inserted)",
+    )
 
     @model_validator(mode="after")
     def _some_region(self) -> RegionHoldSpec:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.errors import SimError
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.world import World
 from pipette_cli.skills.program import ProgramExpert
@@ -168,6 +169,25 @@ def test_a_short_arm_carries_a_dish_into_an_incubator() -> None:
     world, _ = run("PlacePetriDishInIncubator", seed=0, robot="piper")
     dish = world.position("dish")
     assert dish[0] > 0.55 and dish[2] > 0.6  # on the shelf, inside
+
+
+def test_a_hung_pipette_counts_once_the_hand_lets_go() -> None:
+    # carried over the stand, the pipette is inside the paper's bounds long before it hangs there
+    task = REGISTRY.get("PlacePipetteInRack")
+    world = World(task)
+    world.reset(0)
+    expert = ProgramExpert(list(task.expert or []))
+    expert.reset(world, np.random.default_rng(0))
+    carried_inside, verdict = 0, world.verdict
+    while not verdict.done and world.step_count < 700:
+        verdict = world.step(expert.act(world))
+        pos = world.position("pipette")
+        carried_inside += bool(pos[1] > 0.14 and pos[2] > 0.58 and world.robot_touches("pipette"))
+    assert verdict.success
+    assert carried_inside > 30  # over a second: the paper's bounds alone would have stopped it there
+    assert not world.robot_touches("pipette") and world.position("pipette")[2] == pytest.approx(0.608, abs=0.01)
+    with pytest.raises(SimError, match="names no scene object"):
+        world.robot_touches("beaker")
 
 
 def test_open_hinge_pulls_a_door_and_pushes_it_open() -> None:

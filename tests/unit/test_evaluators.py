@@ -277,6 +277,28 @@ def test_region_inclusive_axis_bounds_of_the_pipette_rack() -> None:
     assert verdicts[0].metrics["out_y"] == approx(0.0001) and verdicts[0].metrics["out_z"] == 0.0
 
 
+def test_a_released_region_counts_only_once_the_robot_lets_go() -> None:
+    # the pipette carried over the stand is inside the paper's bounds; it is placed once let go
+    spec = task_success("place_pipette_in_rack")
+    assert spec.released
+    world = ScriptedWorld(positions={"pipette": (0.5, 0.2, 0.95)}, touched={"pipette"})
+
+    def hung_at_step_20(w: ScriptedWorld, k: int) -> None:
+        if k == 20:
+            w.move("pipette", (0.5, 0.2, 0.608))
+            w.touched.clear()
+
+    verdicts = run(started(spec, world), world, 60, hung_at_step_20)
+    assert verdicts[18].metrics["hold_s"] == 0.0  # carried: not yet
+    assert first_done(verdicts) == 49 and verdicts[48].success  # steps 20..49 after the release
+    held = ScriptedWorld(positions={"pipette": (0.5, 0.2, 0.608)}, touched={"pipette"})
+    verdicts = run(started(spec, held), held, 700)
+    assert verdicts[-1].failed and verdicts[-1].reason == "held"  # never let go: the reason says so
+    assert ("robot_touches", "pipette") in held.reads
+    unreleased = RegionHoldSpec(object="pipette", y={"min": 0.14}, hold_s=0)
+    assert run(started(unreleased, held), held, 1)[0].success  # without it, as the paper has it
+
+
 def test_region_tilt_limit_of_the_flask() -> None:
     spec = task_success("place_flask_on_shaker")  # max 15 deg
     positions = {"flask": (0.6, 0.0, 0.65), "shaker/platform_center": (0.6, 0.0, 0.62)}
