@@ -143,13 +143,17 @@ def measure_workspace(task: TaskSpec) -> Workspace:
     top = bench_boxes[bench_boxes[:, 5] > task.embodiment.base.pos[2] - 0.01]  # the top slab, not the legs
     bench = (float(top[:, 0].min()), float(top[:, 1].min()), float(top[:, 3].max()), float(top[:, 4].max()))
     boxes = collision_boxes(model, data, np.flatnonzero(np.isin(owners, [o.name for o in task.scene.objects])))
-    carried, pinches = {}, set()
+    carried: dict[str, float] = {}
+    held_boxes: dict[str, np.ndarray] = {}  # each carried object's collision boxes
+    pinches = set()
     for step in steps:
         name = getattr(step, "object", None)
         if step.skill in HOLDING_SKILLS and name in objects:
             body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, objects[name].root_body)
             carried[name] = float(model.body_subtreemass[body])
-            held = collision_boxes(model, data, np.flatnonzero(owners == name))
+            if name not in held_boxes:
+                held_boxes[name] = collision_boxes(model, data, np.flatnonzero(owners == name))
+            held = held_boxes[name]
             if len(held):
                 size = held[:, 3:].max(axis=0) - held[:, :3].min(axis=0)
                 if pinched(size[2], size[:2], getattr(step, "grasp", "auto"), getattr(step, "at", None)):
@@ -157,7 +161,7 @@ def measure_workspace(task: TaskSpec) -> Workspace:
     for step in steps:  # a spot inside an enclosure: set down at its front, through its mouth
         target, name = getattr(step, "target", None), getattr(step, "object", None)
         if step.skill == "place_on" and isinstance(target, str) and target in points and name in carried:
-            held = collision_boxes(model, data, np.flatnonzero(owners == name))
+            held = held_boxes[name]
             half = float(np.max(held[:, 3:5] - held[:, :2])) / 2 if len(held) else 0.05
             front = _enclosure_front(model, data, points[target], np.asarray(task.embodiment.base.pos), half)
             if front is not None:

@@ -194,7 +194,7 @@ class World:
         """Horizontal distance from ``point`` to the nearest part of object ``name``'s collision
         geometry (an instrument is in reach when its front is, not its centre)."""
         m, d = self.model, self.data
-        bodies = [b for b in range(m.nbody) if m.body(b).name.split("/", 1)[0] == name]
+        bodies = [b for b, owner in enumerate(self._owners) if owner == name]
         best = np.inf
         for g in np.flatnonzero(np.isin(m.geom_bodyid, bodies)):
             if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
