@@ -148,7 +148,7 @@ class SkillContext:
         if yaw_free or free:
             pos, rot = self.ik.tool_pose(solution.qpos)
         if seconds is None:
-            seconds = self._seconds(pos, rot, speed, solution.qpos if free else None)
+            seconds = self._seconds(pos, rot, speed, solution.qpos)
         self.pos, self.rot, self.q = pos, rot, solution.qpos
         if gripper is not None:
             self.gripper = gripper
@@ -169,15 +169,16 @@ class SkillContext:
         free = (speed >= TRANSIT_SPEED or joints) and not straight
         if free:  # through joint space the tool ends where the joints put it (within the free tolerance)
             pos, rot = self.ik.tool_pose(q)
-        seconds = self._seconds(pos, rot, speed, q if free else None)
+        seconds = self._seconds(pos, rot, speed, q)
         self.pos, self.rot, self.q = np.asarray(pos, float), rot, q
         return Move(self.pos, rot, self.gripper, seconds, q, free=free)
 
     def _seconds(self, pos: np.ndarray, rot: np.ndarray, speed: float, q: np.ndarray | None = None) -> float:
         """Duration of a move from the planned pose: its length at ``speed`` (at most
-        :data:`HELD_SPEED` with something in the hand), its turn, or, for a move through joint space
-        to ``q``, the time the slowest joint needs at the peak of the minimum-jerk profile, whichever
-        takes longest."""
+        :data:`HELD_SPEED` with something in the hand), its turn, or the time the slowest joint needs
+        to reach ``q`` at the peak of the minimum-jerk profile, whichever takes longest. The joints
+        bound a straight move too: a quarter turn of the hand can be most of a turn of a wrist joint
+        (the UR5e's, damped to under 1 rad/s), which then lags the line and drags the tool off it."""
         if self.held is not None:
             speed = min(speed, HELD_SPEED)
         joints = 0.0 if q is None else MIN_JERK_PEAK * float(np.max(np.abs(np.asarray(q) - self.q) / self.joint_speed))
