@@ -105,7 +105,8 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         raise SimError(
             f"robot {name!r}: end-effector body {config.end_effector.body!r} not found in the menagerie model"
         )
-    _stiffen_fingers(ee)
+    _stiffen_fingers(ee, config.gripper.torsional_friction)
+    _stiffen_finger_coupling(spec, ee)
     tcp = config.end_effector.tcp
     ee.add_site(
         name="tcp",
@@ -135,8 +136,9 @@ def _mat_quat(mat: np.ndarray) -> np.ndarray:
     return quat
 
 
-def _stiffen_fingers(ee: mujoco.MjsBody) -> None:
-    """Stiff, high-friction contacts on the gripper so a grasp holds without sinking in.
+def _stiffen_fingers(ee: mujoco.MjsBody, torsional: float) -> None:
+    """Stiff, high-friction contacts on the gripper so a grasp holds without sinking in, resisting
+    twist about their normal by ``torsional`` metres (the robot's ``gripper.torsional_friction``).
 
     MuJoCo's default contact (solref 0.02 s) lets a 100 N grip press several millimetres into
     a tube; 5 ms (>= 2 physics steps at 600 Hz) keeps it under a millimetre.
@@ -148,10 +150,34 @@ def _stiffen_fingers(ee: mujoco.MjsBody) -> None:
             if geom.contype or geom.conaffinity:
                 geom.solref = list(FINGER_SOLREF)
                 geom.solimp = list(FINGER_SOLIMP)
-                geom.friction = [1.5, 0.01, 0.001]
+                geom.friction = [1.5, torsional, 0.001]
                 geom.condim = 4
                 geom.priority = 1  # these parameters win over the touched object's (no averaging)
         stack.extend(body.bodies)
+
+
+def _stiffen_finger_coupling(spec: mujoco.MjSpec, ee: mujoco.MjsBody) -> None:
+    """The equality constraints that tie a gripper's fingers together, as stiff as its contacts.
+
+    With MuJoCo's default (solref 0.02 s), the Piper's second finger, which follows the driven one
+    through a joint equality, gave way under about 1 N per millimetre: its servo's 30 N squeezed a
+    pipette with 3 N per contact, pushed to one side, and it pivoted out of the fingers within seconds
+    once held upright. The Panda's and the UR5e's menagerie models already use these parameters.
+    """
+    bodies: set[str] = set()
+    joints: set[str] = set()
+    stack = [ee]
+    while stack:
+        body = stack.pop()
+        bodies.add(body.name)
+        joints.update(j.name for j in body.joints)
+        stack.extend(body.bodies)
+    for eq in spec.equalities:
+        names = {eq.name1, eq.name2} - {""}
+        inside = joints if eq.type == mujoco.mjtEq.mjEQ_JOINT else bodies
+        if eq.type in (mujoco.mjtEq.mjEQ_JOINT, mujoco.mjtEq.mjEQ_CONNECT) and names and names <= inside:
+            eq.solref = list(FINGER_SOLREF)
+            eq.solimp = list(FINGER_SOLIMP)
 
 
 def gripper_ctrl(config: RobotSpec, command: float) -> float:

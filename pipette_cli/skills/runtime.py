@@ -54,6 +54,10 @@ Skill = Callable[["SkillContext", Any], Iterator[Move]]
 
 MIN_JERK_PEAK = 1.875
 """Peak over mean speed of a minimum-jerk move (how moves are interpolated)."""
+MAX_SAG = 0.02
+"""Metres a held object may dip below both ends of a move through joint space (the carrying height
+over what stands between was planned for the ends: a pipette turned upright on a sagging arc struck
+the stand it was carried over)."""
 JOINT_SPEED_SHARE = 0.7
 """Share of a joint's top speed a move may ask of it (the rest is for gravity and acceleration)."""
 
@@ -113,7 +117,8 @@ class SkillContext:
     ) -> Move:
         """Plan a move of the tcp to ``pos``/``rot``: at transit speed through free space (joints
         interpolated; the end pose may be missed by :data:`FREE_TOLERANCE`), slower along a straight
-        tool line. Raises :class:`SkillFailure` when the end pose is out of reach."""
+        tool line; ``seconds``, where given, is the least it takes. Raises :class:`SkillFailure` when
+        the end pose is out of reach."""
         pos = np.asarray(pos, dtype=float)
         free = speed >= TRANSIT_SPEED
         if rot is None:
@@ -147,8 +152,7 @@ class SkillContext:
             raise SkillFailure(f"{what} {fmt(pos)}: the {self.robot.name} would {self.obstacle(self.q, solution.qpos)}")
         if yaw_free or free:
             pos, rot = self.ik.tool_pose(solution.qpos)
-        if seconds is None:
-            seconds = self._seconds(pos, rot, speed, solution.qpos)
+        seconds = max(seconds or 0.0, self._seconds(pos, rot, speed, solution.qpos))
         self.pos, self.rot, self.q = pos, rot, solution.qpos
         if gripper is not None:
             self.gripper = gripper
@@ -284,19 +288,18 @@ class SkillContext:
         (where the move slows down onto its end, which may be close to something)."""
         if samples is None:  # a sample every 0.08 rad of the joint that moves most
             samples = max(4, int(np.ceil(float(np.max(np.abs(q1 - q0))) / 0.08)) + 1)
-        r0 = r1 = None
-        if self.held is not None:  # a held object must not be swung round on the way
-            r0, r1 = self.ik.tool_pose(q0)[1], self.ik.tool_pose(q1)[1]
+        ends = None
+        if self.held is not None:  # a held object must not be swung round, nor dipped, on the way
+            (p0, r0), (p1, r1) = self.ik.tool_pose(q0), self.ik.tool_pose(q1)
+            ends = (r0, r1, min(p0[2], p1[2]) - MAX_SAG)
         for t in np.linspace(0.0, 1.0, samples)[1:]:
             q = (1 - t) * q0 + t * q1
             if self.hits(q, room * min(1.0, 4.0 * (1.0 - t))):
                 return False
-            if (
-                r0 is not None
-                and r1 is not None
-                and rotation_angle(self.ik.tool_pose(q)[1], slerp(r0, r1, t)) > MAX_SWING
-            ):
-                return False
+            if ends is not None:
+                pos, rot = self.ik.tool_pose(q)
+                if rotation_angle(rot, slerp(ends[0], ends[1], t)) > MAX_SWING or pos[2] < ends[2]:
+                    return False
         return True
 
     def nearest_flip(self, rot: np.ndarray, reference: np.ndarray | None = None) -> np.ndarray:
@@ -422,6 +425,18 @@ class SkillContext:
             return fingertip
         shape = self.scene.shape(self.held.name)
         return max(fingertip, float(self.pos[2] - shape.bottom + 0.0))
+
+    def hang_at(self, rot: np.ndarray) -> float:
+        """How far below the tcp the hand and what it holds would reach with the tool turned to ``rot``
+        (what it holds keeping its place in the hand)."""
+        fingertip = 0.012
+        if self.held is None:
+            return fingertip
+        shape = self.scene.shape(self.held.name)
+        center = shape.axes.T @ (shape.center - self.world.position(self.held.name))  # in the object's frame
+        turned = rot @ self.held.rot
+        lowest = (rot @ self.held.pos)[2] + (turned @ center)[2] - np.abs(turned[2]) @ shape.half
+        return max(fingertip, float(-lowest))
 
     def held_bodies(self) -> set[int]:
         return self.scene.bodies(self.held.name) if self.held else set()

@@ -86,7 +86,8 @@ def plan_transit(
     """
     pos = np.asarray(pos, dtype=float)
     skip = set(exclude) | ctx.held_bodies()
-    hang = ctx.hang() if ctx.held else 0.012
+    # what hangs below the hand, as it is or turned to ``rot`` (it may turn anywhere on the way)
+    hang = max(ctx.hang(), ctx.hang_at(rot)) if ctx.held else 0.012
     if ctx.held is not None:
         radius = max(radius, float(np.max(ctx.scene.shape(ctx.held.name).world_half()[:2])) + 0.02)
     start = Leg(ctx.pos, ctx.rot, ctx.q, TRANSIT_SPEED)
@@ -181,6 +182,8 @@ def _route(
     for room in (TRANSIT_ROOM, 0.0):
         for path, low, extra in paths:
             if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
+                if ctx.held is not None and _sweeps_held(ctx, here, goal, rot, skip, radius):
+                    continue
                 points: list[tuple[np.ndarray, bool | None]] | None = [(goal.copy(), True)]
             else:
                 points = _waypoints(ctx, here, path, goal, skip, radius, hang, low, extra)
@@ -190,6 +193,17 @@ def _route(
             if resolved is not None:
                 return resolved
     return None
+
+
+def _sweeps_held(
+    ctx: SkillContext, here: np.ndarray, goal: np.ndarray, rot: np.ndarray, skip: set[int], radius: float
+) -> bool:
+    """Whether what the hand holds, carried straight from ``here`` to ``goal`` (turning to ``rot`` on the
+    way), would sweep through something standing under the way: its lower end, at the lower of the two
+    ends, is under the highest surface there. The arm's own path is checked joint by joint; what it
+    carries is not (a pipette turned upright on the way to a stand's slot swept through the stand)."""
+    bottom = min(here[2] - ctx.hang(), goal[2] - ctx.hang_at(rot))
+    return ctx.scene.corridor_top(here, goal, radius, skip) > bottom
 
 
 def _waypoints(

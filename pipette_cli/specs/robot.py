@@ -100,6 +100,14 @@ class GripperSpec(Spec):
     finger_thickness: float = Field(
         gt=0, lt=0.05, description="metres across a fingertip, perpendicular to closing and approach"
     )
+    torsional_friction: float = Field(
+        0.01,
+        gt=0,
+        lt=0.2,
+        description="metres: how strongly the finger contacts resist a held object turning about their "
+        "normal (MuJoCo's torsional friction); more where a finger is one thin plate, whose contact with "
+        "a cylinder is a line that lets a pinched pipette turn in the fingers",
+    )
     drive: DriveSpec | None = None
 
 

@@ -71,7 +71,9 @@ def pipette_stand_linear() -> AssetDef:
         p.site(base, f"slot_{k}", (slot_x, y, arm_top))
     return _asset("pipette_stand_linear",
                   "Linear stand holding four single-channel pipettes upright; a pipette hangs by its grip in a slot open to the front (-x).",
-                  [base], extra={"slot_count": 4.0, "slot_width": 0.016, "slot_height": arm_top})
+                  [base], extra={"slot_count": 4.0, "slot_width": 0.016, "slot_height": arm_top,
+                                 # the side a held pipette slides in from (its own frame)
+                                 "slot_opening": (-1.0, 0.0, 0.0)})
 
 
 def pipette_stand_carousel() -> AssetDef:

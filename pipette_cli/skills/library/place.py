@@ -9,7 +9,7 @@ with (it stays level), and its base, measured in the hand after the grasp, lands
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 
 import numpy as np
 
@@ -207,35 +207,91 @@ def insertion(
     return final, rise
 
 
+SLIDE_LIFT = 0.005
+"""Metres over its seat a held object slides into a slot open at the side (its collar clears the prongs)."""
+SLIDE_ROOM = 0.03
+"""Metres beyond the holder's side where a slide into a slot open at that side starts."""
+
+
+def slot_opening(ctx: SkillContext, target: str) -> np.ndarray | None:
+    """The horizontal world direction from which a held object slides into ``target``'s slots, where
+    its asset says they are open at the side (``slot_opening``: a pipette stand's slots open to the
+    front), else ``None``."""
+    holder = target.split("/", 1)[0]
+    opening = semantics(ctx, holder).get("slot_opening")
+    if opening is None:
+        return None
+    direction = ctx.world.rotation(holder) @ np.asarray(opening, dtype=float)
+    direction[2] = 0.0
+    return unit(direction)
+
+
+def _beyond(ctx: SkillContext, holder: str, site: np.ndarray, direction: np.ndarray) -> float:
+    """Metres from ``site`` along ``direction`` to the side of the holder's box, and :data:`SLIDE_ROOM` more."""
+    shape = ctx.scene.shape(holder)
+    p, d = shape.axes.T @ (site - shape.center), shape.axes.T @ direction
+    exits = [(np.sign(d[i]) * shape.half[i] - p[i]) / d[i] for i in range(3) if abs(d[i]) > 1e-9]
+    return max(0.0, min(exits)) + SLIDE_ROOM
+
+
 @skill("insert_into")
 def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     held = ctx.holding(step.object)
     rotations = upright_tool(ctx, step.object) if step.axis == "auto" else [ctx.rot]
-    holder = ctx.scene.bodies(step.target.split("/", 1)[0])
+    holder_name = step.target.split("/", 1)[0]
+    holder = ctx.scene.bodies(holder_name)
     placed, rise = insertion(ctx, step, ctx.held_bodies())
+    # lowered in from over the holder; where its slots are open at the side, slid in from there first
+    # (as a pipette is hung by hand: no lift over the holder, which a short arm may not reach)
+    ways: list[tuple[str, np.ndarray]] = [("down", rise * UP)]
+    opening = slot_opening(ctx, step.target)
+    if opening is not None:
+        site = ctx.world.position(step.target)
+        ways.insert(0, ("slide", _beyond(ctx, holder_name, site, opening) * opening + SLIDE_LIFT * UP))
 
     def final(tool_rot: np.ndarray, held: Held = held) -> np.ndarray:
         return placed(tool_rot, held)
 
-    tool_rot = ctx.choose(
-        rotations,
-        lambda r: [(final(r) + rise * UP, r), (final(r), r)],
-        touch=holder,
-        via=lambda r: (final(r) + rise * UP, r),
-    )
-    if tool_rot is None:
+    def path(way: tuple[str, np.ndarray], tool_rot: np.ndarray, held: Held = held) -> list[np.ndarray]:
+        """The tcp's points from the entry to the seat (the entry first)."""
+        kind, offset = way
+        end = final(tool_rot, held)
+        if kind == "slide":
+            return [end + offset, end + SLIDE_LIFT * UP, end]
+        return [end + offset, end]
+
+    def choose() -> tuple[tuple[str, np.ndarray], np.ndarray] | None:
+        for way in ways:  # a way in order, the most comfortable rotation for it (not the other way round)
+            chosen = ctx.choose(
+                [(way, r) for r in rotations],
+                lambda c: [(p, c[1]) for p in path(*c)],
+                touch=holder,
+                via=lambda c: (path(*c)[0], c[1]),
+            )
+            if chosen is not None:
+                return chosen
+        return None
+
+    chosen = choose()
+    if chosen is None and step.axis == "auto":
+        # a short arm may not turn it upright on the way (carried lying, held far out): stand it up
+        # where it is first, then carry it upright
+        stood = yield from _stand_up(ctx, step.object)
+        chosen = choose() if stood else None
+    if chosen is None:
         raise SkillFailure(
             f"no reachable way to hold {step.object!r} upright over {step.target!r} without touching anything"
         )
-    yield from ctx.transit(final(tool_rot) + rise * UP, tool_rot, what=f"carrying {step.object!r} over {step.target!r}")
+    way, tool_rot = chosen
+    yield from ctx.transit(path(way, tool_rot)[0], tool_rot, what=f"carrying {step.object!r} to {step.target!r}")
     yield ctx.hold(0.3)  # let it stop swinging in the fingers
     # closed loop: the object may have turned or slipped in the grasp. Measure it again, hold it truly
-    # upright (when the axis is auto) with its mating point over the site, and only then go down
+    # upright (when the axis is auto) with its mating point lined up with the site, and only then go in
     for _ in range(3):
         held = ctx.holding(step.object)
         if step.axis == "auto":
             tool_rot = upright_tool(ctx, step.object)[0]
-        entry = final(tool_rot, held) + rise * UP
+        entry = path(way, tool_rot, held)[0]
         if np.linalg.norm(entry - ctx.pos) < 0.0015 and rotation_angle(ctx.rot, tool_rot) < np.deg2rad(0.5):
             break
         log.debug(
@@ -245,17 +301,45 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
             fmt(entry - ctx.pos),
             float(np.rad2deg(rotation_angle(ctx.rot, tool_rot))),
         )
-        yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up over {step.target!r}")
+        yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up with {step.target!r}")
         yield ctx.hold(0.2)
-    tool_final = final(tool_rot, held)
     with ctx.touching(holder):
-        yield ctx.move(tool_final, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
+        for point in path(way, tool_rot, held)[1:]:
+            yield ctx.move(point, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
         if not step.release:
             return
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.held = None
         with ctx.touching(ctx.scene.bodies(step.object)):
             yield from back_off(ctx, step.retreat)
+
+
+STAND_CLEAR = 0.1
+"""Metres over the surface below that the lower end of an object stood upright in the hand keeps."""
+STAND_TURN_SPEED = 0.6
+"""Radians per second the hand turns a held object upright at (a fast whole-arm turn squeezes a
+narrow pipette out of a small gripper's pads)."""
+
+
+def _stand_up(ctx: SkillContext, name: str) -> Generator[Move, None, bool]:
+    """Turn held ``name`` upright where the hand is, its lower end :data:`STAND_CLEAR` over the
+    surface below, through joint space (checked against swinging it round and touching anything);
+    returns whether some upright hold was reachable that way."""
+    held = ctx.holding(name)
+    lowest = _lowest_along_axis(ctx, name)
+    floor = ctx.scene.surface_below(ctx.pos[0], ctx.pos[1], ctx.held_bodies(), from_z=ctx.pos[2])
+    for tool_rot in upright_tool(ctx, name):
+        pos = ctx.pos.copy()
+        pos[2] = floor + STAND_CLEAR - lowest - (tool_rot @ held.pos)[2]
+        seconds = rotation_angle(ctx.rot, tool_rot) / STAND_TURN_SPEED
+        try:
+            move = ctx.move(pos, tool_rot, seconds=seconds, what=f"standing {name!r} up")
+        except SkillFailure:
+            continue
+        yield move
+        yield ctx.hold(0.3)  # let it stop swinging in the fingers
+        return True
+    return False
 
 
 def _lowest_along_axis(ctx: SkillContext, name: str) -> float:
