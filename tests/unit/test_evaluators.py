@@ -267,13 +267,14 @@ def test_region_disc_follows_a_moving_center() -> None:
 
 
 def test_region_inclusive_axis_bounds_of_the_pipette_rack() -> None:
-    spec = task_success("place_pipette_in_rack")  # y >= 0.14, z >= 0.62, 1 s
+    spec = task_success("place_pipette_in_rack")  # y >= 0.14, z >= 0.58, 1 s, 30 s
     on_edge = ScriptedWorld(positions={"pipette": (0.5, 0.14, 0.62)})
     verdicts = run(started(spec, on_edge), on_edge, 40)
     assert first_done(verdicts) == 30 and verdicts[29].success
     short = ScriptedWorld(positions={"pipette": (0.5, 0.1399, 0.7)})
-    verdicts = run(started(spec, short), short, 700)
-    assert verdicts[-1].reason == "out_of_region" and first_done(verdicts) == 600
+    limit = round(spec.timeout_s / short.control_dt)  # the task's time limit in control steps
+    verdicts = run(started(spec, short), short, limit + 100)
+    assert verdicts[-1].reason == "out_of_region" and first_done(verdicts) == limit
     assert verdicts[0].metrics["out_y"] == approx(0.0001) and verdicts[0].metrics["out_z"] == 0.0
 
 
@@ -292,7 +293,9 @@ def test_a_released_region_counts_only_once_the_robot_lets_go() -> None:
     assert verdicts[18].metrics["hold_s"] == 0.0  # carried: not yet
     assert first_done(verdicts) == 49 and verdicts[48].success  # steps 20..49 after the release
     held = ScriptedWorld(positions={"pipette": (0.5, 0.2, 0.608)}, touched={"pipette"})
-    verdicts = run(started(spec, held), held, 700)
+    limit = round(spec.timeout_s / held.control_dt)
+    verdicts = run(started(spec, held), held, limit + 100)
+    assert first_done(verdicts) == limit
     assert verdicts[-1].failed and verdicts[-1].reason == "held"  # never let go: the reason says so
     assert ("robot_touches", "pipette") in held.reads
     unreleased = RegionHoldSpec(object="pipette", y={"min": 0.14}, hold_s=0)
