@@ -195,15 +195,28 @@ def _route(
     return None
 
 
+SWEEP_STEP = 0.02
+"""Metres between the points of a straight carry at which what the hand holds is checked against what is under it."""
+
+
 def _sweeps_held(
     ctx: SkillContext, here: np.ndarray, goal: np.ndarray, rot: np.ndarray, skip: set[int], radius: float
 ) -> bool:
     """Whether what the hand holds, carried straight from ``here`` to ``goal`` (turning to ``rot`` on the
-    way), would sweep through something standing under the way: its lower end, at the lower of the two
-    ends, is under the highest surface there. The arm's own path is checked joint by joint; what it
-    carries is not (a pipette turned upright on the way to a stand's slot swept through the stand)."""
-    bottom = min(here[2] - ctx.hang(), goal[2] - ctx.hang_at(rot))
-    return ctx.scene.corridor_top(here, goal, radius, skip) > bottom
+    way), would sweep through something standing under the way: at some point of the way, a surface
+    under the hand (what is higher than the hand, an overhang, does not count) reaches above the held
+    object's lower end there (it goes down or up with the hand, as far below it as it hangs at the
+    lower end). The arm's own path is checked joint by joint; what it carries is not (a pipette turned
+    upright on the way to a stand's slot swept through the stand). Judged point by point, not by the
+    way's highest surface against its lowest end: a dish lowered from an incubator's shelf toward the
+    bench passes over that shelf high and over the bench low."""
+    hang = max(ctx.hang(), ctx.hang_at(rot))
+    steps = max(2, int(np.ceil(float(np.linalg.norm(goal - here)) / SWEEP_STEP)) + 1)
+    for t in np.linspace(0.0, 1.0, steps):
+        point = (1.0 - t) * here + t * goal
+        if ctx.scene.corridor_top(point, point, radius, skip, below=float(point[2])) > point[2] - hang:
+            return True
+    return False
 
 
 def _waypoints(

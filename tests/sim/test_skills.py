@@ -144,6 +144,16 @@ def test_remove_from_a_balance_to_the_bench_and_out_of_an_incubator() -> None:
     assert dish[0] < 0.55 and dish[2] > 0.6  # out in front, held clear
 
 
+def test_remove_from_an_incubator_onto_the_bench_close_in_front_of_the_robot() -> None:
+    # the straight leg from the incubator's mouth down to over the spot is judged point by point: high
+    # over the shelf it leaves, low over the bench (new-task's layout of "Take the petri dish out of
+    # the incubator", 0/5 while the way's highest surface was held against its lowest end)
+    world, _ = run("skills/DishOutToNearBench-v1")
+    dish = world.position("dish")
+    assert dish[0] < 0.77 - 0.222 and abs(dish[1]) < 0.03 and dish[2] < 0.56  # out in front, on the bench (0.55)
+    assert not world.robot_touches("dish") and upright(world, "dish") < 10
+
+
 @pytest.mark.parametrize(
     ("task_id", "joint"),
     [
