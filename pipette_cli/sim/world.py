@@ -210,18 +210,25 @@ class World:
         """Each body's owner: the scene object (or ``robot``) whose name prefixes it."""
         return [self.model.body(b).name.split("/", 1)[0] for b in range(self.model.nbody)]
 
-    def robot_touches(self, ref: str) -> bool:
+    def robot_contacts(self) -> set[int]:
+        """The bodies, other than the robot's own, that the robot touches now."""
         m, d, owners = self.model, self.data, self._owners
-        if "/" not in ref and ref not in self.objects:
-            raise SimError(f"{self.task.id}: {ref!r} names no scene object; {suggest(ref, self.objects)}")
-        part = self.body_id(ref) if "/" in ref else None
         robot = ROBOT_PREFIX.rstrip("/")
+        touched = set()
         for contact in d.contact[: d.ncon]:
             b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
             for mine, other in ((b1, b2), (b2, b1)):
-                if owners[mine] == robot and (other == part if part is not None else owners[other] == ref):
-                    return True
-        return False
+                if owners[mine] == robot and owners[other] != robot:
+                    touched.add(other)
+        return touched
+
+    def robot_touches(self, ref: str) -> bool:
+        if "/" not in ref and ref not in self.objects:
+            raise SimError(f"{self.task.id}: {ref!r} names no scene object; {suggest(ref, self.objects)}")
+        touched = self.robot_contacts()
+        if "/" in ref:
+            return self.body_id(ref) in touched
+        return any(self._owners[b] == ref for b in touched)
 
     def mechanism(self, name: str) -> MechanismState:
         try:

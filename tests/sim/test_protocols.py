@@ -106,3 +106,16 @@ def test_a_scripted_protocol_completes_every_stage() -> None:
     verdict, failure = run_expert_episode(world, 0)
     assert failure is None and verdict.success
     assert world.stage == 4 and verdict.metrics["stages"] == 4.0
+
+
+def test_the_second_tube_is_taken_out_of_the_rack_and_the_rotor_balanced() -> None:
+    """Seed 5 of BalancedSpin: coming from the rotor, the arm sagged 4 mm under its grasp of the second
+    tube, its open fingertips pressed on the rack's top and their friction held them open (the
+    grasp closed on nothing). A hand resting on anything but what it takes is raised to the planned height
+    before the fingers close."""
+    world = World(REGISTRY.get("protocols/BalancedSpin-v1"))
+    verdict, failure = run_expert_episode(world, 5)
+    assert failure is None, failure
+    assert verdict.success, verdict
+    state = world.mechanism("centrifuge")
+    assert state.values["opposite.tube_b"] == 1 and state.values["rotor_loaded"] == 2

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from collections.abc import Set as AbstractSet
+from functools import partial
 
 import numpy as np
 
@@ -18,6 +19,8 @@ from pipette_cli.specs.expert import InsertIntoSpec, PickSpec, PositionOverSpec,
 SETTLE_S = 0.25
 """Seconds to let the arm's servos catch up with the grasp pose before closing."""
 CLOSE_S = 0.5
+STRAIGHT_DOWN = 0.95
+"""Cosine from the vertical within which a grasp counts as taken straight down."""
 
 
 def grasp(
@@ -56,10 +59,27 @@ def grasp(
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
         # the servos stop a few millimetres short under gravity: centred between the fingers before
-        # they close (or the first finger to arrive pushes a small object over)
-        yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False)
+        # they close (or the first finger to arrive pushes a small object over); and where the sag
+        # took the open fingertips down to what they close over (a rack's top, whose edges would
+        # stop them), up to the planned height too, which clears it
+        sunk = partial(_fingertips_sunk, ctx, name, plan)
+        yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=sunk)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.attach(name)
+
+
+def _fingertips_sunk(ctx: SkillContext, name: str, plan: Grasp) -> bool:
+    """Whether the open fingertips of a straight-down grasp hang below the top of what they close
+    over, beside it (over a rack's hole, touching nothing but the object): closing, they would run
+    into its edge. Resting on it, they slide over it."""
+    approach = plan.rot[:, 2]
+    if approach[2] > -STRAIGHT_DOWN:
+        return False
+    tips = ctx.world.tcp_position() + ctx.robot.gripper.fingertip * approach
+    reach = ctx.robot.gripper.max_opening / 2
+    skip = ctx.scene.bodies(name)
+    under = ctx.scene.corridor_top(tips, tips, reach, skip, below=float(plan.pos[2]))
+    return bool(tips[2] < under) and not ctx.world.robot_contacts() - skip
 
 
 def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
