@@ -149,10 +149,15 @@ def plan_grasp(
 def _fingertips_clear(ctx: SkillContext, name: str, shape: Shape) -> float:
     """Lowest tcp height for a straight-down grasp about an upright object: its fingertips above
     what the open fingers close over (the bench, or the rack or holder it stands in)."""
-    reach = ctx.robot.gripper.max_opening / 2
-    base = ctx.world.position(name)
-    around = ctx.scene.corridor_top(base, base, reach, ctx.scene.bodies(name), below=shape.top)
+    around = closed_over(ctx, name, ctx.world.position(name), below=shape.top)
     return max(shape.bottom, around) + FINGERTIP_LIFT
+
+
+def closed_over(ctx: SkillContext, name: str, point: np.ndarray, below: float) -> float:
+    """Highest surface the open fingers sweep over as they close on ``name`` about ``point`` (the
+    bench, or the rack or holder it stands in), looking down from height ``below``."""
+    reach = ctx.robot.gripper.max_opening / 2
+    return ctx.scene.corridor_top(point, point, reach, ctx.scene.bodies(name), below=below)
 
 
 def _grasp_point(

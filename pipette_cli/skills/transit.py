@@ -362,23 +362,22 @@ def settle(
     *,
     what: str,
     required: bool = True,
-    vertical: bool | Callable[[], bool] = False,
+    vertical: Callable[[], bool] | None = None,
 ) -> Iterator[Move]:
     """Hold still ``seconds``, then bring the tcp sideways to where the last move planned it: a
     position servo under gravity stops a few millimetres short of its target (an outstretched arm
     sags), so a held object is set down off the spot planned. The target is moved by the sideways
     error measured, up to :data:`SETTLE_TRIES` times, until the tcp is within
     :data:`SETTLE_TOLERANCE` of the plan; the height is left alone (what the hand holds stays
-    pressed on the surface under it) unless ``vertical``: then a tcp that sagged below the plan is
-    raised to it too (never pushed down); a callable ``vertical`` decides once the hand has come to
-    rest. Unless ``required``, a correction the arm cannot make is left out."""
+    pressed on the surface under it) unless ``vertical``, asked once the hand has come to rest,
+    says otherwise: then a tcp that sagged below the plan is raised to it too (never pushed down).
+    Unless ``required``, a correction the arm cannot make is left out."""
     goal, rot = ctx.pos.copy(), ctx.rot
     yield ctx.hold(seconds)
-    if callable(vertical):
-        vertical = vertical()
+    raise_too = vertical is not None and vertical()
     for _ in range(SETTLE_TRIES):
         error = goal - ctx.world.tcp_position()
-        error[2] = max(error[2], 0.0) if vertical else 0.0
+        error[2] = max(error[2], 0.0) if raise_too else 0.0
         if float(np.linalg.norm(error)) < SETTLE_TOLERANCE:
             break
         try:

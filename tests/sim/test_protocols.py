@@ -109,10 +109,10 @@ def test_a_scripted_protocol_completes_every_stage() -> None:
 
 
 def test_the_second_tube_is_taken_out_of_the_rack_and_the_rotor_balanced() -> None:
-    """Seed 5 of BalancedSpin: coming from the rotor, the arm sagged 4 mm under its grasp of the second
-    tube, its open fingertips pressed on the rack's top and their friction held them open (the
-    grasp closed on nothing). A hand resting on anything but what it takes is raised to the planned height
-    before the fingers close."""
+    """Seed 5 of BalancedSpin: coming from the rotor, the arm sagged 4.4 mm under its grasp of the
+    second tube, its open fingertips hung below the top of the rack's grid, over the tube's hole, and
+    closing they ran into the grid bars (the grasp closed on nothing). Fingertips sunk beside what
+    they close over, touching nothing, are raised to the planned height before they close."""
     world = World(REGISTRY.get("protocols/BalancedSpin-v1"))
     verdict, failure = run_expert_episode(world, 5)
     assert failure is None, failure

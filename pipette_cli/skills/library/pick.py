@@ -9,7 +9,7 @@ from functools import partial
 import numpy as np
 
 from pipette_cli.skills.frames import UP, horizontal
-from pipette_cli.skills.grasp import FollowThrough, Grasp, _support_of, plan_grasp, semantics
+from pipette_cli.skills.grasp import FollowThrough, Grasp, _support_of, closed_over, plan_grasp, semantics
 from pipette_cli.skills.library.place import insertion, put_down, resolve_target, upright_rotations
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Held, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
@@ -76,10 +76,8 @@ def _fingertips_sunk(ctx: SkillContext, name: str, plan: Grasp) -> bool:
     if approach[2] > -STRAIGHT_DOWN:
         return False
     tips = ctx.world.tcp_position() + ctx.robot.gripper.fingertip * approach
-    reach = ctx.robot.gripper.max_opening / 2
-    skip = ctx.scene.bodies(name)
-    under = ctx.scene.corridor_top(tips, tips, reach, skip, below=float(plan.pos[2]))
-    return bool(tips[2] < under) and not ctx.world.robot_contacts() - skip
+    under = closed_over(ctx, name, tips, below=float(plan.pos[2]))
+    return bool(tips[2] < under) and not ctx.world.robot_contacts() - ctx.scene.bodies(name)
 
 
 def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
