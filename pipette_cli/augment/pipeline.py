@@ -27,9 +27,9 @@ import numpy as np
 
 from pipette_cli.augment.batch import can_batch, screen
 from pipette_cli.augment.objectcentric import adapt_actions
-from pipette_cli.augment.perturb import VariantPlan, plan_variant
+from pipette_cli.augment.perturb import VariantPlan, placed_object, plan_variant
 from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
-from pipette_cli.augment.simulate import Rollout, replay_check, settle_steps, simulate
+from pipette_cli.augment.simulate import Placement, Rollout, placement, replay_check, restore, settle_steps, simulate
 from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter, compress_frame
 from pipette_cli.demos.store import EpisodeRef, read_episode
@@ -183,8 +183,20 @@ class DemoAugmenter:
         target = self.task.targets[0] if self.task.targets else None
         t0 = time.perf_counter()
         plans = []
+        starts: dict[str, Placement] = {}
         for variant in self.spec.variants:
-            plan = plan_variant(variant, original.actions, seed=self.spec.seed, demo_seed=s.seed, default_object=target)
+            name = placed_object(variant, target)
+            if name is not None and name not in starts:
+                restore(self.world, s.seed, original.states[0])
+                starts[name] = placement(self.world, name)
+            plan = plan_variant(
+                variant,
+                original.actions,
+                seed=self.spec.seed,
+                demo_seed=s.seed,
+                default_object=target,
+                placement=starts.get(name) if name is not None else None,
+            )
             if plan.offset is not None and plan.actions is not None:
                 plan.actions = adapt_actions(
                     self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp

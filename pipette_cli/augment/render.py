@@ -7,8 +7,10 @@ control step ``t > 0`` is reproduced by restoring ``sim_state[t - 1]`` and re-ru
 ``t - 1`` (``substeps`` calls of ``mj_step``, bit-exact); step 0 is the restored start after
 ``mj_forward``. Only fresh steps (10 Hz) are rendered; stale ones reuse the frame.
 
-Lighting and camera pose do not touch the physics: lights are scaled in ``model.light_*``
-(and the headlight), cameras moved in ``model.cam_pos``; both are restored afterwards.
+Lighting, camera pose and surface colour do not touch the physics: lights are scaled in
+``model.light_*`` (and the headlight), cameras moved in ``model.cam_pos``, the bench's and the
+floor's materials mixed with other colours in ``model.mat_rgba``; all are restored afterwards. Evaluation suites
+apply their per-episode conditions through the same :func:`visual_perturbation`.
 """
 
 from __future__ import annotations
@@ -23,19 +25,45 @@ from pipette_cli.augment.perturb import VariantPlan
 from pipette_cli.augment.simulate import Rollout, restore
 from pipette_cli.demos.recorder import SIM_STATE
 from pipette_cli.sim.render import CameraRig
+from pipette_cli.sim.scene import BENCH, FLOOR_MATERIAL
 from pipette_cli.sim.world import World
 
 _LIGHT_FIELDS = ("light_ambient", "light_diffuse", "light_specular", "light_intensity")
 _HEADLIGHT_FIELDS = ("ambient", "diffuse", "specular")
+_DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)
+
+
+def surface_parts(model: mujoco.MjModel) -> dict[str, tuple[list[int], list[int]]]:
+    """The materials and geoms of each recolourable surface: the bench's own and the floor's. A
+    geom shows its material's colour unless it sets its own (MuJoCo: an rgba other than the
+    default takes precedence), so the materials and the geoms that set a colour are mixed."""
+    mats = [model.mat(i).name for i in range(model.nmat)]
+    floor = [i for i, name in enumerate(mats) if name == FLOOR_MATERIAL]
+    bench = [i for i, name in enumerate(mats) if name.startswith(BENCH + "/")]
+    own = ~np.all(np.isclose(model.geom_rgba, _DEFAULT_RGBA), axis=1)
+    names = [model.geom(i).name for i in range(model.ngeom)]
+    return {
+        "bench": (bench, [i for i, name in enumerate(names) if own[i] and name.startswith(BENCH + "/")]),
+        "floor": (floor, [i for i in range(model.ngeom) if own[i] and model.geom_matid[i] in floor]),
+    }
 
 
 @contextmanager
 def visual_perturbation(model: mujoco.MjModel, plan: VariantPlan, camera_ids: dict[str, int]) -> Iterator[None]:
-    """Scale every light by ``plan.light_scale`` and move cameras by ``plan.camera_offsets`` for the block."""
+    """Scale every light by ``plan.light_scale``, move cameras by ``plan.camera_offsets`` and mix
+    ``plan.surface_tint`` into the surfaces' colours for the block."""
     saved = {name: getattr(model, name).copy() for name in _LIGHT_FIELDS}
     saved_head = {name: np.array(getattr(model.vis.headlight, name)) for name in _HEADLIGHT_FIELDS}
     saved_cam = model.cam_pos.copy()
+    saved_mat, saved_geom = model.mat_rgba.copy(), model.geom_rgba.copy()
     try:
+        if plan.surface_tint:
+            parts = surface_parts(model)
+            w = plan.surface_blend
+            for surface, tint in plan.surface_tint.items():
+                mats, geoms = parts[surface]
+                model.mat_rgba[mats, :3] = (1.0 - w) * saved_mat[mats, :3] + w * tint
+                model.geom_rgba[geoms, :3] = (1.0 - w) * saved_geom[geoms, :3] + w * tint
         if plan.light_scale != 1.0:
             for name in _LIGHT_FIELDS:
                 getattr(model, name)[:] = saved[name] * plan.light_scale
@@ -51,6 +79,8 @@ def visual_perturbation(model: mujoco.MjModel, plan: VariantPlan, camera_ids: di
         for name in _HEADLIGHT_FIELDS:
             setattr(model.vis.headlight, name, saved_head[name])
         model.cam_pos[:] = saved_cam
+        model.mat_rgba[:] = saved_mat
+        model.geom_rgba[:] = saved_geom
 
 
 def fresh_steps(num_steps: int, vision_every: int) -> np.ndarray:
@@ -58,10 +88,20 @@ def fresh_steps(num_steps: int, vision_every: int) -> np.ndarray:
     return np.arange(num_steps) % vision_every == 0
 
 
-def view_key(plan: VariantPlan, camera: str) -> tuple[float, bool, tuple[float, ...] | None]:
-    """What one camera's frames of a given physics depend on: the lights and that camera's pose."""
+def view_key(plan: VariantPlan, camera: str) -> tuple[object, ...]:
+    """What one camera's frames of a given physics depend on: the lights, that camera's pose and
+    the surfaces' colours."""
     delta = plan.camera_offsets.get(camera)
-    return plan.light_scale, plan.headlight, None if delta is None else tuple(np.asarray(delta, dtype=float).tolist())
+    tints = (
+        plan.surface_blend,
+        *((n, tuple(np.asarray(t, dtype=float).tolist())) for n, t in sorted(plan.surface_tint.items())),
+    )
+    return (
+        plan.light_scale,
+        plan.headlight,
+        None if delta is None else tuple(np.asarray(delta, dtype=float).tolist()),
+        tints,
+    )
 
 
 def render_rollout(

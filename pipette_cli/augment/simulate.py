@@ -36,6 +36,45 @@ class ObjectOffset:
         return {"object": self.name, "dx": self.dx, "dy": self.dy, "dyaw_deg": self.dyaw_deg}
 
 
+@dataclass(frozen=True)
+class Placement:
+    """Where an object starts, and its task's nominal pose and randomisation range
+    (``x, y`` in m, yaw in degrees from the nominal orientation): what ``object_pose`` with
+    ``task_range`` places it within."""
+
+    name: str
+    start: tuple[float, float, float]
+    nominal: tuple[float, float, float]
+    span: tuple[float, float, float]
+
+
+def placement(world: World, name: str) -> Placement:
+    """Where ``name`` stands in ``world`` now, with its task's nominal pose and randomisation range.
+
+    Raises:
+        KeyError: ``name`` is not an object of the task.
+    """
+    spec = next((o for o in world.task.scene.objects if o.name == name), None)
+    if spec is None:
+        raise KeyError(f"{world.task.id} has no object {name!r}")
+    m, d = world.model, world.data
+    body = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, world.objects[name].root_body)
+    if world.objects[name].free:
+        adr = m.jnt_qposadr[m.body_jntadr[body]]
+        pos, quat = d.qpos[adr : adr + 3], d.qpos[adr + 3 : adr + 7]
+    else:
+        pos, quat = m.body_pos[body], m.body_quat[body]
+    # yaw about the vertical since the nominal orientation (reset turns the nominal pose by rz(yaw))
+    turn, nominal_conj = np.zeros(4), np.zeros(4)
+    mujoco.mju_negQuat(nominal_conj, euler_to_quat(spec.pose.euler_deg))
+    mujoco.mju_mulQuat(turn, np.asarray(quat, dtype=np.float64), nominal_conj)
+    yaw = float(np.degrees(2 * np.arctan2(turn[3], turn[0])))
+    randomize = spec.randomize
+    span = (0.0, 0.0, 0.0) if randomize is None else (*randomize.xy, randomize.yaw_deg)
+    nominal = (spec.pose.pos[0], spec.pose.pos[1], 0.0)
+    return Placement(name, (float(pos[0]), float(pos[1]), (yaw + 180.0) % 360.0 - 180.0), nominal, span)
+
+
 @dataclass
 class Rollout:
     """One simulated episode without images (the recorder's rows, paper A.3)."""

@@ -9,16 +9,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from pipette_cli.augment.specs import (
-    AugmentSpec,
-    CameraPoseSpec,
-    JointNoiseSpec,
-    LightingSpec,
-    ObjectPoseSpec,
-    SpeedSpec,
-    default_atoms,
-    make_variants,
-)
+from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
 from pipette_cli.cli.common import (
     RobotOption,
     episode_progress,
@@ -32,6 +23,14 @@ from pipette_cli.cli.common import (
 from pipette_cli.demos.collect import deferred_sigint
 from pipette_cli.demos.embodiment import resolve_robot
 from pipette_cli.errors import PipetteError, SpecError
+from pipette_cli.specs.perturbations import (
+    CameraPoseSpec,
+    JointNoiseSpec,
+    LightingSpec,
+    ObjectPoseSpec,
+    SpeedSpec,
+    SurfaceColorSpec,
+)
 
 
 def _table(report: dict) -> Table:
@@ -56,12 +55,15 @@ def augment(
         str,
         typer.Option(
             "--variants",
-            help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object.",
+            help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object, table; NAME*N: N variants of NAME, each its own draw.",
         ),
     ] = "paper",
     light_scale: Annotated[float, typer.Option("--light-scale", help=spec_help(LightingSpec, "scale"))] = spec_default(
         LightingSpec, "scale"
     ),
+    light_jitter: Annotated[
+        float, typer.Option("--light-jitter", help=spec_help(LightingSpec, "jitter"))
+    ] = spec_default(LightingSpec, "jitter"),
     speed: Annotated[float, typer.Option("--speed", help=spec_help(SpeedSpec, "factor"))] = spec_default(
         SpeedSpec, "factor"
     ),
@@ -78,7 +80,7 @@ def augment(
     camera: Annotated[
         str,
         typer.Option(
-            "--camera", help=spec_help(CameraPoseSpec, "camera", "Camera to jitter: random, top, main or wrist")
+            "--camera", help=spec_help(CameraPoseSpec, "camera", "Camera to jitter: random, all, top, main or wrist")
         ),
     ] = spec_default(CameraPoseSpec, "camera"),
     camera_radius: Annotated[
@@ -100,6 +102,13 @@ def augment(
             "--object-yaw", help=spec_help(ObjectPoseSpec, "yaw_deg", "Object yaw range (deg) for the object variant")
         ),
     ] = spec_default(ObjectPoseSpec, "yaw_deg"),
+    object_range: Annotated[
+        float | None,
+        typer.Option("--object-range", help=spec_help(ObjectPoseSpec, "task_range", "e.g. 1.0: the task's own range")),
+    ] = spec_default(ObjectPoseSpec, "task_range"),
+    table_blend: Annotated[
+        float, typer.Option("--table-blend", help=spec_help(SurfaceColorSpec, "blend"))
+    ] = spec_default(SurfaceColorSpec, "blend"),
     seed: Annotated[int, typer.Option("--seed", help=spec_help(AugmentSpec, "seed", "Base seed"))] = spec_default(
         AugmentSpec, "seed"
     ),
@@ -140,11 +149,12 @@ def augment(
     if executor not in ("local", "ray"):
         raise PipetteError(f"--executor must be local or ray, not {executor!r}")
     atoms = default_atoms(
-        light={"scale": light_scale},
+        light={"scale": light_scale, "jitter": light_jitter},
         speed={"factor": speed, "rho": rho, "interpolation": interpolation},
         noise={"sigma": noise_sigma, "bound": noise_clip},
         cam={"camera": camera, "radius": camera_radius, "wrist_radius": wrist_radius},
-        object={"xy": object_xy, "yaw_deg": object_yaw},
+        object={"xy": object_xy, "yaw_deg": object_yaw, "task_range": object_range},
+        table={"blend": table_blend},
     )
     names = [n.strip() for n in variants.split(",") if n.strip()]
     if not names:

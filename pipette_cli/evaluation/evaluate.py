@@ -16,7 +16,7 @@ workers) and :mod:`pipette_cli.evaluation.results` writes and summarises their l
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -24,11 +24,13 @@ from typing import Any, Protocol
 import numpy as np
 
 from pipette_cli.errors import PipetteError
+from pipette_cli.evaluation.conditions import episode_conditions
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.serving.client import PolicyUnreachable
 from pipette_cli.serving.protocol import DEFAULT_DEVICE
 from pipette_cli.serving.server import LeRobotRunner
 from pipette_cli.sim.env import Observation, PipetteEnv
+from pipette_cli.specs.perturbations import PerturbationSpec
 
 
 class ActionSource(Protocol):
@@ -83,6 +85,8 @@ class EpisodeLog:
     metrics: dict[str, float] = field(default_factory=dict)
     progress: float | None = None
     """``stage / stages`` of a staged task at the episode's end (1.0 on success); None otherwise."""
+    conditions: dict[str, Any] = field(default_factory=dict)
+    """What a shifted suite's perturbations drew for this episode (empty on a nominal suite)."""
     environment: dict[str, Any] = field(default_factory=dict)
     """Where it ran: MuJoCo, renderer, GL backend, git commit (:func:`~pipette_cli.evaluation.results.environment_record`)."""
 
@@ -138,6 +142,7 @@ def run_episode(
     seed: int,
     instruction: str | None = None,
     stop: Callable[[], bool] | None = None,
+    conditions: Sequence[PerturbationSpec] = (),
 ) -> EpisodeLog:
     """One closed-loop episode; ends when the task's evaluator decides.
 
@@ -149,6 +154,8 @@ def run_episode(
         seed: The episode's seed.
         instruction: What the policy is told (default: the task's instruction).
         stop: Polled every control step; when true the episode is abandoned.
+        conditions: A shifted suite's perturbations, drawn from ``seed`` and applied for the
+            episode (:mod:`~pipette_cli.evaluation.conditions`); recorded in the log.
 
     Raises:
         ServerLost: the policy server became unreachable; the safe hold was applied first.
@@ -156,96 +163,97 @@ def run_episode(
     """
     task = env.task
     instruction = instruction or task.instruction
-    obs = env.reset(seed)
-    world = env.world
-    d_pi = max(1, round(task.timing.control_hz / task.timing.vision_hz))
-    gripper = Gripper(config)
-    q_prev = q_curr = world.arm_qpos()
-    raw_gripper = 1.0
-    chunk: np.ndarray | None = None
-    chunk_i = steps_since = 0
-    queries = failures = consecutive = 0
-    hold: np.ndarray | None = None
-    verdict = world.verdict
-    wall0 = time.perf_counter()
-    while not verdict.done:
-        if stop is not None and stop():
-            raise EpisodeInterrupted(f"{task.id} episode {episode} interrupted")
-        k = world.step_count
-        if hold is None and k % d_pi == 0:
-            try:
-                # a protocol's stage instruction where it has one, else this episode's (suite variants)
-                said = obs.instruction if obs.instruction != task.instruction else instruction
-                answer = source.act(
-                    policy_observation(obs, config.float_images), task=said, reset=(k == 0), chunk=config.chunked
-                )
-                queries += 1
-                consecutive = 0
-                if config.chunked:
-                    chunk, chunk_i = np.atleast_2d(answer), 0
-                else:
-                    q_prev, q_curr, raw_gripper, steps_since = (
-                        _commanded(q_prev, q_curr, steps_since, d_pi),
-                        answer[:-1],
-                        float(answer[-1]),
-                        0,
+    with episode_conditions(env, seed, conditions) as (obs, drawn):
+        world = env.world
+        d_pi = max(1, round(task.timing.control_hz / task.timing.vision_hz))
+        gripper = Gripper(config)
+        q_prev = q_curr = world.arm_qpos()
+        raw_gripper = 1.0
+        chunk: np.ndarray | None = None
+        chunk_i = steps_since = 0
+        queries = failures = consecutive = 0
+        hold: np.ndarray | None = None
+        verdict = world.verdict
+        wall0 = time.perf_counter()
+        while not verdict.done:
+            if stop is not None and stop():
+                raise EpisodeInterrupted(f"{task.id} episode {episode} interrupted")
+            k = world.step_count
+            if hold is None and k % d_pi == 0:
+                try:
+                    # a protocol's stage instruction where it has one, else this episode's (suite variants)
+                    said = obs.instruction if obs.instruction != task.instruction else instruction
+                    answer = source.act(
+                        policy_observation(obs, config.float_images), task=said, reset=(k == 0), chunk=config.chunked
                     )
-            except PolicyUnreachable as exc:
-                hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open], then stop the run
-                env.step(hold)
-                raise ServerLost(
-                    str(exc),
-                    {
-                        "task": task.id,
-                        "episode": episode,
-                        "seed": seed,
-                        "step": k,
-                        "hold": hold.round(6).tolist(),
-                        "held_at": time.time(),
-                        "message": str(exc),
-                    },
-                ) from None
-            except PipetteError:
-                failures += 1
-                consecutive += 1
-                if consecutive >= config.max_consecutive_failures:
-                    hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open]
-        if hold is not None:
-            action = hold
-        elif config.chunked and chunk is not None:
-            row = chunk[min(chunk_i, len(chunk) - 1)]
-            chunk_i += 1
-            action = np.append(row[:-1], gripper(float(row[-1])))
-        else:
-            steps_since += 1
-            target = _commanded(q_prev, q_curr, steps_since, d_pi)
-            action = np.append(target, gripper(raw_gripper))
-        obs, verdict = env.step(action)
-    sim_time = world.time
-    steps = world.step_count
-    metrics = {k: float(v) for k, v in verdict.metrics.items()}
-    return EpisodeLog(
-        task=task.id,
-        episode=episode,
-        seed=seed,
-        instruction=instruction,
-        success=verdict.success,
-        failure_reason=None
-        if verdict.success
-        else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
-        runtime_s=time.perf_counter() - wall0,
-        sim_time_s=sim_time,
-        control_steps=steps,
-        control_hz=steps / sim_time if sim_time else 0.0,
-        policy_queries=queries,
-        policy_hz=queries / sim_time if sim_time else 0.0,
-        failed_queries=failures,
-        safe_hold=hold is not None,
-        policy_type=config.policy_type,
-        gripper_thresholds={"open": config.open_threshold, "stay_open": config.stay_open_threshold},
-        metrics=metrics,
-        progress=stage_progress(metrics),
-    )
+                    queries += 1
+                    consecutive = 0
+                    if config.chunked:
+                        chunk, chunk_i = np.atleast_2d(answer), 0
+                    else:
+                        q_prev, q_curr, raw_gripper, steps_since = (
+                            _commanded(q_prev, q_curr, steps_since, d_pi),
+                            answer[:-1],
+                            float(answer[-1]),
+                            0,
+                        )
+                except PolicyUnreachable as exc:
+                    hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open], then stop the run
+                    env.step(hold)
+                    raise ServerLost(
+                        str(exc),
+                        {
+                            "task": task.id,
+                            "episode": episode,
+                            "seed": seed,
+                            "step": k,
+                            "hold": hold.round(6).tolist(),
+                            "held_at": time.time(),
+                            "message": str(exc),
+                        },
+                    ) from None
+                except PipetteError:
+                    failures += 1
+                    consecutive += 1
+                    if consecutive >= config.max_consecutive_failures:
+                        hold = np.append(world.arm_qpos(), 1.0)  # paper A.4: [q_now, open]
+            if hold is not None:
+                action = hold
+            elif config.chunked and chunk is not None:
+                row = chunk[min(chunk_i, len(chunk) - 1)]
+                chunk_i += 1
+                action = np.append(row[:-1], gripper(float(row[-1])))
+            else:
+                steps_since += 1
+                target = _commanded(q_prev, q_curr, steps_since, d_pi)
+                action = np.append(target, gripper(raw_gripper))
+            obs, verdict = env.step(action)
+        sim_time = world.time
+        steps = world.step_count
+        metrics = {k: float(v) for k, v in verdict.metrics.items()}
+        return EpisodeLog(
+            task=task.id,
+            episode=episode,
+            seed=seed,
+            instruction=instruction,
+            success=verdict.success,
+            failure_reason=None
+            if verdict.success
+            else ("safe_hold" if hold is not None and not verdict.reason else verdict.reason),
+            runtime_s=time.perf_counter() - wall0,
+            sim_time_s=sim_time,
+            control_steps=steps,
+            control_hz=steps / sim_time if sim_time else 0.0,
+            policy_queries=queries,
+            policy_hz=queries / sim_time if sim_time else 0.0,
+            failed_queries=failures,
+            safe_hold=hold is not None,
+            policy_type=config.policy_type,
+            gripper_thresholds={"open": config.open_threshold, "stay_open": config.stay_open_threshold},
+            metrics=metrics,
+            progress=stage_progress(metrics),
+            conditions=drawn,
+        )
 
 
 def _commanded(q_prev: np.ndarray, q_curr: np.ndarray, m: int, d_pi: int) -> np.ndarray:

@@ -92,8 +92,8 @@ def make_manifest(
     config: DecodeConfig,
     dataset_version: str,
 ) -> dict[str, Any]:
-    """The ``run.json`` of one task's run."""
-    return {
+    """The ``run.json`` of one task's run (with a shifted suite's ``conditions``)."""
+    manifest: dict[str, Any] = {
         "format": RUN_FORMAT,
         "task": task.id,
         "task_spec_sha256": task_spec_sha256(task),
@@ -105,6 +105,10 @@ def make_manifest(
         "dataset_version": dataset_version,
         "episodes": [[e.seed, e.instruction] for e in episodes],
     }
+    conditions = episodes[0].conditions if episodes else ()
+    if conditions:  # only then: runs of nominal suites resume as before
+        manifest["conditions"] = [c.model_dump(mode="json") for c in conditions]
+    return manifest
 
 
 def _read_json(path: Path) -> Any:

@@ -174,6 +174,7 @@ class EpisodeWorker:
             seed=plan.seed,
             instruction=plan.instruction,
             stop=stop,
+            conditions=plan.conditions,
         )
         if self.environment is None:
             self.environment = environment_record(gl_info())  # after a render: the GL context is current

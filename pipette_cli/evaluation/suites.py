@@ -31,6 +31,7 @@ from pipette_cli.registry import (
     registry_dirs,
     resolve_versioned,
 )
+from pipette_cli.specs.perturbations import PerturbationSpec
 from pipette_cli.specs.suite import SuiteSpec
 from pipette_cli.specs.task import TaskSpec
 from pipette_cli.specs.yaml_io import format_problem, read_yaml, to_plain, validation_problems
@@ -40,12 +41,14 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class EpisodePlan:
-    """One episode to evaluate: task, index within the task, seed and instruction."""
+    """One episode to evaluate: task, index within the task, seed, instruction and the shifted
+    suite's perturbations (drawn from the seed when the episode runs)."""
 
     task: str
     index: int
     seed: int
     instruction: str
+    conditions: tuple[PerturbationSpec, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,9 @@ class RegisteredSuite:
 
 
 def suite_sha256(spec: SuiteSpec) -> str:
-    canonical = json.dumps(spec.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+    # a suite without perturbations hashes as before they existed: published hashes stay valid
+    dump = spec.model_dump(mode="json", exclude=set() if spec.perturbations else {"perturbations"})
+    canonical = json.dumps(dump, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canonical.encode()).hexdigest()
 
 
@@ -164,7 +169,8 @@ def episode_plan(suite: SuiteSpec, tasks: Iterable[str] | None = None) -> dict[s
         entry = entries[task_id]
         variants = entry.instructions
         plan[task_id] = [
-            EpisodePlan(task_id, i, seed, variants[i % len(variants)]) for i, seed in enumerate(suite.task_seeds(entry))
+            EpisodePlan(task_id, i, seed, variants[i % len(variants)], tuple(suite.perturbations))
+            for i, seed in enumerate(suite.task_seeds(entry))
         ]
     return plan
 

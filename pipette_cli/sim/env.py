@@ -95,6 +95,10 @@ class PipetteEnv:
         self._last_fresh = 0
         return self._observe()
 
+    def observe(self) -> Observation:
+        """Observe again without stepping (after changing the scene between reset and the first step)."""
+        return self._observe()
+
     def step(self, action: np.ndarray) -> tuple[Observation, Verdict]:
         verdict = self.world.step(action)
         return self._observe(), verdict

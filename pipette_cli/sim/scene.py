@@ -31,6 +31,9 @@ log = logging.getLogger(__name__)
 ROBOT_PREFIX = "robot/"
 BENCH_POS = (0.45, 0.0, 0.0)
 """Where the bench asset stands: its 1.6 m top spans x in [-0.35, 1.25], the robot at x = 0."""
+BENCH = "bench"
+"""The bench's object name: its bodies, geoms and materials are named ``bench/...``."""
+FLOOR_MATERIAL = "floor_mat"
 CAMERA_NAMES = ("top", "main", "wrist")
 WRIST_CAMERA = ROBOT_PREFIX + "wrist"
 FREE_CATEGORIES = ("tools", "consumables")
@@ -113,7 +116,7 @@ def _add_room(spec: mujoco.MjSpec) -> None:
         width=256,
         height=256,
     )
-    spec.add_material(name="floor_mat", textures=["", "floor_tex"], texrepeat=[8, 8], reflectance=0.05)
+    spec.add_material(name=FLOOR_MATERIAL, textures=["", "floor_tex"], texrepeat=[8, 8], reflectance=0.05)
     spec.add_texture(
         name="sky",
         type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
@@ -124,7 +127,7 @@ def _add_room(spec: mujoco.MjSpec) -> None:
         height=256,
     )
     world = spec.worldbody
-    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4, 4, 0.05], material="floor_mat")
+    world.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[4, 4, 0.05], material=FLOOR_MATERIAL)
     world.add_light(
         name="key", pos=[0.3, -0.8, 2.4], dir=[0.15, 0.35, -1.0], diffuse=[0.75, 0.75, 0.72], castshadow=True
     )
@@ -153,7 +156,7 @@ def _attach_robot(spec: mujoco.MjSpec, task: TaskSpec) -> RobotSpec:
 def _attach_objects(spec: mujoco.MjSpec, task: TaskSpec) -> dict[str, ObjectInfo]:
     library = load_asset_library()
     objects: dict[str, ObjectInfo] = {}
-    placements = [("bench", task.scene.bench, PoseSpec(pos=BENCH_POS), "scene.bench")]
+    placements = [(BENCH, task.scene.bench, PoseSpec(pos=BENCH_POS), "scene.bench")]
     placements += [(o.name, o.asset, o.pose, f"scene.objects.{i}") for i, o in enumerate(task.scene.objects)]
     for name, asset_id, pose, field in placements:
         try:

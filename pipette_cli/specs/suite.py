@@ -7,6 +7,11 @@ two people, a year apart) evaluate the same episodes. Its id is versioned like a
 changed suite is a new version.
 
 Episode ``i`` of a task uses ``seeds[i]`` and ``instructions[i mod len(instructions)]``.
+
+A shifted suite lists ``perturbations`` (lighting, camera pose, object pose, surface colour: the
+specs augmentation uses): every episode draws its own values of them from its seed, so a nominal
+and a shifted suite over the same seeds evaluate the same starts, one as the task makes them and
+one changed.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from pipette_cli.specs.base import Spec
+from pipette_cli.specs.perturbations import PerturbationField
 from pipette_cli.specs.task import TASK_ID_PATTERN
 
 SUITE_ID_PATTERN = TASK_ID_PATTERN
@@ -71,6 +77,9 @@ class SuiteSpec(Spec):
     render_profile: Literal["fast", "full"] = "fast"
     seeds: SeedRangeSpec = SeedRangeSpec()
     tasks: list[SuiteTaskSpec] = Field(min_length=1)
+    perturbations: list[PerturbationField] = Field(
+        default_factory=list, description="conditions drawn per episode from its seed (a shifted suite)"
+    )
 
     @model_validator(mode="after")
     def _distinct_tasks(self) -> SuiteSpec:
@@ -78,6 +87,15 @@ class SuiteSpec(Spec):
         doubled = sorted({t for t in ids if ids.count(t) > 1})
         if doubled:
             raise ValueError(f"task {doubled[0]} is listed twice")
+        kinds = [p.type for p in self.perturbations]
+        if len(kinds) != len(set(kinds)):
+            raise ValueError(f"perturbations list a type twice: {kinds}")
+        on_actions = [p.type for p in self.perturbations if p.on_actions]
+        if on_actions:
+            raise ValueError(
+                f"{', '.join(on_actions)} perturb a demonstration's actions; an evaluation has none "
+                "(use lighting, camera_pose, object_pose, surface_color)"
+            )
         return self
 
     @property

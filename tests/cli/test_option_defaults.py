@@ -12,14 +12,7 @@ from typing import Annotated, Any
 import pytest
 import typer
 
-from pipette_cli.augment.specs import (
-    AugmentSpec,
-    CameraPoseSpec,
-    JointNoiseSpec,
-    LightingSpec,
-    ObjectPoseSpec,
-    SpeedSpec,
-)
+from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.cli.common import spec_default, spec_help
 from pipette_cli.cli.main import app
 from pipette_cli.demos.collect import collect
@@ -28,6 +21,14 @@ from pipette_cli.evaluation.settings import EvalSettings
 from pipette_cli.lerobot.convert import ConvertOptions
 from pipette_cli.lerobot.train import TrainOptions
 from pipette_cli.serving.server import LeRobotRunner, PolicyServer
+from pipette_cli.specs.perturbations import (
+    CameraPoseSpec,
+    JointNoiseSpec,
+    LightingSpec,
+    ObjectPoseSpec,
+    SpeedSpec,
+    SurfaceColorSpec,
+)
 
 # (command, option) -> (spec, field): the option's default and help come from the field
 BOUND: dict[tuple[str, str], tuple[type, str]] = {
@@ -42,6 +43,9 @@ BOUND: dict[tuple[str, str], tuple[type, str]] = {
     ("augment", "--wrist-radius"): (CameraPoseSpec, "wrist_radius"),
     ("augment", "--object-xy"): (ObjectPoseSpec, "xy"),
     ("augment", "--object-yaw"): (ObjectPoseSpec, "yaw_deg"),
+    ("augment", "--object-range"): (ObjectPoseSpec, "task_range"),
+    ("augment", "--light-jitter"): (LightingSpec, "jitter"),
+    ("augment", "--table-blend"): (SurfaceColorSpec, "blend"),
     ("augment", "--seed"): (AugmentSpec, "seed"),
     ("augment", "--image-size"): (AugmentSpec, "image_size"),
     **{

@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 
 from pipette_cli.augment.run import augment, ledger_path
-from pipette_cli.augment.specs import AugmentSpec, CameraPoseSpec, JointNoiseSpec, LightingSpec, SpeedSpec, VariantSpec
+from pipette_cli.augment.specs import AugmentSpec, VariantSpec
 from pipette_cli.augment.verify import verify_file
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import PipetteEnv
+from pipette_cli.specs.perturbations import CameraPoseSpec, JointNoiseSpec, LightingSpec, SpeedSpec
 
 pytestmark = pytest.mark.render
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "augment"))
@@ -211,3 +212,50 @@ def test_views_shared_by_variants_of_the_same_physics_are_rendered_once(task, tm
     assert shared.attrs["augment_variant"] == alone.attrs["augment_variant"] == "light+cam"
     for cam in ("top", "main", "wrist"):
         assert shared.images[cam].tobytes() == alone.images[cam].tobytes(), cam
+
+
+def test_placement_over_the_task_range_and_surface_colour_are_verified_deterministic_and_recorded(
+    task, tmp_path_factory
+) -> None:
+    from pipette_cli.augment.specs import default_atoms, make_variants
+
+    raw = raw_demo(tmp_path_factory)
+    atoms = default_atoms(object={"task_range": 1.5})
+    spec = AugmentSpec(variants=make_variants(["original", "object*3", "table"], atoms))
+    outs = []
+    for name in ("a", "b"):  # the same spec twice: the same episodes, bit for bit
+        folder = tmp_path_factory.mktemp(name)
+        result = augment(task, raw, folder / "aug.h5", spec, rejected=folder / "rejected.h5", workers=1)
+        outs.append((folder / "aug.h5", folder / "rejected.h5", result))
+    (out, rejected, result), (out_b, _, _) = outs
+    rows = {r["variant"]: r for r in result.report["variants"]}
+    assert set(rows) == {"original", "object@1", "object@2", "object@3", "table"}  # a yield line each
+    kept = [read_episode(ref, images=True) for ref in scan(out).episodes]
+    again = [read_episode(ref, images=True) for ref in scan(out_b).episodes]
+    assert [e.attrs["augment_variant"] for e in kept] == [e.attrs["augment_variant"] for e in again]
+    for a, b in zip(kept, again, strict=True):
+        assert a.arrays["action"].tobytes() == b.arrays["action"].tobytes()
+        assert a.images["top"].tobytes() == b.images["top"].tobytes()
+    assert all(c.ok for c in verify_file(task, out)) and not any(c.ok for c in verify_file(task, rejected))
+    from pipette_cli.augment.simulate import placement, restore
+    from pipette_cli.sim.world import World
+
+    source = read_episode(scan(raw).episodes[0])
+    world = World(task)
+    restore(world, source.summary.seed, source.arrays["sim_state"][0])
+    start = placement(world, "tube")
+    moved = 0
+    for episode in kept + [read_episode(ref) for ref in scan(rejected).episodes]:
+        params = json.loads(episode.attrs["augment_params"])
+        if "object_pose" in params:  # placed anew within 1.5 times the task's range around the nominal pose
+            offset = json.loads(episode.attrs["augment_object_offset"])
+            assert params["object_pose"]["task_range"] == 1.5 and offset["dx"] == params["object_pose"]["dx"]
+            for axis, delta in ((0, offset["dx"]), (1, offset["dy"])):
+                assert abs(start.start[axis] + delta - start.nominal[axis]) <= 1.5 * start.span[axis] + 1e-9
+            moved += 1
+    assert moved == 3
+    table = next(e for e in kept if e.attrs["augment_variant"] == "table")
+    original = next(e for e in kept if e.attrs["augment_variant"] == "original")
+    assert table.arrays["sim_state"].tobytes() == original.arrays["sim_state"].tobytes()  # rendering only
+    assert not np.array_equal(table.images["main"], original.images["main"])
+    assert json.loads(table.attrs["augment_params"])["surface_color"]["tint"]["floor"]

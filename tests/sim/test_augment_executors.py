@@ -7,10 +7,11 @@ import pytest
 import ray  # a dev dependency: this test must run, not skip
 
 from pipette_cli.augment.run import augment
-from pipette_cli.augment.specs import AugmentSpec, SpeedSpec, VariantSpec
+from pipette_cli.augment.specs import AugmentSpec, VariantSpec
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.registry import load_registry
+from pipette_cli.specs.perturbations import SpeedSpec
 
 pytestmark = pytest.mark.render
 

@@ -250,3 +250,39 @@ def test_pipette_eval_suite_end_to_end_then_report(run_cli, tmp_path) -> None:
     assert report.exit_code == 0, report.stderr
     assert "| testlab/StagedHoldTube-v1 | act | 0/3 (0 %, 0-56), progress 0.50 | - |" in report.stdout
     assert sorted(p.suffix for p in tmp_path.glob("table.*")) == [".csv", ".json", ".md", ".png"]
+
+
+def test_a_shifted_suite_draws_each_episodes_conditions_from_its_seed(tmp_path) -> None:
+    shifted = load_suites(REGISTRY, DIRS).get("testlab/TinyShifted-v1")
+    runs = {
+        name: [TaskRun(REGISTRY.get(t), tmp_path / name / t.replace("/", "_"), tuple(e)) for t, e in plan.items()]
+        for name, plan in (
+            ("nominal", episode_plan(SUITE.spec)),
+            ("one", episode_plan(shifted.spec)),
+            ("two", episode_plan(shifted.spec)),
+        )
+    }
+    nominal = EvalSettings(ACT, SUITE.spec.image_size, SUITE.spec.render_profile, "raw", SUITE.record())
+    settings = EvalSettings(ACT, shifted.spec.image_size, shifted.spec.render_profile, "raw", shifted.record())
+    evaluate_runs(runs["nominal"], FeedbackSource(), nominal, workers=1)
+    evaluate_runs(runs["one"], FeedbackSource(), settings, workers=1)
+    evaluate_runs(runs["two"], FeedbackSource(), settings, workers=2)
+    folder = "testlab_HoldTube-v1"
+    base, one, two = (logs(tmp_path / name / folder) for name in ("nominal", "one", "two"))
+    for x, y in zip(one, two, strict=True):  # same seed, same conditions and episode, whichever worker
+        x.pop("runtime_s"), y.pop("runtime_s")
+        assert x == y
+    assert all(x["conditions"] == {} for x in base)
+    drawn = [x["conditions"] for x in one]
+    assert all(set(c) == {"lighting", "camera_pose", "object_pose", "surface_color"} for c in drawn)
+    assert all(0.5 <= c["lighting"]["scale_used"] <= 1.3 for c in drawn)
+    assert all(set(c["camera_pose"]["delta"]) == {"top", "main", "wrist"} for c in drawn)
+    assert len({c["lighting"]["scale_used"] for c in drawn}) == len(drawn)  # each episode its own draw
+    for c in drawn:  # placed anew within 1.5 times the task's +-4 cm around the nominal x = 0.5
+        offset = c["object_pose"]
+        assert offset["object"] == "tube" and abs(offset["dx"]) <= 0.04 * 2.5 and abs(offset["dy"]) <= 0.04 * 2.5
+    # the policy sees the changed world: its image-driven actions, and so the episodes, differ
+    assert [x["metrics"] for x in base] != [x["metrics"] for x in one]
+    manifest = json.loads((tmp_path / "one" / folder / "run.json").read_text())
+    assert [c["type"] for c in manifest["conditions"]] == ["lighting", "camera_pose", "object_pose", "surface_color"]
+    assert manifest["suite"]["sha256"] == shifted.sha256 != SUITE.sha256

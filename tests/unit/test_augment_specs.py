@@ -5,17 +5,9 @@ from __future__ import annotations
 import pytest
 
 from pipette_cli.augment.report import yield_report
-from pipette_cli.augment.specs import (
-    PERTURBATIONS,
-    AugmentSpec,
-    CameraPoseSpec,
-    LightingSpec,
-    SpeedSpec,
-    VariantSpec,
-    default_atoms,
-    make_variants,
-)
+from pipette_cli.augment.specs import AugmentSpec, VariantSpec, default_atoms, make_variants
 from pipette_cli.errors import SpecError
+from pipette_cli.specs.perturbations import PERTURBATIONS, CameraPoseSpec, LightingSpec, SpeedSpec
 
 
 def test_paper_defaults() -> None:
