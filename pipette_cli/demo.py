@@ -33,6 +33,8 @@ from pipette_cli.errors import PipetteError
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
+from pipette_cli.sim.scene import CAMERA_NAMES
+from pipette_cli.sim.views import views_sheet
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -115,7 +117,7 @@ def folder_size(path: Path) -> int:
 
 def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -> None:
     """The main camera at 2/3 of every kept augmented episode, labelled with its variant, and
-    the first episode's three views side by side as a GIF; small images are scaled up."""
+    the first episode's three views side by side, labelled, as a GIF; small images are scaled up."""
     from PIL import Image, ImageDraw  # deferred: PIL (~15 ms of `pipette --help`, which imports this module)
 
     refs = scan(aug).episodes
@@ -132,11 +134,8 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
         tiles.append(image)
         if i == 0:
             for k in range(0, len(main), 3):
-                views = [Image.fromarray(record.images[cam][k]) for cam in ("top", "main", "wrist")]
-                strip = Image.new("RGB", (3 * image.width, image.height))
-                for j, view in enumerate(views):
-                    strip.paste(view.resize(image.size, Image.Resampling.NEAREST), (j * image.width, 0))
-                frames.append(strip)
+                views = {cam: record.images[cam][k] for cam in CAMERA_NAMES}
+                frames.append(Image.fromarray(views_sheet(views, scale=scale)))
     w, h = tiles[0].size
     cols = min(6, len(tiles))
     sheet = Image.new("RGB", (cols * w, ((len(tiles) + cols - 1) // cols) * h), "white")
@@ -147,24 +146,24 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
 
 
 class RecordingSource:
-    """An action source that keeps what the policy saw (three views side by side, at its 10 Hz
-    query rate) per evaluation episode, to write as GIFs."""
+    """An action source that keeps what the policy saw (its views, at its 10 Hz query rate) per
+    evaluation episode, to write as GIFs of the views side by side, each labelled."""
 
     def __init__(self, source: Any) -> None:
         self.source = source
-        self.episodes: list[list[np.ndarray]] = []
+        self.episodes: list[list[dict[str, np.ndarray]]] = []
 
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:
         if reset or not self.episodes:
             self.episodes.append([])
-        views = [
-            observation[f"observation.images.{c}"]
-            for c in ("top", "main", "wrist")
-            if f"observation.images.{c}" in observation
-        ]
+        views = {}
+        for camera in CAMERA_NAMES:
+            image = observation.get(f"observation.images.{camera}")
+            if image is not None:
+                image = np.asarray(image).transpose(1, 2, 0)
+                views[camera] = image if image.dtype == np.uint8 else (image * 255).astype(np.uint8)
         if views:
-            strip = np.concatenate([np.asarray(v).transpose(1, 2, 0) for v in views], axis=1)
-            self.episodes[-1].append(strip if strip.dtype == np.uint8 else (strip * 255).astype(np.uint8))
+            self.episodes[-1].append(views)
         return self.source.act(observation, task=task, reset=reset, chunk=chunk)
 
     def write_gifs(self, folder: Path, *, scale: int = 2) -> list[Path]:
@@ -174,10 +173,7 @@ class RecordingSource:
         for i, frames in enumerate(self.episodes):
             if not frames:
                 continue
-            images = [
-                Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.Resampling.NEAREST)
-                for f in frames
-            ]
+            images = [Image.fromarray(views_sheet(views, scale=scale)) for views in frames]
             path = folder / f"episode_{i:04d}.gif"
             images[0].save(path, save_all=True, append_images=images[1:], duration=100, loop=0)
             paths.append(path)
