@@ -13,6 +13,7 @@ from PIL import Image
 from pipette_cli.demo import RecordingSource, contact_sheet
 from pipette_cli.demos.collect import collect
 from pipette_cli.registry import load_registry
+from pipette_cli.sim.gym_env import PipetteGymEnv
 from pipette_cli.sim.views import LABEL_BACKGROUND, LABEL_TEXT, label_view, views_sheet
 
 FIXTURES = Path(__file__).resolve().parents[1] / "fixtures" / "demos"
@@ -76,3 +77,15 @@ def test_the_demo_gif_labels_its_views(tmp_path: Path) -> None:
     frame = np.asarray(Image.open(tmp_path / "views.gif").convert("RGB"))
     assert frame.shape == (64, 3 * 64 + 2 * 4, 3)
     assert all(has_label(frame[:, i * 68 : i * 68 + 64]) for i in range(3))
+
+
+@pytest.mark.render
+def test_the_gym_env_frame_labels_its_views() -> None:
+    env = PipetteGymEnv("pipette/PickUpTestTube-v1", image_size=48, render_mode="rgb_array")
+    try:
+        env.reset(seed=0)
+        frame = env.render()
+    finally:
+        env.close()
+    assert frame is not None and frame.shape == (48, 3 * 48, 3)  # no gap: the frame keeps its shape
+    assert all(has_label(frame[:, i * 48 : (i + 1) * 48]) for i in range(3))
