@@ -29,7 +29,7 @@ import numpy as np
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.store import read_episode, scan
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
@@ -242,14 +242,14 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     raw = out / "raw.h5"
     collected = collect(task, raw, episodes=size.demos, seed=0, image_size=size.image_size)
     timings["collect"] = time.perf_counter() - t
-    say(f"collect: {sum(e.success for e in collected.added)}/{len(collected.added)} scripted demos succeeded")
+    say(f"collect: {sum(e.success for e in collected.added)}/{plural(len(collected.added), 'scripted demo')} succeeded")
     t = time.perf_counter()
     aug = out / "aug.h5"
     spec = AugmentSpec(variants=make_variants(size.variants.split(","), default_atoms()))
     augmented = augment(task, raw, aug, spec, workers=1)
     timings["augment"] = time.perf_counter() - t
     kept, tried = augmented.report["kept"], augmented.report["attempts"]
-    say(f"augment: {kept}/{tried} variants kept")
+    say(f"augment: {kept}/{plural(tried, 'variant')} kept")
     t = time.perf_counter()
     datasets = out / "datasets"
     slug = task.id.replace("/", "_")
@@ -304,7 +304,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         out / "summary.png",
         training_losses(log_file),
         episodes,
-        f"{task.id}: {summary['successes']}/{summary['episodes']} evaluation episodes succeeded",
+        f"{task.id}: {summary['successes']}/{plural(summary['episodes'], 'evaluation episode')} succeeded",
     )
     learned = summary["success_rate"] >= MIN_SUCCESS if size.judged else None
     report = {
@@ -344,9 +344,9 @@ def verdict_line(report: dict[str, Any]) -> str:
             "evaluation successes mean nothing; run `pipette demo` without --fast for a policy that works"
         )
     if report["learned"]:
-        return f"the learned policy works: {k}/{n} evaluation episodes succeeded"
+        return f"the learned policy works: {k}/{plural(n, 'evaluation episode')} succeeded"
     return (
-        f"the learned policy FAILED: only {k}/{n} evaluation episodes succeeded (this demo expects at least "
+        f"the learned policy FAILED: only {k}/{plural(n, 'evaluation episode')} succeeded (this demo expects at least "
         f"{100 * report['min_success_rate']:.0f} %); failures: {report['failures']}"
     )
 
