@@ -29,10 +29,12 @@ import numpy as np
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.store import read_episode, scan
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
+from pipette_cli.sim.scene import CAMERA_NAMES
+from pipette_cli.sim.views import views_sheet
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -115,7 +117,7 @@ def folder_size(path: Path) -> int:
 
 def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -> None:
     """The main camera at 2/3 of every kept augmented episode, labelled with its variant, and
-    the first episode's three views side by side as a GIF; small images are scaled up."""
+    the first episode's three views side by side, labelled, as a GIF; small images are scaled up."""
     from PIL import Image, ImageDraw  # deferred: PIL (~15 ms of `pipette --help`, which imports this module)
 
     refs = scan(aug).episodes
@@ -132,11 +134,8 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
         tiles.append(image)
         if i == 0:
             for k in range(0, len(main), 3):
-                views = [Image.fromarray(record.images[cam][k]) for cam in ("top", "main", "wrist")]
-                strip = Image.new("RGB", (3 * image.width, image.height))
-                for j, view in enumerate(views):
-                    strip.paste(view.resize(image.size, Image.Resampling.NEAREST), (j * image.width, 0))
-                frames.append(strip)
+                views = {cam: record.images[cam][k] for cam in CAMERA_NAMES}
+                frames.append(Image.fromarray(views_sheet(views, scale=scale)))
     w, h = tiles[0].size
     cols = min(6, len(tiles))
     sheet = Image.new("RGB", (cols * w, ((len(tiles) + cols - 1) // cols) * h), "white")
@@ -147,24 +146,24 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
 
 
 class RecordingSource:
-    """An action source that keeps what the policy saw (three views side by side, at its 10 Hz
-    query rate) per evaluation episode, to write as GIFs."""
+    """An action source that keeps what the policy saw (its views, at its 10 Hz query rate) per
+    evaluation episode, to write as GIFs of the views side by side, each labelled."""
 
     def __init__(self, source: Any) -> None:
         self.source = source
-        self.episodes: list[list[np.ndarray]] = []
+        self.episodes: list[list[dict[str, np.ndarray]]] = []
 
     def act(self, observation: dict[str, np.ndarray], *, task: str, reset: bool, chunk: bool) -> np.ndarray:
         if reset or not self.episodes:
             self.episodes.append([])
-        views = [
-            observation[f"observation.images.{c}"]
-            for c in ("top", "main", "wrist")
-            if f"observation.images.{c}" in observation
-        ]
+        views = {}
+        for camera in CAMERA_NAMES:
+            image = observation.get(f"observation.images.{camera}")
+            if image is not None:
+                image = np.asarray(image).transpose(1, 2, 0)
+                views[camera] = image if image.dtype == np.uint8 else (image * 255).astype(np.uint8)
         if views:
-            strip = np.concatenate([np.asarray(v).transpose(1, 2, 0) for v in views], axis=1)
-            self.episodes[-1].append(strip if strip.dtype == np.uint8 else (strip * 255).astype(np.uint8))
+            self.episodes[-1].append(views)
         return self.source.act(observation, task=task, reset=reset, chunk=chunk)
 
     def write_gifs(self, folder: Path, *, scale: int = 2) -> list[Path]:
@@ -174,10 +173,7 @@ class RecordingSource:
         for i, frames in enumerate(self.episodes):
             if not frames:
                 continue
-            images = [
-                Image.fromarray(f).resize((f.shape[1] * scale, f.shape[0] * scale), Image.Resampling.NEAREST)
-                for f in frames
-            ]
+            images = [Image.fromarray(views_sheet(views, scale=scale)) for views in frames]
             path = folder / f"episode_{i:04d}.gif"
             images[0].save(path, save_all=True, append_images=images[1:], duration=100, loop=0)
             paths.append(path)
@@ -246,14 +242,14 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     raw = out / "raw.h5"
     collected = collect(task, raw, episodes=size.demos, seed=0, image_size=size.image_size)
     timings["collect"] = time.perf_counter() - t
-    say(f"collect: {sum(e.success for e in collected.added)}/{len(collected.added)} scripted demos succeeded")
+    say(f"collect: {sum(e.success for e in collected.added)}/{plural(len(collected.added), 'scripted demo')} succeeded")
     t = time.perf_counter()
     aug = out / "aug.h5"
     spec = AugmentSpec(variants=make_variants(size.variants.split(","), default_atoms()))
     augmented = augment(task, raw, aug, spec, workers=1)
     timings["augment"] = time.perf_counter() - t
     kept, tried = augmented.report["kept"], augmented.report["attempts"]
-    say(f"augment: {kept}/{tried} variants kept")
+    say(f"augment: {kept}/{plural(tried, 'variant')} kept")
     t = time.perf_counter()
     datasets = out / "datasets"
     slug = task.id.replace("/", "_")
@@ -308,7 +304,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         out / "summary.png",
         training_losses(log_file),
         episodes,
-        f"{task.id}: {summary['successes']}/{summary['episodes']} evaluation episodes succeeded",
+        f"{task.id}: {summary['successes']}/{plural(summary['episodes'], 'evaluation episode')} succeeded",
     )
     learned = summary["success_rate"] >= MIN_SUCCESS if size.judged else None
     report = {
@@ -348,9 +344,9 @@ def verdict_line(report: dict[str, Any]) -> str:
             "evaluation successes mean nothing; run `pipette demo` without --fast for a policy that works"
         )
     if report["learned"]:
-        return f"the learned policy works: {k}/{n} evaluation episodes succeeded"
+        return f"the learned policy works: {k}/{plural(n, 'evaluation episode')} succeeded"
     return (
-        f"the learned policy FAILED: only {k}/{n} evaluation episodes succeeded (this demo expects at least "
+        f"the learned policy FAILED: only {k}/{plural(n, 'evaluation episode')} succeeded (this demo expects at least "
         f"{100 * report['min_success_rate']:.0f} %); failures: {report['failures']}"
     )
 

@@ -1,4 +1,5 @@
-"""One root error for Pipette, with a subclass per domain.
+"""One root error for Pipette, with a subclass per domain, and the wording its messages share
+(did-you-mean, plurals).
 
 The CLI turns any :class:`PipetteError` into a one-line message and exit code 1;
 anything else is a bug and keeps its traceback.
@@ -80,3 +81,14 @@ def suggest(name: str, choices: Iterable[str], *, n: int = 3) -> str:
         return "did you mean " + " or ".join(repr(c) for c in close) + "?"
     shown = ", ".join(pool[:12]) + (", ..." if len(pool) > 12 else "")
     return f"valid names: {shown}" if pool else "none are defined"
+
+
+def plural(count: int, noun: str, many: str | None = None) -> str:
+    """``count`` and ``noun``, in the plural unless ``count`` is 1: ``1 episode``, ``0 episodes``, ``3 failed episodes``.
+
+    Args:
+        count: How many.
+        noun: The singular (the last word takes the ``s``).
+        many: The plural where it is not ``noun + "s"`` (``"batches"``).
+    """
+    return f"{count} {noun if count == 1 else many or noun + 's'}"

@@ -18,7 +18,7 @@ import typer
 
 from pipette_cli.agent.vocabulary import load_vocabulary
 from pipette_cli.demos.store import scan
-from pipette_cli.errors import DatasetError, PipetteError
+from pipette_cli.errors import DatasetError, PipetteError, plural
 from pipette_cli.registry import Registry, load_registry
 
 app = typer.Typer(add_completion=False)
@@ -128,11 +128,11 @@ def demos(
         f = files[0]
         pending = f", {f['pending']} of them pending" if f["pending"] else ""
         text = (
-            f"{f['file']} holds {f['episodes']} demos of {f['task_id']}: {f['successful']} successful, "
+            f"{f['file']} holds {plural(f['episodes'], 'demo')} of {f['task_id']}: {f['successful']} successful, "
             f"{f['failed']} failed{pending}"
         )
     else:
-        text = f"{total} demos in {len(files)} files"
+        text = f"{plural(total, 'demo')} in {len(files)} files"
     return Answer(
         text, ["file", "task", "demos", "successful", "failed", "pending"], rows, {"total": total, "files": files}
     )

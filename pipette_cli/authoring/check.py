@@ -21,7 +21,7 @@ import numpy as np
 
 from pipette_cli.demos.check import run_expert_episode
 from pipette_cli.demos.experts.base import find_expert
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
 
@@ -59,8 +59,9 @@ class SolveReport:
             seed, _, why = line.partition(": ")
             seeds.setdefault(why, []).append(seed.removeprefix("seed "))
         failures = [f"seed{'s' if len(s) > 1 else ''} {', '.join(s)}: {why}" for why, s in seeds.items()]
-        return f"expert '{self.expert}' solved {self.successes}/{self.episodes} episodes (needs {self.required})" + (
-            f"; {'; '.join(failures)}" if failures else ""
+        return (
+            f"expert '{self.expert}' solved {self.successes}/{plural(self.episodes, 'episode')} (needs {self.required})"
+            + (f"; {'; '.join(failures)}" if failures else "")
         )
 
 

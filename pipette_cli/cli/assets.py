@@ -14,7 +14,8 @@ from rich.table import Table
 
 from pipette_cli.assets.library import CATEGORIES, AssetEntry, load_asset_library
 from pipette_cli.cli.common import err_console, out_console, print_json
-from pipette_cli.errors import AssetError
+from pipette_cli.cli.listing import Column, Listing
+from pipette_cli.errors import AssetError, plural
 from pipette_cli.resources import data_dir
 
 app = typer.Typer(
@@ -60,11 +61,10 @@ def list_assets(
     if as_json:
         print_json([{"id": e.asset_id, "category": e.category, "path": str(e.path)} for e in entries])
         return
-    for e in entries:
-        out_console.print(f"{e.category:12s} {e.asset_id}")
     shown = CATEGORIES if category is None else (category,)
     counts = ", ".join(f"{c} {sum(e.category == c for e in entries)}" for c in shown)
-    err_console.print(f"{len(entries)} assets ({counts})")
+    rows = [[e.category, e.asset_id] for e in entries]
+    out_console.print(Listing(f"{plural(len(entries), 'asset')} ({counts})", [Column("category"), Column("id")], rows))
 
 
 @app.command("show")
@@ -126,7 +126,7 @@ def validate(
             for problem in r.problems:
                 out_console.print(f"[red]FAIL[/red] {r.asset_id}: {escape(problem)}")
         err_console.print(
-            f"{len(reports) - len(failed)}/{len(reports)} assets valid in {time.perf_counter() - t0:.1f} s"
+            f"{len(reports) - len(failed)}/{plural(len(reports), 'asset')} valid in {time.perf_counter() - t0:.1f} s"
         )
     if failed:
         raise typer.Exit(1)
@@ -169,7 +169,7 @@ def generate(
     from pipette_cli.assets.build import generate_assets  # deferred: pxr.Usd (~0.15 s)
 
     paths = generate_assets(out or data_dir("assets"), asset_ids or None)
-    err_console.print(f"wrote {len(paths)} assets")
+    err_console.print(f"wrote {plural(len(paths), 'asset')}")
 
 
 @app.command("repair-paths")
@@ -196,8 +196,9 @@ def repair_paths(
     report.write_text(json.dumps(result, indent=2) + "\n")
     s = result["summary"]
     err_console.print(
-        f"{s['files']} files, {s['references']} paths: {s['absolute']} absolute, {s['relative']} relative, "
-        f"{s['missing']} missing; {s['rewritten_files']} files rewritten; report {report}"
+        f"{plural(s['files'], 'file')}, {plural(s['references'], 'path')}: {s['absolute']} absolute, "
+        f"{s['relative']} relative, {s['missing']} missing; {plural(s['rewritten_files'], 'file')} rewritten; "
+        f"report {report}"
     )
     for f in result["files"]:
         if f["error"]:

@@ -22,7 +22,7 @@ from pipette_cli.cli.common import (
 )
 from pipette_cli.demos.collect import deferred_sigint
 from pipette_cli.demos.embodiment import resolve_robot
-from pipette_cli.errors import PipetteError, SpecError
+from pipette_cli.errors import PipetteError, SpecError, plural
 from pipette_cli.specs.perturbations import (
     CameraPoseSpec,
     JointNoiseSpec,
@@ -181,7 +181,7 @@ def augment(
 
     def started(skipped: int, todo: int) -> None:
         if skipped:
-            err_console.print(f"{output}: {skipped} demos already augmented; {todo} to go", soft_wrap=True)
+            err_console.print(f"{output}: {plural(skipped, 'demo')} already augmented; {todo} to go", soft_wrap=True)
         progress.update(bar, total=todo)
         progress.start()
 
@@ -220,7 +220,9 @@ def augment(
         skipped = result.report["demos_skipped"]
         if skipped:
             out_console.print(f"demos skipped: {', '.join(f'{k} {v}' for k, v in skipped.items())}")
-        out_console.print(f"{output}: {result.report['kept']} episodes kept ({result.new_demos} demos augmented now)")
+        out_console.print(
+            f"{output}: {plural(result.report['kept'], 'episode')} kept ({plural(result.new_demos, 'demo')} augmented now)"
+        )
     if result.interrupted:
         err_console.print("interrupted; run the same command again to resume", soft_wrap=True)
         raise typer.Exit(130)

@@ -11,6 +11,7 @@ from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import plural
 from pipette_cli.registry import load_registry
 
 BACKEND_HELP = "offline (default: a deterministic parser), openai (OpenAI-compatible server) or ollama."
@@ -82,7 +83,7 @@ def new_task(
     engine = make_backend(backend, model=model, base_url=base_url)
     gate = check_gate(episodes, enforce=not force) if check else None
     if check:
-        with err_console.status(f"drafting and checking ({episodes} seeds)"):
+        with err_console.status(f"drafting and checking ({plural(episodes, 'seed')})"):
             drafted = draft_task(
                 description, engine, namespace=namespace, task_id=task_id, registry=registry, gate=gate
             )
@@ -108,7 +109,7 @@ def new_task(
         else:
             out_console.print(drafted.yaml_text, end="", markup=False, highlight=False)
         err_console.print(
-            f"drafted {drafted.spec.id} ({len(drafted.plan.steps)} step(s), {drafted.spec.success.type}) "
+            f"drafted {drafted.spec.id} ({plural(len(drafted.plan.steps), 'step')}, {drafted.spec.success.type}) "
             f"with the {engine.name} backend",
             markup=False,
             soft_wrap=True,
@@ -119,7 +120,7 @@ def new_task(
         passed = report.ok and report.solve.status == "solved"
         err_console.print(
             f"check: {'ok' if passed else 'FAILED (written anyway: --force)'}; idle rollout "
-            f"{report.idle_steps} steps, objects moved at most {report.max_drift_m * 1000:.1f} mm; "
+            f"{plural(report.idle_steps, 'step')}, objects moved at most {report.max_drift_m * 1000:.1f} mm; "
             f"{report.solve.summary()} ({report.seconds:.1f} s)",
             markup=False,
             soft_wrap=True,

@@ -13,7 +13,7 @@ from pipette_cli.demos.collect import collect as collect_episodes
 from pipette_cli.demos.collect import deferred_sigint
 from pipette_cli.demos.recorder import EpisodeSummary
 from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.sim.render import PROFILES
 from pipette_cli.specs.task import CamerasSpec
 
@@ -69,7 +69,7 @@ def collect(
 
     def started(have: int, todo: int) -> None:  # after the file and the expert were checked
         if have:
-            err_console.print(f"{out}: {have} episodes already recorded; {todo} to go", soft_wrap=True)
+            err_console.print(f"{out}: {plural(have, 'episode')} already recorded; {todo} to go", soft_wrap=True)
         progress.update(bar, total=todo)
         progress.start()
 
@@ -120,10 +120,9 @@ def collect(
         progress.stop()
     added = len(result.added)
     rate = f"{added / result.seconds * 60:.1f} episodes/min" if added and result.seconds else ""
-    plural = "" if result.total == 1 else "s"
     successes = sum(s.success for s in result.added)
     summary = (
-        f"{out}: {result.total} episode{plural} ({added} new, {successes} successful{', ' + rate if rate else ''})"
+        f"{out}: {plural(result.total, 'episode')} ({added} new, {successes} successful{', ' + rate if rate else ''})"
     )
     if result.interrupted:
         err_console.print(f"interrupted; {summary}; run the same command again to resume", soft_wrap=True)

@@ -7,12 +7,12 @@ from typing import Annotated
 
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
 from pipette_cli.cli.data import app as data_app
+from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.store import scan
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, default_root, slug
 from pipette_cli.lerobot.convert import convert as run_convert
 from pipette_cli.lerobot.frames import FrameFilter
@@ -121,9 +121,14 @@ def convert(
         print_json(report)
         return
     out_console.print(
-        f"{result.root}: {result.episodes} episodes, {result.frames} frames at {fps} Hz "
-        f"({result.skipped} failed episodes skipped), {result.frames_per_s:.1f} frames/s"
+        f"{result.root}: {plural(result.episodes, 'episode')}, {plural(result.frames, 'frame')} at {fps} Hz "
+        f"({plural(result.skipped, 'failed episode')} skipped), {result.frames_per_s:.1f} frames/s"
     )
+
+
+def _values(values: list[float] | None) -> str:
+    """Per-dimension values, three significant digits each (``-`` for none)."""
+    return "-" if values is None else " ".join(f"{x:.3g}" for x in values)
 
 
 @data_app.command("stats")
@@ -140,24 +145,36 @@ def stats(
         print_json(report)
         return
     out_console.print(
-        f"{root}: {report['episodes']} episodes, {report['frames']} frames at {report['fps']} Hz "
+        f"{root}: {plural(report['episodes'], 'episode')}, {plural(report['frames'], 'frame')} at {report['fps']} Hz "
         f"(episode length {report['episode_length']['min']}..{report['episode_length']['max']}), "
         f"{'video' if report['video'] else 'images'}, robot {report['robot_type']}"
     )
-    table = Table(title="features")
-    for column in ("feature", "dtype", "shape", "min", "max"):
-        table.add_column(column)
-    for name, f in report["features"].items():
-        fmt = lambda v: "-" if v is None else " ".join(f"{x:.3g}" for x in v)
-        table.add_row(name, f["dtype"], "x".join(map(str, f["shape"])), fmt(f.get("min")), fmt(f.get("max")))
-    out_console.print(table)
+    columns = [
+        Column("feature"),
+        Column("dtype"),
+        Column("shape"),
+        Column("min", wrap=True, min_width=12),
+        Column("max", wrap=True, min_width=12),
+    ]
+    rows = [
+        [name, f["dtype"], "x".join(map(str, f["shape"])), _values(f.get("min")), _values(f.get("max"))]
+        for name, f in report["features"].items()
+    ]
+    out_console.print(Listing("features", columns, rows))
     prov = report.get("provenance")
     if prov:
         reasons = ", ".join(f"{k} {v}" for k, v in prov["failure_reasons"].items())
+        sources = ", ".join(f"{k} {v}" for k, v in prov["sources"].items())
+        perturbed, originals = prov["perturbed"], prov["originals"]
+        variants = (
+            f"{plural(perturbed, 'perturbed variant')} and {plural(originals, 'unperturbed original')} (re-rendered); "
+            if perturbed or originals
+            else ""
+        )
         out_console.print(
             f"{prov['dataset_version']} dataset: {prov['successful']} successful, {prov['failed']} failed"
-            f"{f' ({reasons})' if reasons else ''}; {prov['skipped_failed']} failed episodes left out; "
-            f"sources {prov['sources']}; {prov['perturbed']} perturbed; from {len(prov['files'])} files"
+            f"{f' ({reasons})' if reasons else ''}; {plural(prov['skipped_failed'], 'failed episode')} left out; "
+            f"sources: {sources}; {variants}from {plural(len(prov['files']), 'file')}"
         )
     else:
         err_console.print("no meta/pipette.json: not converted by Pipette, success provenance unknown")

@@ -6,15 +6,16 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
+from rich.text import Text
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
 from pipette_cli.demos.store import file_size, parts_dir, scan
 from pipette_cli.demos.store import pack as pack_parts
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 from pipette_cli.registry import load_registry
 
 app = typer.Typer(
@@ -72,22 +73,38 @@ def inspect(
     if as_json:
         print_json(report)
         return
-    table = Table(
-        title=f"{file}: {info.task_id} ({info.embodiment}, {info.image_height}x{info.image_width}, {report['size_mb']} MB)"
+    columns = [
+        Column("episode", justify="right"),
+        Column("seed", justify="right"),
+        Column("source"),
+        Column("steps", justify="right"),
+        Column("outcome", wrap=True, min_width=20),
+        Column("note"),
+    ]
+    rows = [
+        [
+            str(e["index"]),
+            str(e["seed"]),
+            e["source"],
+            str(e["steps"]),
+            Text("success", "green") if e["success"] else Text.assemble(("failed", "red"), f" {e['reason']}"),
+            "pending" if e["pending"] else "",
+        ]
+        for e in episodes
+    ]
+    size = f"{info.image_height}x{info.image_width}"
+    out_console.print(
+        Listing(f"{file}: {info.task_id} ({info.embodiment}, {size}, {report['size_mb']} MB)", columns, rows)
     )
-    for column in ("episode", "seed", "source", "steps", "outcome", "note"):
-        table.add_column(column, justify="right" if column in ("episode", "seed", "steps") else "left")
-    for e in episodes:
-        outcome = "[green]success[/green]" if e["success"] else f"[red]failed[/red] {e['reason']}"
-        table.add_row(
-            str(e["index"]), str(e["seed"]), e["source"], str(e["steps"]), outcome, "pending" if e["pending"] else ""
-        )
-    out_console.print(table)
-    err_console.print(f"{len(episodes)} episodes, {successes} successful, {report['steps']} control steps")
+    err_console.print(
+        f"{plural(len(episodes), 'episode')}, {successes} successful, {plural(report['steps'], 'control step')}"
+    )
     if status.pending:
+        pending = len(status.pending)
         err_console.print(
-            f"{len(status.pending)} episodes of an interrupted run are pending in {parts_dir(file)}; "
-            f"`pipette data pack {file}` (or rerunning collect) moves them into the file",
+            f"{plural(pending, 'episode')} of an interrupted run {'is' if pending == 1 else 'are'} pending in "
+            f"{parts_dir(file)}; "
+            f"`pipette data pack {file}` (or rerunning collect) moves {'it' if pending == 1 else 'them'} into the file",
             soft_wrap=True,
         )
 
@@ -113,7 +130,7 @@ def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> No
     """
     if scan(file).info is None:
         raise DatasetError(f"{file}: no such file")
-    err_console.print(f"packed {pack_parts(file)} pending episodes into {file}", soft_wrap=True)
+    err_console.print(f"packed {plural(pack_parts(file), 'pending episode')} into {file}", soft_wrap=True)
 
 
 @app.command("replay")
@@ -148,14 +165,14 @@ def replay(
         print_json(report.as_dict())
     else:
         states = (
-            f"all {report.states_compared} states bit-exact"
+            f"all {plural(report.states_compared, 'state')} bit-exact"
             if report.states_equal
             else f"states differ from step {report.first_mismatch} on (max |diff| {report.max_abs_diff:.3g})"
         )
         outcome = "same outcome" if report.outcome_equal else f"outcome {report.replayed} != recorded {report.recorded}"
         verdict = "success" if report.replayed.get("success") else f"failed ({report.replayed.get('reason')})"
         out_console.print(
-            f"episode {episode} (seed {report.seed}, {report.steps} steps): {verdict}; {states}; {outcome}"
+            f"episode {episode} (seed {report.seed}, {plural(report.steps, 'step')}): {verdict}; {states}; {outcome}"
         )
     if check and not report.ok:
         raise DatasetError(f"{file}: episode {episode} does not replay exactly")

@@ -21,7 +21,7 @@ from pipette_cli.cli.common import (
 )
 from pipette_cli.demos.collect import deferred_sigint
 from pipette_cli.demos.embodiment import on_robot
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import (
     ADHOC_EPISODES,
     ADHOC_SEED,
@@ -224,7 +224,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
 
     def started(done: int, todo: int) -> None:
         if done:
-            err_console.print(f"{done} episodes already logged; {todo} to go", soft_wrap=True)
+            err_console.print(f"{plural(done, 'episode')} already logged; {todo} to go", soft_wrap=True)
         if todo:
             progress.update(bar, total=todo)
             progress.start()
@@ -235,7 +235,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
         if STATE.verbosity > 0:
             progress.console.print(
                 f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
-                f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)"
+                f"({plural(log.control_steps, 'step')}, {plural(log.policy_queries, 'query', 'queries')}, {log.runtime_s:.1f} s)"
             )
         progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
 

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from pipette_cli.cli.common import STATE, RobotOption, err_console, load_task, out_console, print_json
 from pipette_cli.demos.check import ExpertReport, check_expert, step_of
+from pipette_cli.errors import plural
 from pipette_cli.registry import load_registry
 
 app = typer.Typer(
@@ -80,7 +81,7 @@ def check(
             ]
         )
         return
-    table = Table(title=f"scripted experts, {episodes} seeds from {seed}")
+    table = Table(title=f"scripted experts, {plural(episodes, 'seed')} from {seed}")
     for column in ("task", "success", "rate", "stages (progress)", "failures"):
         table.add_column(column)
     for r in reports:

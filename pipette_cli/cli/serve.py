@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.errors import plural
 from pipette_cli.serving.protocol import DEFAULT_DEVICE, DEFAULT_ENDPOINT, DEFAULT_MAX_REQUEST_BYTES
 
 
@@ -61,7 +62,9 @@ def serve(
             max_requests=max_requests,
             on_request=None
             if STATE.verbosity < 1
-            else lambda s: err_console.print(f"request {s.requests}: {s.actions} actions, {s.errors} errors"),
+            else lambda s: err_console.print(
+                f"request {s.requests}: {plural(s.actions, 'action')}, {plural(s.errors, 'error')}"
+            ),
         )
     finally:
         signal.signal(signal.SIGINT, previous)
@@ -78,6 +81,7 @@ def serve(
         )
     else:
         out_console.print(
-            f"stopped after {stats.requests} requests ({stats.actions} actions, {stats.errors} errors, "
+            f"stopped after {plural(stats.requests, 'request')} ({plural(stats.actions, 'action')}, "
+            f"{plural(stats.errors, 'error')}, "
             f"{mean_ms:.1f} ms mean inference)"
         )

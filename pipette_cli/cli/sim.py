@@ -15,6 +15,7 @@ from pipette_cli.cli.common import RobotOption, err_console, load_task, out_cons
 from pipette_cli.errors import PipetteError
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.sim.render import PROFILES
+from pipette_cli.sim.views import views_sheet
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import CamerasSpec
 
@@ -33,13 +34,6 @@ def save_png(image: np.ndarray, path: Path) -> None:
     Image.fromarray(image).save(path)
 
 
-def views_strip(views: dict[str, np.ndarray]) -> np.ndarray:
-    """top | main | wrist side by side with a 4-pixel white gap."""
-    h = views["top"].shape[0]
-    gap = np.full((h, 4, 3), 255, np.uint8)
-    return np.concatenate([views["top"], gap, views["main"], gap, views["wrist"]], axis=1)
-
-
 @app.command("render")
 def render(
     task_id: Annotated[str, typer.Argument(help="Task id.")],
@@ -50,7 +44,7 @@ def render(
     settle: Annotated[int, typer.Option("--settle", help="Control steps to hold still before rendering.")] = 0,
     robot: RobotOption = None,
 ) -> None:
-    """Render the top, main and wrist views of a task side by side.
+    """Render the top, main and wrist views of a task side by side, each labelled with its name.
 
     Example: pipette sim render pipette/OpenCentrifugeLid-v1 --robot ur5e_2f85 --seed 3 --out docs/views.png
     """
@@ -61,7 +55,7 @@ def render(
         hold = np.append(env.world.arm_qpos(), 1.0 if spec.embodiment.gripper == "open" else 0.0)
         for _ in range(settle):
             env.step(hold)
-        save_png(views_strip(env.render_views()), out)
+        save_png(views_sheet(env.render_views()), out)
     finally:
         env.close()
     err_console.print(f"wrote {out}")

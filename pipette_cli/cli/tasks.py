@@ -7,11 +7,11 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import typer
-from rich.table import Table
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.experts.base import expert_program
-from pipette_cli.errors import PipetteError, SpecError, suggest
+from pipette_cli.errors import PipetteError, SpecError, plural, suggest
 from pipette_cli.evaluation.suites import load_suites
 from pipette_cli.registry import (
     YAML_SUFFIXES,
@@ -58,7 +58,7 @@ def _stages(spec: TaskSpec) -> list[dict[str, object]]:
 
 def _evaluator(spec: TaskSpec) -> str:
     count = len(stage_specs(spec))
-    return f"{spec.success.type} ({count} stages)" if count else spec.success.type
+    return f"{spec.success.type} ({plural(count, 'stage')})" if count else spec.success.type
 
 
 @app.command("list")
@@ -75,13 +75,9 @@ def list_tasks(
     if as_json:
         print_json([_summary(s) for s in specs])
         return
-    table = Table(title=f"{len(specs)} tasks", show_lines=False)
-    for column in ("id", "robot", "evaluator"):
-        table.add_column(column, no_wrap=True)
-    table.add_column("instruction", overflow="fold")
-    for s in specs:
-        table.add_row(s.id, s.embodiment.robot, _evaluator(s), s.instruction)
-    out_console.print(table)
+    columns = [Column("id"), Column("robot"), Column("evaluator"), Column("instruction", wrap=True)]
+    rows = [[s.id, s.embodiment.robot, _evaluator(s), s.instruction] for s in specs]
+    out_console.print(Listing(plural(len(specs), "task"), columns, rows))
 
 
 @app.command("suites")
@@ -112,12 +108,17 @@ def list_suites(
     if as_json:
         print_json(rows)
         return
-    table = Table(title=f"{len(rows)} evaluation suites", show_lines=False)
-    for column in ("id", "tasks", "episodes", "image", "name"):
-        table.add_column(column, no_wrap=column != "name", overflow="fold")
-    for r in rows:
-        table.add_row(r["id"], str(len(r["tasks"])), str(r["episodes"]), f"{r['image_size'] or 'task'} px", r["name"])
-    out_console.print(table)
+    columns = [
+        Column("id"),
+        Column("tasks", justify="right"),
+        Column("episodes", justify="right"),
+        Column("image"),
+        Column("name", wrap=True),
+    ]
+    cells = [
+        [r["id"], str(len(r["tasks"])), str(r["episodes"]), f"{r['image_size'] or 'task'} px", r["name"]] for r in rows
+    ]
+    out_console.print(Listing(plural(len(rows), "evaluation suite"), columns, cells))
 
 
 @app.command("show")
@@ -145,7 +146,9 @@ def show_task(
     out_console.print(entry.path.read_text(encoding="utf-8"), markup=False, highlight=False, end="")
     stages = _stages(entry.spec)
     if stages:
-        out_console.print(f"# {len(stages)} stages (progress = stages completed / {len(stages)}):", style="dim")
+        out_console.print(
+            f"# {plural(len(stages), 'stage')} (progress = stages completed / {len(stages)}):", style="dim"
+        )
         for row in stages:
             out_console.print(
                 f"#   {row['stage']}. {row['instruction'] or '(no instruction)'}  [{row['criterion']}]",
@@ -188,8 +191,8 @@ def validate_tasks(
         registry = _registry()
         suites = load_suites(registry, STATE.registry_dirs)
         err_console.print(
-            f"{len(registry.tasks)} tasks and {len(suites.suites)} evaluation suites valid in "
-            f"{len(registry_dirs(STATE.registry_dirs))} folder(s)"
+            f"{plural(len(registry.tasks), 'task')} and {plural(len(suites.suites), 'evaluation suite')} valid in "
+            f"{plural(len(registry_dirs(STATE.registry_dirs)), 'folder')}"
         )
         return
     registry_dirs(STATE.registry_dirs)  # imports the task packs, which may register evaluator types

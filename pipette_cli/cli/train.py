@@ -11,7 +11,7 @@ import typer
 from rich.markup import escape
 
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 from pipette_cli.lerobot.convert import DatasetVersion
 from pipette_cli.lerobot.train import (
     IfExists,
@@ -177,4 +177,4 @@ def train(
     failed = [r for r in results if r.returncode != 0]
     if failed:
         logs = ", ".join(str(j.log_file) for j in jobs if j.task_id in {r.task_id for r in failed})
-        raise TrainError(f"{len(failed)} of {len(results)} training runs failed; see {logs}")
+        raise TrainError(f"{len(failed)} of {plural(len(results), 'training run')} failed; see {logs}")

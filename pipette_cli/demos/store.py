@@ -34,7 +34,7 @@ from pipette_cli.demos.recorder import (
     fsync_file,
     read_summary,
 )
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 
 PART_PATTERN = re.compile(r"^episode_(\d{6,})\.h5$")
 _READ_ERRORS = (OSError, KeyError, ValueError, RuntimeError, TypeError)
@@ -116,7 +116,9 @@ class DatasetStatus:
         total = len(self.episodes)
         if not 0 <= index < total:
             valid = f"0..{total - 1}" if total else "none"
-            raise DatasetError(f"episode {index} is out of range: {self.path} has {total} episodes (valid: {valid})")
+            raise DatasetError(
+                f"episode {index} is out of range: {self.path} has {plural(total, 'episode')} (valid: {valid})"
+            )
         return self.episodes[index]
 
 
@@ -232,7 +234,7 @@ def delete_episode(path: Path, index: int) -> EpisodeSummary:
         raise DatasetError(f"{path}: no such file")
     if status.pending:
         raise DatasetError(
-            f"{path} has {len(status.pending)} episodes of an interrupted run pending in {parts_dir(path)}; "
+            f"{path} has {plural(len(status.pending), 'episode')} of an interrupted run pending in {parts_dir(path)}; "
             f"run `pipette data pack {path}` first"
         )
     ref = status.episode(index)

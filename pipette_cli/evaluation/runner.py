@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from pipette_cli.errors import PipetteError
+from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.evaluate import (
     ActionSource,
     EpisodeInterrupted,
@@ -278,7 +278,7 @@ def evaluate_runs(
         planned = sum(len(run.episodes) for run in runs)
         raise ServerLost(
             f"{lost['message']}; safe hold applied in {lost['task']} episode {lost['episode']}; "
-            f"stopped after {finished} of {planned} episodes (partial summary written); "
+            f"stopped after {finished} of {plural(planned, 'episode')} (partial summary written); "
             "rerun the same command to resume once the server is back",
             lost,
         )

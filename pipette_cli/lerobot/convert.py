@@ -38,7 +38,7 @@ import numpy as np
 import pipette_cli
 from pipette_cli.demos.recorder import DatasetInfo
 from pipette_cli.demos.store import EpisodeRef, open_h5, read_episode, scan
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 from pipette_cli.lerobot.frames import FrameFilter, select_frames
 from pipette_cli.specs.base import described
 from pipette_cli.specs.robot import load_robot_specs
@@ -261,7 +261,7 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
     if not episodes:
         total = len(skipped)
         raise DatasetError(
-            f"no episode to convert: all {total} episodes failed; pass --include-failed to keep failed episodes"
+            f"no episode to convert: {'the' if total == 1 else 'all'} {plural(total, 'episode')} failed; pass --include-failed to keep failed episodes"
             if total
             else "no episode to convert: the inputs hold no episodes"
         )

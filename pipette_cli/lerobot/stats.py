@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.errors import DatasetError
+from pipette_cli.errors import DatasetError, plural
 from pipette_cli.lerobot.convert import PROVENANCE_FILE, PROVENANCE_FORMAT
 
 
@@ -36,6 +36,18 @@ def load_provenance(root: Path) -> dict[str, Any] | None:
 def _rounded(values: Any) -> Any:
     array = np.asarray(values, dtype=np.float64)
     return np.round(array, 6).tolist()
+
+
+def _unperturbed(perturbation: dict[str, Any]) -> bool:
+    """True for an augmented episode whose variant perturbs nothing (``--variants original``: the demo
+    re-rendered, e.g. at another image size): its recorded perturbation parameters are empty."""
+    params = perturbation.get("augment_params")
+    if not isinstance(params, str):
+        return False
+    try:
+        return json.loads(params) == {}
+    except ValueError:
+        return False
 
 
 def dataset_stats(root: Path) -> dict[str, Any]:
@@ -85,7 +97,7 @@ def dataset_stats(root: Path) -> dict[str, Any]:
         episodes = provenance.get("episodes", [])
         if len(episodes) != meta.total_episodes:
             raise DatasetError(
-                f"{root}: {PROVENANCE_FILE} describes {len(episodes)} episodes but the dataset has {meta.total_episodes}"
+                f"{root}: {PROVENANCE_FILE} describes {plural(len(episodes), 'episode')} but the dataset has {meta.total_episodes}"
             )
         successes = sum(bool(e.get("success")) for e in episodes)
         report["provenance"] = {
@@ -96,7 +108,8 @@ def dataset_stats(root: Path) -> dict[str, Any]:
             "failure_reasons": dict(Counter(str(e.get("reason")) for e in episodes if not e.get("success"))),
             "skipped_failed": len(provenance.get("skipped", [])),
             "sources": dict(Counter(str(e.get("source", "?")) for e in episodes)),
-            "perturbed": sum("perturbation" in e for e in episodes),
+            "perturbed": sum("perturbation" in e and not _unperturbed(e["perturbation"]) for e in episodes),
+            "originals": sum("perturbation" in e and _unperturbed(e["perturbation"]) for e in episodes),
             "files": provenance.get("sources", []),
             "task_ids": provenance.get("task_ids", []),
         }

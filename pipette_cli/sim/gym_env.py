@@ -20,6 +20,7 @@ from gymnasium import spaces
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import Observation, PipetteEnv
 from pipette_cli.sim.render import Profile
+from pipette_cli.sim.views import views_sheet
 
 STATE_MARGIN = 0.05
 """Radians (metres for slides) by which observed joints may pass their limits."""
@@ -93,9 +94,10 @@ class PipetteGymEnv(gym.Env[dict[str, Any], np.ndarray]):
         return self._obs(obs), reward, verdict.done, False, self._info(obs, verdict)
 
     def render(self) -> np.ndarray | None:
+        """With ``render_mode="rgb_array"``: the last observation's views side by side, each labelled."""
         if self.render_mode != "rgb_array" or self._last is None:
             return None
-        return np.concatenate([self._last.images[k] for k in ("top", "main", "wrist")], axis=1)
+        return views_sheet(self._last.images, gap=0)
 
     def close(self) -> None:
         self.env.close()

@@ -43,7 +43,7 @@ def test_convert_then_stats(run_cli, recording: Path, tmp_path: Path) -> None:
     text = run_cli("data", "stats", root)
     assert (
         text.exit_code == 0
-        and "1 episodes, 5 frames at 10 Hz" in text.stdout
+        and "1 episode, 5 frames at 10 Hz" in text.stdout
         and "1 successful, 0 failed" in text.stdout
     )
 

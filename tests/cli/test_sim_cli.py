@@ -19,6 +19,9 @@ def test_render_writes_three_views_side_by_side(run_cli, tmp_path: Path) -> None
     image = np.asarray(Image.open(out))
     assert image.shape == (48, 3 * 48 + 2 * 4, 3)
     assert image[:, :48].std() > 5 and image[:, -48:].std() > 5
+    for x in (0, 52, 104):  # top, main, wrist: each named in its top-left corner, light on black
+        corner = image[:12, x : x + 24].reshape(-1, 3)
+        assert (corner == 0).all(axis=1).sum() >= 10 and (corner >= 150).all(axis=1).sum() >= 3
 
 
 def test_step_rate_reports_physics_and_both_render_profiles(run_cli) -> None:

@@ -10,6 +10,7 @@ from pipette_cli.augment.run import augment
 from pipette_cli.augment.specs import AugmentSpec, VariantSpec
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.store import read_episode, scan
+from pipette_cli.errors import plural
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.perturbations import SpeedSpec
 
@@ -80,7 +81,7 @@ def test_killed_augment_leaves_readable_output_and_resumes(tmp_path) -> None:
     assert all(read_episode(ref).summary.success for ref in before)
     rerun = subprocess.run(command, capture_output=True, text=True, timeout=300, env={**os.environ})
     assert rerun.returncode == 0, rerun.stderr[-2000:]
-    assert f"{done} demos already augmented" in " ".join(rerun.stderr.split())
+    assert f"{plural(done, 'demo')} already augmented" in " ".join(rerun.stderr.split())
     episodes = scan(out).episodes
     assert len(episodes) == 3 * 3
     assert sorted(read_episode(ref).attrs["augment_variant"] for ref in episodes) == sorted(

@@ -194,6 +194,23 @@ def test_raw_and_augmented_episodes_go_to_separate_datasets(recording: Path, tmp
         )
 
 
+def test_stats_count_unperturbed_originals_apart_from_perturbed_variants(recording: Path, tmp_path: Path) -> None:
+    """``--variants original`` re-renders a demo unchanged: not a perturbed episode (issue 36: the
+    20 originals of a paper,original run were counted among "60 perturbed")."""
+    from pipette_cli.lerobot.convert import DatasetVersion
+
+    augmented = renamed_copy(recording, tmp_path / "aug.h5")
+    set_attrs(augmented, 0, augment_variant="original", augment_params="{}")
+    params = '{"lighting": {"scale": 0.8}}'
+    set_attrs(augmented, 1, success=True, failed=False, reason="", augment_variant="light", augment_params=params)
+    root = tmp_path / "aug"
+    convert(
+        [augmented], ConvertOptions(repo_id="local/a", root=root, video=False, dataset_version=DatasetVersion.augmented)
+    )
+    provenance = dataset_stats(root)["provenance"]
+    assert (provenance["perturbed"], provenance["originals"]) == (1, 1)
+
+
 def test_bad_inputs_leave_nothing_behind(recording: Path, tmp_path: Path) -> None:
     other_task = renamed_copy(recording, tmp_path / "other.h5", task_id="testlab/Other-v1")
     root = tmp_path / "ds"

@@ -263,7 +263,7 @@ def test_failed_run_exits_1_naming_the_log(workdir: Path, run_cli, monkeypatch: 
     monkeypatch.setattr(train_module, "lerobot_train_executable", lambda: exe)
     result = run_cli("-q", "train", "--tasks", TASK, "--policy", "act")
     assert result.exit_code == 1
-    assert "1 of 1 training runs failed" in result.stderr and f"{NAME}_raw.log" in result.stderr
+    assert "1 of 1 training run failed" in result.stderr and f"{NAME}_raw.log" in result.stderr
 
 
 # LeRobot's own parser (draccus) accepts the commands: config construction only, no weights.

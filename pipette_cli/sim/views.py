@@ -1,0 +1,62 @@
+"""Camera views side by side, each labelled with its camera's name in its top-left corner.
+
+The one way Pipette shows several views at once: the PNG of ``pipette sim render``, the gym env's
+``rgb_array`` frame, the demo's augmentation GIF and the evaluation GIFs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from pipette_cli.sim.scene import CAMERA_NAMES
+
+LABEL_TEXT = (255, 255, 255)
+LABEL_BACKGROUND = (0, 0, 0)
+
+
+def label_view(image: np.ndarray, name: str) -> np.ndarray:
+    """A copy of the RGB ``image`` with ``name`` written in its top-left corner, white on black, in a
+    font about 1/12 of the image's height (at least 8 px)."""
+    from PIL import Image, ImageDraw, ImageFont  # deferred: PIL (~15 ms of `pipette --help`)
+
+    picture = Image.fromarray(np.ascontiguousarray(image[..., :3], dtype=np.uint8))
+    size = max(8, picture.height // 12)
+    font = ImageFont.load_default(size=size)
+    draw = ImageDraw.Draw(picture)
+    pad = max(1, size // 6)
+    _, _, right, bottom = draw.textbbox((pad, pad), name, font=font)
+    draw.rectangle([0, 0, right + pad - 1, bottom + pad - 1], fill=LABEL_BACKGROUND)
+    draw.text((pad, pad), name, font=font, fill=LABEL_TEXT)
+    return np.asarray(picture)
+
+
+def views_sheet(
+    views: Mapping[str, np.ndarray], *, names: Sequence[str] = CAMERA_NAMES, gap: int = 4, scale: int = 1
+) -> np.ndarray:
+    """The views ``names`` (those present, in that order) side by side, each labelled with its name.
+
+    Args:
+        views: RGB ``(H, W, 3)`` uint8 images by camera name, all of one size.
+        names: Which views, in order (default top, main, wrist).
+        gap: White pixels between two views.
+        scale: Each view is first enlarged this many times (nearest neighbour), so that small
+            images get readable labels.
+
+    Raises:
+        ValueError: none of ``names`` is in ``views``.
+    """
+    shown = [name for name in names if name in views]
+    if not shown:
+        raise ValueError(f"no view among {list(names)} (have {sorted(views)})")
+    tiles = []
+    for name in shown:
+        image = np.asarray(views[name])
+        if scale > 1:
+            image = image.repeat(scale, axis=0).repeat(scale, axis=1)
+        tiles.append(label_view(image, name))
+    if gap:
+        spacer = np.full((tiles[0].shape[0], gap, 3), 255, np.uint8)
+        tiles = [part for tile in tiles for part in (tile, spacer)][:-1]
+    return np.concatenate(tiles, axis=1)
