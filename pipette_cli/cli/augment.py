@@ -29,7 +29,7 @@ from pipette_cli.cli.common import (
     spec_default,
     spec_help,
 )
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.embodiment import resolve_robot
 from pipette_cli.errors import PipetteError, SpecError
 
@@ -184,7 +184,7 @@ def augment(
         progress.update(bar, advance=1, description=f"{task.short_name} [green]{kept} kept[/green] of {tried}")
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             result = run_augment(
                 task,
                 input,
@@ -213,4 +213,4 @@ def augment(
         out_console.print(f"{output}: {result.report['kept']} episodes kept ({result.new_demos} demos augmented now)")
     if result.interrupted:
         err_console.print("interrupted; run the same command again to resume", soft_wrap=True)
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)

@@ -10,7 +10,7 @@ import typer
 
 from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console, spec_default
 from pipette_cli.demos.collect import collect as collect_episodes
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.recorder import EpisodeSummary
 from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
 from pipette_cli.errors import PipetteError
@@ -81,7 +81,7 @@ def collect(
         )
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             if source is Source.teleop:
                 err_console.print(
                     "keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True
@@ -127,5 +127,5 @@ def collect(
     )
     if result.interrupted:
         err_console.print(f"interrupted; {summary}; run the same command again to resume", soft_wrap=True)
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)
     out_console.print(summary)

@@ -19,7 +19,7 @@ from pipette_cli.cli.common import (
     spec_default,
     spec_help,
 )
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.errors import PipetteError
 from pipette_cli.evaluation.settings import (
@@ -240,7 +240,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
         progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             result = evaluate_runs(
                 runs, source, settings, workers=workers, on_start=started, on_episode=finished, stop=interrupted
             )
@@ -253,7 +253,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
             "run the same command again to resume",
             soft_wrap=True,
         )
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)
     return summaries
 
 

@@ -1,7 +1,9 @@
 """Entry point of the ``pipette`` console script.
 
 Exit codes: 0 success, 1 a :class:`~pipette_cli.errors.PipetteError` (one line on stderr,
-traceback only with ``--debug``), 2 usage errors (typer/click).
+traceback only with ``--debug``), 2 usage errors (typer/click), 3 an evaluation stopped by a lost
+policy server (partial summary written), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
+after writing what finished, where the command can resume).
 """
 
 from __future__ import annotations
@@ -111,7 +113,7 @@ def run() -> None:
         problems = getattr(exc, "problems", None) or [str(exc)]
         for line in problems:
             err_console.print(f"[red]error:[/red] {escape(str(line))}", markup=True, highlight=False, soft_wrap=True)
-        sys.exit(1)
+        sys.exit(exc.exit_code)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:
