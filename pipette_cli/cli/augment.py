@@ -21,11 +21,11 @@ from pipette_cli.augment.specs import (
 )
 from pipette_cli.cli.common import (
     RobotOption,
-    episode_progress,
     err_console,
     load_task,
     out_console,
     print_json,
+    show_progress,
     spec_default,
     spec_help,
 )
@@ -165,15 +165,13 @@ def augment(
                 f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})"
             )
         spec = found.spec
-    progress = episode_progress()
-    bar = progress.add_task(f"{task.short_name}", total=None)
+    progress = show_progress(f"augment {task.short_name}", "demos")
     kept = tried = 0
 
     def started(skipped: int, todo: int) -> None:
         if skipped:
             err_console.print(f"{output}: {skipped} demos already augmented; {todo} to go", soft_wrap=True)
-        progress.update(bar, total=todo)
-        progress.start()
+        progress.start(todo)
 
     def finished(result) -> None:
         nonlocal kept, tried
@@ -181,7 +179,7 @@ def augment(
         tried += len(result.outcomes)
         if result.status != "ok":
             err_console.print(f"demo {result.position} skipped: {result.detail}", soft_wrap=True)
-        progress.update(bar, advance=1, description=f"{task.short_name} [green]{kept} kept[/green] of {tried}")
+        progress.update(advance=1, note=f"[green]{kept} kept[/green] of {tried}")
 
     try:
         with deferred_interrupt() as interrupted:

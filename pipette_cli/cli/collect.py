@@ -8,7 +8,7 @@ from typing import Annotated
 
 import typer
 
-from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console, spec_default
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, show_progress, spec_default
 from pipette_cli.demos.collect import collect as collect_episodes
 from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.recorder import EpisodeSummary
@@ -64,21 +64,17 @@ def collect(
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
 
     ok = failed = 0
-    progress = episode_progress()
-    bar = progress.add_task(f"{spec.short_name}", total=None)
+    progress = show_progress(f"collect {spec.short_name}", "episodes")
 
     def started(have: int, todo: int) -> None:  # after the file and the expert were checked
         if have:
             err_console.print(f"{out}: {have} episodes already recorded; {todo} to go", soft_wrap=True)
-        progress.update(bar, total=todo)
-        progress.start()
+        progress.start(todo)
 
     def finished(summary: EpisodeSummary) -> None:
         nonlocal ok, failed
         ok, failed = ok + summary.success, failed + (not summary.success)
-        progress.update(
-            bar, advance=1, description=f"{spec.short_name} [green]{ok} ok[/green] [red]{failed} failed[/red]"
-        )
+        progress.update(advance=1, note=f"[green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
         with deferred_interrupt() as interrupted:

@@ -12,10 +12,10 @@ from typer.core import TyperCommand
 from pipette_cli.cli.common import (
     STATE,
     RobotOption,
-    episode_progress,
     err_console,
     out_console,
     print_json,
+    show_progress,
     spec_default,
     spec_help,
 )
@@ -219,25 +219,23 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
     from pipette_cli.evaluation.runner import evaluate_runs  # deferred: zmq, scipy (~0.9 s)
 
     ok = failed = 0
-    progress = episode_progress()
-    bar = progress.add_task("eval", total=None)
+    progress = show_progress("eval", "episodes")
 
     def started(done: int, todo: int) -> None:
         if done:
             err_console.print(f"{done} episodes already logged; {todo} to go", soft_wrap=True)
         if todo:
-            progress.update(bar, total=todo)
-            progress.start()
+            progress.start(todo)
 
     def finished(log: Any) -> None:
         nonlocal ok, failed
         ok, failed = ok + log.success, failed + (not log.success)
         if STATE.verbosity > 0:
-            progress.console.print(
+            progress.print(
                 f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
                 f"({log.control_steps} steps, {log.policy_queries} queries, {log.runtime_s:.1f} s)"
             )
-        progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
+        progress.update(advance=1, note=f"[green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
         with deferred_interrupt() as interrupted:

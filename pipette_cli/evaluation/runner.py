@@ -295,12 +295,16 @@ def evaluate_task(
     image_size: int | None = None,
     dataset_version: str = "raw",
     workers: int = 1,
+    on_start: Callable[[int, int], None] | None = None,
+    on_episode: Callable[[EpisodeLog], None] | None = None,
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
-    resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
+    resuming what is there; returns the summary (see :func:`evaluate_runs`, which calls
+    ``on_start`` and ``on_episode``)."""
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
     settings = EvalSettings(config, image_size, dataset_version=dataset_version)
-    return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
+    played = evaluate_runs([run], source, settings, workers=workers, on_start=on_start, on_episode=on_episode)
+    return played.summaries[task.id]
 
 
 def _inline(
