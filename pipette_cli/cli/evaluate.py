@@ -28,6 +28,8 @@ from pipette_cli.evaluation.settings import (
     POLICY_TYPES,
     DecodeConfig,
     EvalSettings,
+    checkpoint_images,
+    image_size_problem,
     resolve_policy_type,
 )
 from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
@@ -153,10 +155,15 @@ def eval_command(
         runs, settings = _plan(
             registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version, robot
         )
+        cameras, size = runs[0].task.cameras, settings.image_size
+        rendered = (size, size) if size else (cameras.height, cameras.width)
         if source.endpoints:
-            cameras = runs[0].task.cameras
-            size = settings.image_size
-            check_servers(source.endpoints, (size, size) if size else (cameras.height, cameras.width), connect_timeout)
+            check_servers(source.endpoints, rendered, connect_timeout)
+        elif policy is not None:  # the same check as a server's, read off the checkpoint's config.json
+            fix = "--image-size, or the suite's image_size"
+            problem = image_size_problem(checkpoint_images(policy), rendered, f"in {policy}", fix)
+            if problem is not None:
+                raise PipetteError(problem)
         summaries = _run(runs, source, settings, workers)
     finally:
         if temporary is not None:

@@ -52,7 +52,7 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
-from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings, image_size_problem
 from pipette_cli.evaluation.suites import EpisodePlan, adhoc_plan
 from pipette_cli.serving.client import PolicyClient
 from pipette_cli.serving.protocol import DEFAULT_DEAD_AFTER_S, DEFAULT_DEVICE
@@ -121,12 +121,11 @@ def check_servers(endpoints: tuple[str, ...], image_hw: tuple[int, int], connect
                     "start `pipette serve` first or fix --endpoint"
                 )
             served = client.info()
-        for key, shape in served.get("images", {}).items():
-            if tuple(shape[-2:]) != tuple(image_hw):
-                raise PipetteError(
-                    f"the policy at {endpoint} reads {key.rsplit('.', 1)[-1]} images of {shape[-2]}x{shape[-1]}, "
-                    f"but this evaluation renders {image_hw[0]}x{image_hw[1]} (--image-size, or the suite's image_size)"
-                )
+        problem = image_size_problem(
+            served.get("images", {}), image_hw, f"at {endpoint}", "--image-size, or the suite's image_size"
+        )
+        if problem is not None:
+            raise PipetteError(problem)
 
 
 @dataclass(frozen=True)
