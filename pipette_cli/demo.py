@@ -20,6 +20,8 @@ import logging
 import os
 import re
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,7 +34,8 @@ from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
-from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint
+from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, logged_step, train_checkpoint
+from pipette_cli.progress import ProgressFactory, ProgressLines, StageProgress
 from pipette_cli.sim.scene import CAMERA_NAMES
 from pipette_cli.sim.views import views_sheet
 from pipette_cli.specs.task import TaskSpec
@@ -185,10 +188,9 @@ def training_losses(log_file: Path) -> list[tuple[int, float]]:
     points = []
     if log_file.is_file():
         for line in log_file.read_text(errors="replace").splitlines():
-            step, loss = re.search(r"\bstep:(\d+(?:\.\d+)?)([KM]?)\b", line), re.search(r"\bloss:([\d.eE+-]+)", line)
-            if step and loss:
-                scale = {"": 1, "K": 1_000, "M": 1_000_000}[step.group(2)]
-                points.append((int(float(step.group(1)) * scale), float(loss.group(1))))
+            step, loss = logged_step(line), re.search(r"\bloss:([\d.eE+-]+)", line)
+            if step is not None and loss:
+                points.append((step, float(loss.group(1))))
     return points
 
 
@@ -225,11 +227,31 @@ def plot_run(out_png: Path, losses: list[tuple[int, float]], episodes: list[dict
     image.save(out_png)
 
 
-def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> dict[str, Any]:
-    """Run the pipeline into ``out`` (created fresh) and return the summary."""
+@contextmanager
+def _stage(progress: StageProgress) -> Iterator[StageProgress]:
+    """``progress`` for the length of a stage: stopped however the stage ends."""
+    try:
+        yield progress
+    finally:
+        progress.stop()
+
+
+def run_demo(
+    task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print, progress: ProgressFactory | None = None
+) -> dict[str, Any]:
+    """Run the pipeline into ``out`` (created fresh) and return the summary.
+
+    ``say`` gets a line after each stage; ``progress`` makes each stage's progress report
+    (default: a line to ``say`` every few seconds, :class:`~pipette_cli.progress.ProgressLines`).
+    """
     # deferred: the augmentation pipeline (~35 ms), evaluation (zmq, scipy: ~0.8 s), out of `pipette --help`
     from pipette_cli.augment.run import augment
     from pipette_cli.evaluation.runner import PolicySource, evaluate_task
+
+    def lines(stage: str, unit: str) -> StageProgress:
+        return ProgressLines(stage, say, unit=unit)
+
+    report_progress = progress or lines
 
     if out.exists() and any(out.iterdir()):
         raise PipetteError(f"{out} is not empty; give another --out or remove it")
@@ -240,13 +262,31 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     timings: dict[str, float] = {}
     t = time.perf_counter()
     raw = out / "raw.h5"
-    collected = collect(task, raw, episodes=size.demos, seed=0, image_size=size.image_size)
+    with _stage(report_progress("collect", "episodes")) as shown:
+        collected = collect(
+            task,
+            raw,
+            episodes=size.demos,
+            seed=0,
+            image_size=size.image_size,
+            on_start=lambda have, todo: shown.start(todo),
+            on_episode=lambda _: shown.update(advance=1),
+        )
     timings["collect"] = time.perf_counter() - t
     say(f"collect: {sum(e.success for e in collected.added)}/{plural(len(collected.added), 'scripted demo')} succeeded")
     t = time.perf_counter()
     aug = out / "aug.h5"
     spec = AugmentSpec(variants=make_variants(size.variants.split(","), default_atoms()))
-    augmented = augment(task, raw, aug, spec, workers=1)
+    with _stage(report_progress("augment", "demos")) as shown:
+        augmented = augment(
+            task,
+            raw,
+            aug,
+            spec,
+            workers=1,
+            on_start=lambda skipped, todo: shown.start(todo),
+            on_demo=lambda _: shown.update(advance=1),
+        )
     timings["augment"] = time.perf_counter() - t
     kept, tried = augmented.report["kept"], augmented.report["attempts"]
     say(f"augment: {kept}/{plural(tried, 'variant')} kept")
@@ -254,12 +294,15 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
     datasets = out / "datasets"
     slug = task.id.replace("/", "_")
     root = datasets / slug / "augmented"
-    convert(
-        [aug],
-        ConvertOptions(
-            repo_id=f"local/{slug}_augmented", root=root, video=False, dataset_version=DatasetVersion.augmented
-        ),
-    )
+    with _stage(report_progress("convert", "episodes")) as shown:
+        convert(
+            [aug],
+            ConvertOptions(
+                repo_id=f"local/{slug}_augmented", root=root, video=False, dataset_version=DatasetVersion.augmented
+            ),
+            on_plan=lambda plan: shown.start(len(plan.episodes)),
+            on_episode=lambda done, total: shown.update(done, total=total),
+        )
     timings["convert"] = time.perf_counter() - t
     say(f"convert: LeRobot dataset at {root} ({folder_size(root) / 1e6:.1f} MB)")
     t = time.perf_counter()
@@ -275,7 +318,9 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         offline=True,
         extra=size.act,
     )
-    checkpoint = train_checkpoint(task.id, options)
+    with _stage(report_progress("train", "steps")) as shown:
+        shown.start(size.train_steps)
+        checkpoint = train_checkpoint(task.id, options, on_step=lambda step: shown.update(step))
     timings["train"] = time.perf_counter() - t
     say(f"train: ACT, {size.train_steps} steps of batch {size.batch_size} -> {checkpoint}")
     t = time.perf_counter()
@@ -285,16 +330,19 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         recorded.append(RecordingSource(policy(worker, config)))
         return recorded[-1]
 
-    summary = evaluate_task(
-        task,
-        recording,
-        DecodeConfig.for_policy("act"),
-        episodes=size.eval_episodes,
-        seed=1000,
-        out=out / "eval",
-        image_size=size.image_size,
-        dataset_version="augmented",
-    )  # the label `pipette eval report` groups by
+    with _stage(report_progress("eval", "episodes")) as shown:
+        summary = evaluate_task(
+            task,
+            recording,
+            DecodeConfig.for_policy("act"),
+            episodes=size.eval_episodes,
+            seed=1000,
+            out=out / "eval",
+            image_size=size.image_size,
+            dataset_version="augmented",  # the label `pipette eval report` groups by
+            on_start=lambda done, todo: shown.start(todo),
+            on_episode=lambda log: shown.update(advance=1),
+        )
     timings["eval"] = time.perf_counter() - t
     videos = [path for source in recorded for path in source.write_gifs(out / "eval")]
     contact_sheet(aug, out / "augmented_sheet.png", out / "augmented.gif")

@@ -1,8 +1,9 @@
 """One root error for Pipette, with a subclass per domain, and the wording its messages share
 (did-you-mean, plurals).
 
-The CLI turns any :class:`PipetteError` into a one-line message and exit code 1;
-anything else is a bug and keeps its traceback.
+The CLI turns any :class:`PipetteError` into a one-line message and its ``exit_code`` (1, or a
+kind's own: 3 for an evaluation whose policy server was lost); anything else is a bug and keeps
+its traceback.
 """
 
 from __future__ import annotations
@@ -12,7 +13,13 @@ from collections.abc import Iterable
 
 
 class PipetteError(Exception):
-    """Root of every error Pipette raises on purpose."""
+    """Root of every error Pipette raises on purpose.
+
+    Attributes:
+        exit_code: The CLI's exit status for it (1; a kind whose run can be resumed may differ).
+    """
+
+    exit_code: int = 1
 
 
 class SpecError(PipetteError):

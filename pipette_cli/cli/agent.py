@@ -98,8 +98,19 @@ def _ask_missing(agent: Any, plan: CheckedPlan, context: Context) -> CheckedPlan
     return agent.validator.check(PlanSpec(steps=steps), request=plan.request, context=context)
 
 
-def _handle(agent: Any, request: str, context: Context, *, as_json: bool, yes: bool, interactive: bool) -> None:
+def _handle(
+    agent: Any, request: str, context: Context, *, as_json: bool, yes: bool, interactive: bool, dry_run: bool = False
+) -> None:
     plan = agent.plan(request, context)
+    if dry_run:  # the plan as it stands, missing values named in it; nothing asked, nothing run
+        context.remember(plan)
+        if as_json:
+            print_json({**plan_json(plan, agent), "dry_run": True})
+            return
+        show_plan(agent.catalog, plan)
+        steps = f"{len(plan.steps)} step{'s' if len(plan.steps) != 1 else ''}"
+        err_console.print(f"dry run: {steps} planned, nothing run", soft_wrap=True)
+        return
     can_ask = interactive or (sys.stdin.isatty() and not yes)
     if plan.missing and not as_json:
         if not can_ask:
@@ -153,11 +164,15 @@ def agent(
         bool, typer.Option("--json", help="Print the plan (and answers) as JSON; run it only with --yes.")
     ] = False,
     interactive: Annotated[bool, typer.Option("--interactive", "-i", help="A small REPL that keeps context.")] = False,
+    dry_run: Annotated[
+        bool, typer.Option("--dry-run", help="Show the plan (missing values included); ask nothing, run nothing.")
+    ] = False,
     model: Annotated[str | None, typer.Option("--model", help="LLM model for openai/ollama.")] = None,
     base_url: Annotated[str | None, typer.Option("--base-url", help="LLM server URL.")] = None,
 ) -> None:
     """Turn a request into a plan of `pipette` commands, show it as a table, and run it step by
     step after confirmation (or --yes); questions about tasks, demos and scores are answered.
+    With --dry-run the plan is only shown (as with `new-task --dry-run`, nothing is done).
 
     Example: pipette agent "record 20 demos of the test tube task, augment them, convert and train ACT"
     """
@@ -166,7 +181,7 @@ def agent(
     if not interactive:
         if not request:
             raise AgentError("give a request, or --interactive")
-        _handle(agent_impl, request, context, as_json=as_json, yes=yes, interactive=False)
+        _handle(agent_impl, request, context, as_json=as_json, yes=yes, interactive=False, dry_run=dry_run)
         return
     err_console.print("pipette agent — say what to do; 'quit' ends. It remembers the last task and outputs.")
     while True:
@@ -179,6 +194,6 @@ def agent(
         if not line:
             continue
         try:
-            _handle(agent_impl, line, context, as_json=as_json, yes=yes, interactive=True)
+            _handle(agent_impl, line, context, as_json=as_json, yes=yes, interactive=True, dry_run=dry_run)
         except PipetteError as exc:
             err_console.print(f"[red]error:[/red] {escape(str(exc))}")

@@ -12,15 +12,15 @@ from rich.table import Table
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants
 from pipette_cli.cli.common import (
     RobotOption,
-    episode_progress,
     err_console,
     load_task,
     out_console,
     print_json,
+    show_progress,
     spec_default,
     spec_help,
 )
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.embodiment import resolve_robot
 from pipette_cli.errors import PipetteError, SpecError, plural
 from pipette_cli.specs.perturbations import (
@@ -175,15 +175,13 @@ def augment(
                 f"calibration: magnitudes x{row['factor']:.2f} -> yield {row['yield']:.0%} ({int(row['kept'])}/{int(row['attempts'])})"
             )
         spec = found.spec
-    progress = episode_progress()
-    bar = progress.add_task(f"{task.short_name}", total=None)
+    progress = show_progress(f"augment {task.short_name}", "demos")
     kept = tried = 0
 
     def started(skipped: int, todo: int) -> None:
         if skipped:
             err_console.print(f"{output}: {plural(skipped, 'demo')} already augmented; {todo} to go", soft_wrap=True)
-        progress.update(bar, total=todo)
-        progress.start()
+        progress.start(todo)
 
     def finished(result) -> None:
         nonlocal kept, tried
@@ -191,10 +189,10 @@ def augment(
         tried += len(result.outcomes)
         if result.status != "ok":
             err_console.print(f"demo {result.position} skipped: {result.detail}", soft_wrap=True)
-        progress.update(bar, advance=1, description=f"{task.short_name} [green]{kept} kept[/green] of {tried}")
+        progress.update(advance=1, note=f"[green]{kept} kept[/green] of {tried}")
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             result = run_augment(
                 task,
                 input,
@@ -225,4 +223,4 @@ def augment(
         )
     if result.interrupted:
         err_console.print("interrupted; run the same command again to resume", soft_wrap=True)
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)

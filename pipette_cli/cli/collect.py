@@ -8,9 +8,9 @@ from typing import Annotated
 
 import typer
 
-from pipette_cli.cli.common import RobotOption, episode_progress, err_console, load_task, out_console, spec_default
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, show_progress, spec_default
 from pipette_cli.demos.collect import collect as collect_episodes
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.recorder import EpisodeSummary
 from pipette_cli.demos.teleop import DEFAULT_KEYS, teleop_collect
 from pipette_cli.errors import PipetteError, plural
@@ -64,24 +64,20 @@ def collect(
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
 
     ok = failed = 0
-    progress = episode_progress()
-    bar = progress.add_task(f"{spec.short_name}", total=None)
+    progress = show_progress(f"collect {spec.short_name}", "episodes")
 
     def started(have: int, todo: int) -> None:  # after the file and the expert were checked
         if have:
             err_console.print(f"{out}: {plural(have, 'episode')} already recorded; {todo} to go", soft_wrap=True)
-        progress.update(bar, total=todo)
-        progress.start()
+        progress.start(todo)
 
     def finished(summary: EpisodeSummary) -> None:
         nonlocal ok, failed
         ok, failed = ok + summary.success, failed + (not summary.success)
-        progress.update(
-            bar, advance=1, description=f"{spec.short_name} [green]{ok} ok[/green] [red]{failed} failed[/red]"
-        )
+        progress.update(advance=1, note=f"[green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             if source is Source.teleop:
                 err_console.print(
                     "keys: " + ", ".join(f"{k} {what}" for k, what in DEFAULT_KEYS.describe()), soft_wrap=True
@@ -126,5 +122,5 @@ def collect(
     )
     if result.interrupted:
         err_console.print(f"interrupted; {summary}; run the same command again to resume", soft_wrap=True)
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)
     out_console.print(summary)

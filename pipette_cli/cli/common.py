@@ -13,8 +13,10 @@ import typer
 from pydantic import BaseModel
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.text import Text
 
 from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.progress import ProgressLines
 from pipette_cli.registry import load_registry
 
 if TYPE_CHECKING:
@@ -108,15 +110,73 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
     return placed
 
 
-def episode_progress() -> Progress:
-    """The stderr progress bar of the commands that play episodes (collect, augment, eval): done
-    of total, elapsed and remaining time; hidden with ``--quiet``."""
-    return Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        TimeRemainingColumn(),
-        console=err_console,
-        disable=STATE.verbosity < 0,
-    )
+class BarOrLines:
+    """One long stage's progress on stderr (:func:`show_progress`): a rich bar (done of total,
+    elapsed and remaining time) when stderr is a terminal, else a plain line every few seconds
+    (:class:`~pipette_cli.progress.ProgressLines`), so a log of the run shows it; nothing with
+    ``--quiet``. A note (``[green]3 ok[/green] 1 failed``) may hold rich markup; lines print it plain.
+    """
+
+    def __init__(self, stage: str, unit: str = "", *, bar: bool = True) -> None:
+        self.stage = stage
+        quiet = STATE.verbosity < 0
+        self.bar: Progress | None = None
+        self.lines: ProgressLines | None = None
+        if err_console.is_terminal:
+            if bar and not quiet:
+                self.bar = Progress(
+                    TextColumn("{task.description}"),
+                    BarColumn(),
+                    MofNCompleteColumn(),
+                    TimeElapsedColumn(),
+                    TimeRemainingColumn(),
+                    console=err_console,
+                )
+                self._task = self.bar.add_task(stage, total=None)
+        elif not quiet:
+            self.lines = ProgressLines(stage, self._emit, unit=unit)
+
+    @staticmethod
+    def _emit(line: str) -> None:
+        err_console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+    def start(self, total: int | None = None, *, done: int | None = 0) -> None:
+        if self.bar is not None:
+            self.bar.update(self._task, total=total, completed=done or 0)
+            self.bar.start()
+        if self.lines is not None:
+            self.lines.start(total, done=done)
+
+    def update(
+        self, done: int | None = None, *, advance: int = 0, total: int | None = None, note: str | None = None
+    ) -> None:
+        if self.bar is not None:
+            description = None if note is None else f"{self.stage} {note}"
+            self.bar.update(self._task, completed=done, advance=advance or None, total=total, description=description)
+        if self.lines is not None:
+            self.lines.update(
+                done, advance=advance, total=total, note=None if note is None else Text.from_markup(note).plain
+            )
+
+    def print(self, line: str) -> None:
+        """A line above the bar (or between progress lines)."""
+        err_console.print(line, soft_wrap=True)
+
+    def stop(self) -> None:
+        if self.bar is not None:
+            self.bar.stop()
+        if self.lines is not None:
+            self.lines.stop()
+
+    def __enter__(self) -> BarOrLines:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+def show_progress(stage: str, unit: str = "") -> BarOrLines:
+    """The progress of a long stage (collect, augment, convert, train, eval) on stderr: a bar in a
+    terminal, else a line every few seconds (``PIPETTE_PROGRESS_INTERVAL``); hidden with ``--quiet``.
+    A :data:`~pipette_cli.progress.ProgressFactory`."""
+    return BarOrLines(stage, unit)

@@ -6,9 +6,8 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
+from pipette_cli.cli.common import err_console, out_console, print_json, show_progress, spec_default, spec_help
 from pipette_cli.cli.data import app as data_app
 from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.store import scan
@@ -88,24 +87,15 @@ def convert(
         overwrite=overwrite,
         vcodec=vcodec,
     )
-    with Progress(
-        TextColumn("converting"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        console=err_console,
-        disable=STATE.verbosity < 0 or as_json,
-        transient=True,
-    ) as progress:
-        bar = progress.add_task("episodes", total=None)
+    with show_progress("convert", "episodes") as progress:
 
         def planned(plan) -> None:
-            progress.update(bar, total=len(plan.episodes))
+            progress.start(len(plan.episodes))
             if plan.skipped:
-                err_console.print(f"skipping {len(plan.skipped)} failed episodes (--include-failed keeps them)")
+                progress.print(f"skipping {len(plan.skipped)} failed episodes (--include-failed keeps them)")
 
         result = run_convert(
-            inputs, options, on_plan=planned, on_episode=lambda done, total: progress.update(bar, completed=done)
+            inputs, options, on_plan=planned, on_episode=lambda done, total: progress.update(done, total=total)
         )
     report = {
         "root": str(result.root),

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json
+from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json, show_progress
 from pipette_cli.demo import DEFAULT_TASK, FAST, FULL, run_demo, summary_rows, verdict_line
 
 
@@ -30,12 +30,19 @@ def demo(
     """Scripted demos -> success-verified augmentation -> LeRobot dataset -> ACT training ->
     evaluation, on one task, on a CPU (about 10 minutes on 2 cores); prints a summary table, where
     the dataset, videos and plots are, and whether the learned policy works. Exits 1 when the
-    policy succeeds in fewer than half of its evaluation episodes.
+    policy succeeds in fewer than half of its evaluation episodes. Each stage shows a progress bar,
+    or, when stderr is not a terminal (`pipette demo > log.txt 2>&1`), a line every 10 s.
 
     Example: pipette demo --robot ur5e_2f85 --out demo_run
     """
     task = load_task(task_id, robot)
-    report = run_demo(task, out, FAST if fast else FULL, say=lambda line: err_console.print(line, soft_wrap=True))
+    report = run_demo(
+        task,
+        out,
+        FAST if fast else FULL,
+        say=lambda line: err_console.print(line, soft_wrap=True),
+        progress=show_progress,
+    )
     if as_json:
         print_json(report)
     else:

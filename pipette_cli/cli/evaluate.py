@@ -12,14 +12,14 @@ from typer.core import TyperCommand
 from pipette_cli.cli.common import (
     STATE,
     RobotOption,
-    episode_progress,
     err_console,
     out_console,
     print_json,
+    show_progress,
     spec_default,
     spec_help,
 )
-from pipette_cli.demos.collect import deferred_sigint
+from pipette_cli.demos.collect import deferred_interrupt
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import (
@@ -28,6 +28,8 @@ from pipette_cli.evaluation.settings import (
     POLICY_TYPES,
     DecodeConfig,
     EvalSettings,
+    checkpoint_images,
+    image_size_problem,
     resolve_policy_type,
 )
 from pipette_cli.evaluation.suites import adhoc_plan, episode_plan, load_suites
@@ -153,10 +155,15 @@ def eval_command(
         runs, settings = _plan(
             registry, task_id, suite_id, episodes, seed, image_size, folder, config, dataset_version, robot
         )
+        cameras, size = runs[0].task.cameras, settings.image_size
+        rendered = (size, size) if size else (cameras.height, cameras.width)
         if source.endpoints:
-            cameras = runs[0].task.cameras
-            size = settings.image_size
-            check_servers(source.endpoints, (size, size) if size else (cameras.height, cameras.width), connect_timeout)
+            check_servers(source.endpoints, rendered, connect_timeout)
+        elif policy is not None:  # the same check as a server's, read off the checkpoint's config.json
+            fix = "--image-size, or the suite's image_size"
+            problem = image_size_problem(checkpoint_images(policy), rendered, f"in {policy}", fix)
+            if problem is not None:
+                raise PipetteError(problem)
         summaries = _run(runs, source, settings, workers)
     finally:
         if temporary is not None:
@@ -219,28 +226,26 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
     from pipette_cli.evaluation.runner import evaluate_runs  # deferred: zmq, scipy (~0.9 s)
 
     ok = failed = 0
-    progress = episode_progress()
-    bar = progress.add_task("eval", total=None)
+    progress = show_progress("eval", "episodes")
 
     def started(done: int, todo: int) -> None:
         if done:
             err_console.print(f"{plural(done, 'episode')} already logged; {todo} to go", soft_wrap=True)
         if todo:
-            progress.update(bar, total=todo)
-            progress.start()
+            progress.start(todo)
 
     def finished(log: Any) -> None:
         nonlocal ok, failed
         ok, failed = ok + log.success, failed + (not log.success)
         if STATE.verbosity > 0:
-            progress.console.print(
+            progress.print(
                 f"{log.task} episode {log.episode}: {'success' if log.success else log.failure_reason} "
                 f"({plural(log.control_steps, 'step')}, {plural(log.policy_queries, 'query', 'queries')}, {log.runtime_s:.1f} s)"
             )
-        progress.update(bar, advance=1, description=f"eval [green]{ok} ok[/green] [red]{failed} failed[/red]")
+        progress.update(advance=1, note=f"[green]{ok} ok[/green] [red]{failed} failed[/red]")
 
     try:
-        with deferred_sigint() as interrupted:
+        with deferred_interrupt() as interrupted:
             result = evaluate_runs(
                 runs, source, settings, workers=workers, on_start=started, on_episode=finished, stop=interrupted
             )
@@ -253,7 +258,7 @@ def _run(runs: list[Any], source: Any, settings: Any, workers: int) -> list[dict
             "run the same command again to resume",
             soft_wrap=True,
         )
-        raise typer.Exit(130)
+        raise typer.Exit(interrupted.exit_code)
     return summaries
 
 

@@ -1,13 +1,16 @@
 """Entry point of the ``pipette`` console script.
 
 Exit codes: 0 success, 1 a :class:`~pipette_cli.errors.PipetteError` (one line on stderr,
-traceback only with ``--debug``), 2 usage errors (typer/click).
+traceback only with ``--debug``), 2 usage errors (typer/click), 3 an evaluation stopped by a lost
+policy server (partial summary written), 130 interrupted by Ctrl-C, 143 stopped by SIGTERM (both
+after writing what finished, where the command can resume).
 """
 
 from __future__ import annotations
 
 import logging
 import os
+import shlex
 import sys
 from functools import cache
 from pathlib import Path
@@ -101,6 +104,32 @@ def main(
     )
 
 
+def global_option_hint(error: Exception, args: list[str]) -> str | None:
+    """For a usage error naming a global option given after the command (``pipette tasks show X
+    --debug``), the same command line with it moved before the command; None otherwise."""
+    name = getattr(error, "option_name", None)  # click's NoSuchOption
+    params = {opt: p for p in typer.main.get_command(app).params for opt in (*p.opts, *p.secondary_opts)}
+    if not name or name not in params or not name.startswith("-"):
+        return None
+    param = params[name]
+    takes_value = not (getattr(param, "is_flag", False) or getattr(param, "count", False))
+    moved: list[str] = []
+    rest: list[str] = []
+    i = 0
+    while i < len(args):
+        arg = args[i]
+        repeated = len(name) == 2 and arg[:1] == "-" and arg[1:] and set(arg[1:]) == {name[1]}  # -vv
+        if arg == name or repeated or (takes_value and arg.startswith(f"{name}=")):
+            moved.append(arg)
+            if arg == name and takes_value and i + 1 < len(args):
+                moved.append(args[i + 1])
+                i += 1
+        else:
+            rest.append(arg)
+        i += 1
+    return f"{name} is a global option, given before the command: {shlex.join(['pipette', *moved, *rest])}"
+
+
 def run() -> None:
     """Console-script entry: run the app and map errors to exit codes."""
     try:
@@ -111,7 +140,7 @@ def run() -> None:
         problems = getattr(exc, "problems", None) or [str(exc)]
         for line in problems:
             err_console.print(f"[red]error:[/red] {escape(str(line))}", markup=True, highlight=False, soft_wrap=True)
-        sys.exit(1)
+        sys.exit(exc.exit_code)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)
     except typer.Abort:
@@ -126,6 +155,9 @@ def run() -> None:
             show()
         else:
             err_console.print(f"[red]error:[/red] {escape(str(exc))}")
+        hint = global_option_hint(exc, sys.argv[1:])
+        if hint is not None:
+            err_console.print(f"hint: {escape(hint)}", soft_wrap=True)
         sys.exit(exc.exit_code)
     sys.exit(code if isinstance(code, int) else 0)
 

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json, spec_default, spec_help
+from pipette_cli.cli.common import STATE, BarOrLines, err_console, out_console, print_json, spec_default, spec_help
 from pipette_cli.errors import DatasetError, plural
 from pipette_cli.lerobot.convert import DatasetVersion
 from pipette_cli.lerobot.train import (
@@ -18,6 +18,7 @@ from pipette_cli.lerobot.train import (
     Policy,
     TrainError,
     TrainOptions,
+    job_steps,
     lerobot_train_executable,
     missing_datasets,
     plan,
@@ -155,7 +156,14 @@ def train(
             err_console.print(
                 f"[{i}/{len(jobs)}] {job.task_id}: {job.action} -> {job.output_dir} (log {job.log_file})", markup=False
             )
-        results.append(run_job(job, echo=echo))
+        if job.action == "skip":
+            results.append(run_job(job))
+            continue
+        # lerobot-train's own lines are echoed; without a terminal a line every few seconds adds the
+        # step, rate and time left, and shows the run is alive while it loads
+        with BarOrLines(f"train {job.task_id}", "steps", bar=False) as progress:
+            progress.start(job_steps(job), done=0 if job.action != "continue" else None)
+            results.append(run_job(job, echo=echo, on_step=progress.update))
     report = [
         {
             "task": r.task_id,

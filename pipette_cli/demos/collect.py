@@ -328,21 +328,46 @@ def _in_pool(
     return ordered_pool(_init_worker, (kwargs,), _run_job, jobs, workers, stop)
 
 
+class Interrupt:
+    """A flag set by Ctrl-C (SIGINT) or SIGTERM, polled by a run so that it stops between steps
+    and keeps what it finished; calling it says whether it is set."""
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self.signum: int | None = None
+        """The first signal received (``signal.SIGINT`` or ``signal.SIGTERM``), None before one."""
+
+    def __call__(self) -> bool:
+        return self._event.is_set()
+
+    def set(self, signum: int) -> None:
+        if self._event.is_set():
+            log.warning("still finishing: writing what was recorded so far")
+            return
+        self.signum = signum
+        self._event.set()
+
+    @property
+    def exit_code(self) -> int:
+        """The shell's code for the signal: 130 for Ctrl-C, 143 for SIGTERM."""
+        return 128 + int(self.signum or signal.SIGINT)
+
+
 @contextmanager
-def deferred_sigint() -> Iterator[Callable[[], bool]]:
-    """Turn Ctrl-C into a flag the caller polls, so a run stops between steps and packs its episodes."""
-    flag = threading.Event()
+def deferred_interrupt() -> Iterator[Interrupt]:
+    """Turn Ctrl-C (SIGINT) and SIGTERM into a flag the caller polls, so a run stops between steps
+    and packs its episodes (a second signal only warns; SIGKILL cannot be deferred)."""
+    flag = Interrupt()
     if threading.current_thread() is not threading.main_thread():
-        yield flag.is_set
+        yield flag
         return
 
     def handler(signum: int, frame: object) -> None:
-        if flag.is_set():
-            log.warning("still finishing: writing the episodes recorded so far")
-        flag.set()
+        flag.set(signum)
 
-    previous = signal.signal(signal.SIGINT, handler)
+    previous = {signum: signal.signal(signum, handler) for signum in (signal.SIGINT, signal.SIGTERM)}
     try:
-        yield flag.is_set
+        yield flag
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for signum, before in previous.items():
+            signal.signal(signum, before)

@@ -94,9 +94,14 @@ class EpisodeLog:
 class ServerLost(PipetteError):
     """The policy server became unreachable during an episode; the safe hold was applied.
 
+    The CLI exits with ``exit_code`` 3, so that a script tells a run that stopped with a
+    partial summary (rerun to resume) from a finished one (0) and from a refused one (1).
+
     Attributes:
         record: task, episode, seed, control step, the hold action and the time it was applied.
     """
+
+    exit_code = 3
 
     def __init__(self, message: str, record: dict[str, Any]) -> None:
         self.record = record

@@ -52,7 +52,7 @@ from pipette_cli.evaluation.results import (
     write_episode,
     write_summary,
 )
-from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings, image_size_problem
 from pipette_cli.evaluation.suites import EpisodePlan, adhoc_plan
 from pipette_cli.serving.client import PolicyClient
 from pipette_cli.serving.protocol import DEFAULT_DEAD_AFTER_S, DEFAULT_DEVICE
@@ -121,12 +121,11 @@ def check_servers(endpoints: tuple[str, ...], image_hw: tuple[int, int], connect
                     "start `pipette serve` first or fix --endpoint"
                 )
             served = client.info()
-        for key, shape in served.get("images", {}).items():
-            if tuple(shape[-2:]) != tuple(image_hw):
-                raise PipetteError(
-                    f"the policy at {endpoint} reads {key.rsplit('.', 1)[-1]} images of {shape[-2]}x{shape[-1]}, "
-                    f"but this evaluation renders {image_hw[0]}x{image_hw[1]} (--image-size, or the suite's image_size)"
-                )
+        problem = image_size_problem(
+            served.get("images", {}), image_hw, f"at {endpoint}", "--image-size, or the suite's image_size"
+        )
+        if problem is not None:
+            raise PipetteError(problem)
 
 
 @dataclass(frozen=True)
@@ -296,12 +295,16 @@ def evaluate_task(
     image_size: int | None = None,
     dataset_version: str = "raw",
     workers: int = 1,
+    on_start: Callable[[int, int], None] | None = None,
+    on_episode: Callable[[EpisodeLog], None] | None = None,
 ) -> dict[str, Any]:
     """``episodes`` episodes of one task (seeds ``seed + i``, the task's instruction) into ``out``,
-    resuming what is there; returns the summary (see :func:`evaluate_runs`)."""
+    resuming what is there; returns the summary (see :func:`evaluate_runs`, which calls
+    ``on_start`` and ``on_episode``)."""
     run = TaskRun(task, Path(out), tuple(adhoc_plan(task, episodes, seed)))
     settings = EvalSettings(config, image_size, dataset_version=dataset_version)
-    return evaluate_runs([run], source, settings, workers=workers).summaries[task.id]
+    played = evaluate_runs([run], source, settings, workers=workers, on_start=on_start, on_episode=on_episode)
+    return played.summaries[task.id]
 
 
 def _inline(

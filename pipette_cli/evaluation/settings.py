@@ -103,3 +103,41 @@ def resolve_policy_type(given: str | None, checkpoint: Path | None) -> str:
             f"expected one of {', '.join(POLICY_TYPES)}"
         )
     return found
+
+
+def checkpoint_images(path: Path) -> dict[str, tuple[int, ...]]:
+    """``observation.images.<camera>`` -> CHW shape, the images a LeRobot policy folder's
+    ``config.json`` says the policy reads (its ``VISUAL`` input features); empty when it names none.
+
+    Raises:
+        PipetteError: ``path`` holds no readable ``config.json``.
+    """
+    config = Path(path) / "config.json"
+    try:
+        features = json.loads(config.read_text(encoding="utf-8")).get("input_features") or {}
+    except (OSError, ValueError, AttributeError) as exc:
+        raise PipetteError(f"{config}: not a readable LeRobot policy config: {exc}") from exc
+    return {
+        key: tuple(int(n) for n in feature["shape"])
+        for key, feature in features.items()
+        if isinstance(feature, dict) and feature.get("type") == "VISUAL" and feature.get("shape")
+    }
+
+
+def image_size_problem(images: dict[str, Any], rendered: tuple[int, int], policy: str, fix: str) -> str | None:
+    """One line saying which camera image of the policy differs from the ``(height, width)`` an
+    evaluation renders, None when all match (a policy scores nothing on images of another size).
+
+    Args:
+        images: Request key -> CHW shape, as a policy reads them (a server's ``info``, a checkpoint).
+        rendered: Height and width of the rendered images.
+        policy: How the policy is named in the line (``at tcp://...``, ``in ckpt/``).
+        fix: The option that sets the rendered size, with its value (``--image-size``).
+    """
+    for key, shape in images.items():
+        if tuple(shape[-2:]) != tuple(rendered):
+            return (
+                f"the policy {policy} reads {key.rsplit('.', 1)[-1]} images of {shape[-2]}x{shape[-1]}, "
+                f"but this evaluation renders {rendered[0]}x{rendered[1]} ({fix})"
+            )
+    return None

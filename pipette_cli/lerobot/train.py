@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -314,8 +315,28 @@ class JobResult:
     checkpoint: Path | None
 
 
-def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
-    """Run one job, its stdout+stderr appended to ``job.log_file`` and copied to ``echo``.
+_STEP = re.compile(r"\bstep:(\d+(?:\.\d+)?)([KMB]?)\b")
+
+
+def logged_step(line: str) -> int | None:
+    """The training step of a ``lerobot-train`` log line (``step:20 smpl:160 ... loss:0.93``;
+    ``step:1K`` above 999), None for other lines."""
+    found = _STEP.search(line)
+    if found is None:
+        return None
+    return int(float(found.group(1)) * {"": 1, "K": 1_000, "M": 1_000_000, "B": 1_000_000_000}[found.group(2)])
+
+
+def job_steps(job: TrainJob) -> int | None:
+    """The ``--steps`` a job trains to, if its command line says (a resumed run may not)."""
+    steps = [a.split("=", 1)[1] for a in job.argv if a.startswith("--steps=")]
+    return int(steps[-1]) if steps and steps[-1].isdigit() else None
+
+
+def run_job(job: TrainJob, *, echo: IO[str] | None = None, on_step: Callable[[int], None] | None = None) -> JobResult:
+    """Run one job, its stdout+stderr appended to ``job.log_file`` and copied to ``echo``;
+    ``on_step`` is called with the step of each progress line ``lerobot-train`` logs
+    (every ``--log_freq`` steps).
 
     Ctrl-C stops the child process (SIGINT, then kill after 30 s) and re-raises.
     """
@@ -345,6 +366,8 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
                 if echo is not None:
                     echo.write(line)
                     echo.flush()
+                if on_step is not None and (step := logged_step(line)) is not None:
+                    on_step(step)
             code = proc.wait()
         except KeyboardInterrupt:
             proc.send_signal(2)
@@ -364,13 +387,18 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None) -> JobResult:
 
 
 def train_checkpoint(
-    task_id: str, options: TrainOptions, *, on_train: Callable[[TrainJob], None] | None = None
+    task_id: str,
+    options: TrainOptions,
+    *,
+    on_train: Callable[[TrainJob], None] | None = None,
+    on_step: Callable[[int], None] | None = None,
 ) -> Path:
     """Train one task with this environment's ``lerobot-train`` (or reuse its finished run) and
     return the last checkpoint.
 
     With ``if_exists=skip``, a run folder without a checkpoint (stopped before its first save) is
-    trained again from scratch. ``on_train`` is called before a run actually starts.
+    trained again from scratch. ``on_train`` is called before a run actually starts, ``on_step``
+    with each step the run logs (see :func:`run_job`).
 
     Raises:
         TrainError: the run failed (its log says why) or left no checkpoint.
@@ -382,7 +410,7 @@ def train_checkpoint(
     if job.action != "skip":
         if on_train is not None:
             on_train(job)
-        result = run_job(job)
+        result = run_job(job, on_step=on_step)
         if result.returncode != 0 or result.checkpoint is None:
             raise TrainError(f"training {task_id} failed; see {job.log_file}")
     return job.output_dir / LAST_CHECKPOINT

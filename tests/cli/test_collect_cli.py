@@ -53,11 +53,16 @@ def test_a_generated_task_is_collected_with_its_family_expert(run_cli, tmp_path:
     assert [e["success"] for e in report["episodes"]] == [True]
 
 
-def test_collect_then_resume_to_more_episodes(run_cli, wiggle, tmp_path: Path) -> None:
+def test_collect_then_resume_to_more_episodes(run_cli, wiggle, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     out = tmp_path / "x.h5"
+    monkeypatch.setenv("PIPETTE_PROGRESS_INTERVAL", "0")  # a progress line at every episode
     first = _collect(run_cli, out, "--episodes", "2", "--seed", "3")
     assert first.exit_code == 0, first.stderr
     assert "2 episodes (2 new" in first.stdout
+    lines = [x for x in first.stderr.splitlines() if x.startswith("collect ")]  # stderr is no terminal
+    assert len(lines) == 2, first.stderr  # one per episode here; the final state is not repeated
+    assert lines[0].startswith("collect HoldTube-v1: 1/2 episodes (50 %), ") and lines[0].endswith("; 0 ok 1 failed")
+    assert lines[1].startswith("collect HoldTube-v1: 2/2 episodes (100 %), ") and "episodes/" in lines[1]
     again = _collect(run_cli, out, "--episodes", "3", "--seed", "3")
     assert again.exit_code == 0, again.stderr
     assert "2 episodes already recorded; 1 to go" in again.stderr and "3 episodes (1 new" in again.stdout

@@ -34,6 +34,7 @@ def test_convert_then_stats(run_cli, recording: Path, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.stderr
     report = json.loads(result.stdout)
     assert (report["episodes"], report["frames"], report["skipped_failed"]) == (1, 5, 1) and report["frames_per_s"] > 0
+    assert "convert: 1/1 episodes (100 %), " in result.stderr  # stderr is no terminal: lines, not a bar
     stats = run_cli("data", "stats", root, "--json")
     assert stats.exit_code == 0, stats.stderr
     data = json.loads(stats.stdout)

@@ -29,6 +29,8 @@ def test_fast_demo_runs_every_stage(run_cli, tmp_path) -> None:
     assert cells[1] == "act" and cells[2] == "-" and cells[3] != "-"  # trained on augmented data: listed so
     assert (out / "augmented_sheet.png").stat().st_size > 0 and (out / "augmented.gif").stat().st_size > 0
     assert report["learned"] is None and "smoke run" in result.stderr  # 2 steps: not judged, and says so
+    for stage in ("collect: 2/2 episodes", "augment: 2/2 demos", "train: 2/2 steps", "eval: 2/2 episodes"):
+        assert f"{stage} (100 %), " in result.stderr, stage  # no terminal: every stage's progress as lines
     assert (out / "summary.png").stat().st_size > 0 and len(report["videos"]) == 3  # 2 evaluation GIFs + augmented
     assert all(Path(p).stat().st_size > 0 for p in report["videos"] + report["plots"])
     again = run_cli("demo", "--fast", "--out", out)

@@ -87,6 +87,38 @@ def test_eval_reads_the_policy_type_from_the_checkpoint(run_cli, captured, tmp_p
     assert agreeing.exit_code == 0, agreeing.stderr
 
 
+def test_a_lost_server_exits_3_an_interrupt_130(run_cli, monkeypatch, tmp_path: Path) -> None:
+    """The documented codes: a script tells a run stopped with a partial summary from a finished one."""
+    from pipette_cli.evaluation.evaluate import ServerLost
+
+    def lost(runs, source, settings, **kwargs):
+        raise ServerLost("no connection to tcp://127.0.0.1:1 for 5 s; stopped after 2 of 4 episodes", {})
+
+    def interrupted(runs, source, settings, *, stop, **kwargs):
+        return lerobot_runner.EvalResult(new_episodes=2, interrupted=True)
+
+    args = ("eval", "PickUpTestTube", "--policy", checkpoint(tmp_path / "act", "act"), "--episodes", "4")
+    monkeypatch.setattr(lerobot_runner, "evaluate_runs", lost)
+    result = run_cli(*args)
+    assert result.exit_code == 3 and "error: no connection to tcp://127.0.0.1:1" in result.stderr
+    monkeypatch.setattr(lerobot_runner, "evaluate_runs", interrupted)
+    result = run_cli(*args)
+    assert result.exit_code == 130 and "interrupted after 2 new episodes; summaries written" in result.stderr
+
+
+def test_eval_refuses_a_checkpoint_that_reads_another_image_size(run_cli, captured, tmp_path: Path) -> None:
+    act = checkpoint(tmp_path / "act", "act")
+    features = {f"observation.images.{c}": {"type": "VISUAL", "shape": [3, 64, 64]} for c in ("top", "main")}
+    (act / "config.json").write_text(json.dumps({"type": "act", "input_features": features}))
+    result = run_cli("eval", "PickUpTestTube", "--policy", act, "--episodes", "1")  # the task renders 400 px
+    assert result.exit_code == 1 and "policy_type" not in captured
+    assert (
+        f"the policy in {act} reads top images of 64x64, but this evaluation renders 400x400 (--image-size"
+        in " ".join(result.stderr.split())
+    )
+    assert run_cli("eval", "PickUpTestTube", "--policy", act, "--episodes", "1", "--image-size", "64").exit_code == 0
+
+
 def test_eval_refuses_a_policy_type_that_contradicts_the_checkpoint(run_cli, captured, tmp_path: Path) -> None:
     pi0 = checkpoint(tmp_path / "pi0", "pi0")
     result = run_cli("eval", "PickUpTestTube", "--policy", pi0, "--policy-type", "act", "--episodes", "1")

@@ -93,6 +93,19 @@ def test_usage_error_exits_2(run_cli) -> None:
     assert run_cli("tasks", "frobnicate").exit_code == 2
 
 
+def test_a_global_option_after_the_command_gets_a_hint(run_cli) -> None:
+    result = run_cli("tasks", "show", "PickUpTestTube", "--debug")
+    assert result.exit_code == 2 and "No such option: --debug" in result.stderr
+    hint = "hint: --debug is a global option, given before the command: pipette --debug tasks show PickUpTestTube"
+    assert hint in " ".join(result.stderr.split())
+    moved = run_cli("tasks", "list", "--registry-dir", "extra", "-vv", "--json")
+    assert moved.exit_code == 2 and "pipette --registry-dir extra tasks list -vv --json" in moved.stderr
+    counted = run_cli("tasks", "list", "-vv")
+    assert "hint: -v is a global option, given before the command: pipette -vv tasks list" in counted.stderr
+    other = run_cli("tasks", "list", "--no-such-option")
+    assert other.exit_code == 2 and "hint:" not in other.stderr  # not a global option: no hint
+
+
 def test_debug_shows_the_traceback(run_cli) -> None:
     result = run_cli("--debug", "tasks", "show", "Nope")
     assert result.exit_code == 1 and "Traceback" in result.stderr

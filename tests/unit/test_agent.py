@@ -448,6 +448,21 @@ def test_cli_names_the_missing_values_when_it_cannot_ask(run_cli) -> None:
     assert "step 1 (pipette eval) needs endpoint or policy; add it to the request" in result.stderr
 
 
+def test_cli_dry_run_shows_the_plan_and_runs_nothing(run_cli, tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    request = "record 3 demos of the test tube task and augment them"
+    result = run_cli("agent", request, "--dry-run", "--yes")  # --yes does not override it
+    assert result.exit_code == 0, result.stderr
+    assert "pipette collect" in result.stdout and "pipette augment" in result.stdout  # the plan table
+    assert "dry run: 2 steps planned, nothing run" in result.stderr and list(tmp_path.iterdir()) == []
+    missing = run_cli("agent", "evaluate the policy on the test tube task", "--dry-run")
+    assert missing.exit_code == 0 and "needs endpoint or policy" in " ".join(missing.stdout.split())
+    data = json.loads(run_cli("agent", request, "--dry-run", "--json", "--yes").stdout)
+    assert data["dry_run"] is True and len(data["steps"]) == 2 and list(tmp_path.iterdir()) == []
+    for command in ("agent", "new-task"):  # the same option on both
+        assert "--dry-run" in run_cli(command, "--help").stdout
+
+
 def test_cli_answers_questions_without_running_anything(run_cli) -> None:
     result = run_cli("agent", "which tasks involve the centrifuge?")
     assert result.exit_code == 0 and result.stdout.startswith("2 tasks about centrifuge")

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[2] / "pipette_cli"
 
 # lowest first; a package may import from any package in an earlier layer (and from itself)
 LAYERS: list[set[str]] = [
-    {"__init__", "errors"},
+    {"__init__", "errors", "progress"},
     {"plugins"},
     {"resources"},
     {"templating", "specs"},

@@ -9,17 +9,25 @@ the ``pipette`` env type, so
 
 evaluates a LeRobot policy in a Pipette task. Images are ``observation.images.top|main|wrist``,
 the state ``observation.state``, the action joint targets plus the gripper command.
+
+Images are rendered at the size the policy reads (its ``config.json``, for a local
+``--policy.path``), else at the task's camera size (400 px). ``--env.image_size=N`` sets it; one
+that contradicts the policy stops the run with one line naming both sizes, as ``pipette eval``
+does: a policy scores nothing on images of another size, without a word.
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from lerobot.configs.types import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_IMAGES, OBS_STATE
 
 CAMERAS = ("top", "main", "wrist")
+log = logging.getLogger(__name__)
 
 
 @EnvConfig.register_subclass("pipette")
@@ -29,7 +37,8 @@ class PipetteEnvConfig(EnvConfig):
 
     task: str | None = "pipette/PickUpTestTube-v1"
     fps: int = 10
-    image_size: int = 400
+    image_size: int | None = None
+    """Square image side rendered; default: the policy's (``--policy.path``), else the task's cameras."""
     render_profile: str = "fast"
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
@@ -39,6 +48,7 @@ class PipetteEnvConfig(EnvConfig):
 
         spec = load_registry().get(self.task)
         self.task = spec.id
+        self.image_size = fit_image_size(self.image_size, policy_path(), (spec.cameras.height, spec.cameras.width))
         from pipette_cli.specs.robot import robot_spec
 
         dim = robot_spec(spec.embodiment.robot).arm_dof + 1  # arm joints + the gripper
@@ -61,3 +71,42 @@ class PipetteEnvConfig(EnvConfig):
     @property
     def gym_kwargs(self) -> dict:
         return {"image_size": self.image_size, "render_profile": self.render_profile, "render_mode": "rgb_array"}
+
+
+def policy_path() -> Path | None:
+    """The local folder ``--policy.path`` names on this command line (``lerobot-eval``), if any."""
+    from lerobot.configs import parser
+
+    given = parser.get_path_arg("policy")
+    return Path(given) if given and (Path(given) / "config.json").is_file() else None
+
+
+def fit_image_size(given: int | None, policy: Path | None, cameras: tuple[int, int]) -> int:
+    """The image side to render: ``given`` (``--env.image_size``), else the size the ``policy``
+    folder's images have, else the task's cameras; a size other than the policy's stops the run.
+
+    Raises:
+        SystemExit: with one line naming both sizes and the flag (``lerobot-eval`` prints it).
+    """
+    from pipette_cli.evaluation.settings import checkpoint_images, image_size_problem
+
+    images = checkpoint_images(policy) if policy is not None else {}
+    if given is None:
+        if _side(images) != "N":
+            size = int(_side(images))
+            if (size, size) != cameras:
+                log.info(
+                    "rendering %dx%d images, the size the policy in %s reads (--env.image_size)", size, size, policy
+                )
+            return size
+        given = cameras[0] if cameras[0] == cameras[1] else max(cameras)
+    problem = image_size_problem(images, (given, given), f"in {policy}", f"set --env.image_size={_side(images)}")
+    if problem is not None:
+        raise SystemExit(f"error: {problem}")
+    return given
+
+
+def _side(images: dict[str, tuple[int, ...]]) -> str:
+    """The one square side every image has, else ``N``."""
+    sides = {side for shape in images.values() for side in shape[-2:]}
+    return str(sides.pop()) if len(sides) == 1 else "N"
