@@ -230,3 +230,30 @@ def test_bench_robots_shows_a_limit_every_seed_ran_into_as_a_refusal() -> None:
     row = {"task": "t", "robot": "r", "refused": "t on the r: reach: the push ...", "episodes": 3}
     assert module.cell_text(row) == "refused (reach)"
     assert "found by the expert on all 3 seeds" in module.markdown([row], ["t"], ["r"], 3, 0, "abc")
+
+
+@pytest.mark.slow
+@pytest.mark.render
+def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp_path) -> None:
+    """About 6 minutes: a pilot, five data settings trained and evaluated on both suites, the report."""
+    work, docs = tmp_path / "work", tmp_path / "docs"
+    tiny = ("--work", str(work), "--docs", str(docs), "--tasks", "pipette/PickUpTestTube-v1", "--demos", "2")
+    bench("augmentation_experiment.py", "pilot", *tiny, "--pilot-steps", "2,4", "--pilot-episodes", "2")
+    pilot = json.loads((docs / "pilot.json").read_text())
+    assert set(pilot["success"]["pipette/PickUpTestTube-v1"]) == {"2", "4"} and pilot["seeds"] == [1000, 1001]
+    run = (*tiny, "--pilot-steps", "2,4", "--steps", "4", "--max-episodes", "2")
+    bench("augmentation_experiment.py", "run", *run, timeout=1200)
+    data = read(docs / "results.json")
+    for suite in ("nominal", "shifted"):
+        cells = data["suites"][suite]["cells"]
+        assert {k.split()[1] for k in cells} == {"raw", "aug_all", "aug_object", "aug_visual", "more_demos"}
+        assert all(c["episodes"] == 2 for c in cells.values())
+        assert {r["family"] for r in data["suites"][suite]["comparisons"]} == {"primary", "secondary"}
+    kept = data["yield"]["pipette/PickUpTestTube-v1"]["aug_all"]["kept"]
+    logs = list((work / "pipette_PickUpTestTube-v1" / "eval" / "shifted" / "raw").glob("episode_*.json"))
+    assert logs and all(json.loads(p.read_text())["conditions"]["object_pose"]["task_range"] == 1.5 for p in logs)
+    checkpoints = sorted(work.rglob("checkpoints/last/pretrained_model/config.json"))
+    assert len(checkpoints) == 5 and kept >= 2
+    stamp = [p.stat().st_mtime for p in checkpoints]
+    again = bench("augmentation_experiment.py", "run", *run, timeout=600)  # every stage reused
+    assert "training" not in again.stdout and [p.stat().st_mtime for p in checkpoints] == stamp

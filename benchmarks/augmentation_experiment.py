@@ -1,0 +1,444 @@
+"""The augmentation experiment of docs/reproduction/plan.md: what verified augmentation buys ACT.
+
+Stages (each resumes: rerun the same command after an interruption and finished work is reused):
+
+  pilot   raw ACT on every candidate task of the nominal suite, checkpoints at 500-4000 steps,
+          each evaluated on 30 demonstration-range seeds (1000-1029, never a suite seed); picks
+          the training steps S and the tasks by the plan's rule; writes pilot.json.
+  run     per task and data setting (raw, aug_all, aug_object, aug_visual, more_demos): data ->
+          LeRobot dataset -> ACT for S steps -> evaluation on the nominal and the shifted suite
+          (and the learning-curve checkpoints of raw and aug_all on the nominal suite).
+  report  the tables of the plan's analysis: Wilson intervals, McNemar's exact test per task and
+          pooled over tasks, Holm-adjusted; failure modes, augmentation yield; results.json,
+          table.md and a chart in --docs.
+
+    python benchmarks/augmentation_experiment.py pilot --work runs/augmentation
+    python benchmarks/augmentation_experiment.py run --work runs/augmentation
+    python benchmarks/augmentation_experiment.py report --work runs/augmentation
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+ROOT = Path(__file__).resolve().parents[1]
+if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie").is_dir():
+    os.environ["MENAGERIE_ROOT"] = str(ROOT.parent / "shared" / "menagerie")
+
+from pipette_cli.augment.run import augment  # noqa: E402
+from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
+from pipette_cli.demo import SMALL_ACT  # noqa: E402
+from pipette_cli.demos.collect import collect  # noqa: E402
+from pipette_cli.demos.provenance import git_state  # noqa: E402
+from pipette_cli.demos.store import scan  # noqa: E402
+from pipette_cli.evaluation.results import read_logs  # noqa: E402
+from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
+from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
+from pipette_cli.evaluation.significance import ALPHA, compare, holm, wilson_interval  # noqa: E402
+from pipette_cli.evaluation.suites import EpisodePlan, RegisteredSuite, adhoc_plan, episode_plan, load_suites  # noqa: E402
+from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
+from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
+from pipette_cli.registry import load_registry  # noqa: E402
+from pipette_cli.specs.task import TaskSpec  # noqa: E402
+
+NOMINAL, SHIFTED = "pipette/AugmentationNominal-v1", "pipette/AugmentationShifted-v1"
+DEMOS = 30
+ATOMS = {  # the shifted suite's parameters: the augmentation covers what that evaluation varies
+    "object": {"task_range": 1.5},
+    "light": {"scale": 0.9, "jitter": 0.4},
+    "cam": {"camera": "all", "radius": 0.05, "wrist_radius": 0.002},
+    "table": {"blend": 0.5},
+}
+VARIANTS = {
+    "aug_all": "original,object+light+cam+table*5",
+    "aug_object": "original,object*5",
+    "aug_visual": "original,light+cam+table*5",
+}
+SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos")
+PRIMARY = [("raw", "aug_all")]
+SECONDARY = [
+    ("raw", "aug_object"),
+    ("raw", "aug_visual"),
+    ("aug_object", "aug_all"),
+    ("aug_visual", "aug_all"),
+    ("more_demos", "aug_all"),
+]
+PILOT_STEPS = (500, 1000, 2000, 4000)
+PILOT_SEED, PILOT_EPISODES = 1000, 30
+BAND = (0.15, 0.85)
+HINGES = {"pipette/CloseCentrifugeLid-v1", "pipette/CloseSpectrophotometerLid-v1"}
+PLACEMENTS = {"pipette/PlaceTubeOnBalance-v1"}
+BATCH, TRAIN_SEED = 8, 1000
+
+
+def say(message: str) -> None:
+    print(f"[{time.strftime('%H:%M:%S')}] {message}", flush=True)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    work: Path
+    workers: int
+    image_size: int
+    render_profile: str
+    demos: int = DEMOS
+    pilot_steps: tuple[int, ...] = PILOT_STEPS
+    pilot_episodes: int = PILOT_EPISODES
+    max_episodes: int | None = None
+    """Smoke runs only: at most this many episodes per evaluation (results.json records it)."""
+
+    def folder(self, task: TaskSpec, *parts: str) -> Path:
+        path = self.work / task.id.replace("/", "_")
+        for part in parts:
+            path = path / part
+        return path
+
+
+def demonstrations(ex: Experiment, task: TaskSpec, count: int, name: str) -> Path:
+    path = ex.folder(task, f"{name}.h5")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    collect(task, path, episodes=count, seed=0, image_size=ex.image_size, workers=ex.workers)
+    return path
+
+
+def augmented(ex: Experiment, task: TaskSpec, raw: Path, setting: str) -> tuple[Path, dict[str, Any]]:
+    out = ex.folder(task, f"{setting}.h5")
+    spec = AugmentSpec(variants=make_variants(VARIANTS[setting].split(","), default_atoms(**ATOMS)))
+    result = augment(task, raw, out, spec, rejected=ex.folder(task, f"{setting}_rejected.h5"), workers=ex.workers)
+    say(f"{task.id} {setting}: augmentation kept {result.report['kept']}/{result.report['attempts']}")
+    return out, result.report
+
+
+def trained(ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: int, save_freq: int) -> Path:
+    """The run folder of ACT trained ``steps`` steps on ``source`` (checkpoints every ``save_freq``)."""
+    version = DatasetVersion.raw if setting in ("raw", "more_demos") else DatasetVersion.augmented
+    datasets = ex.folder(task, setting, "datasets")
+    slug = task.id.replace("/", "_")
+    root = datasets / slug / version.value
+    if not (root / "meta" / "info.json").is_file():
+        convert(
+            [source],
+            ConvertOptions(
+                repo_id=f"local/{slug}_{setting}", root=root, video=False, dataset_version=version, overwrite=True
+            ),
+        )
+    options = TrainOptions(
+        policy=Policy.act,
+        dataset_version=version,
+        steps=steps,
+        batch_size=BATCH,
+        device="cpu",
+        datasets_root=datasets,
+        output_root=ex.folder(task, setting, "train"),
+        if_exists=IfExists.skip,
+        offline=True,
+        extra=(*SMALL_ACT, f"--save_freq={save_freq}", f"--seed={TRAIN_SEED}"),
+    )
+    last = train_checkpoint(task.id, options, on_train=lambda job: say(f"{task.id} {setting}: training {steps} steps"))
+    return last.parents[2]  # <run>/checkpoints/last/pretrained_model -> <run>
+
+
+def checkpoint(run: Path, step: int, total: int) -> Path:
+    digits = max(6, len(str(total)))
+    path = run / "checkpoints" / f"{step:0{digits}d}" / "pretrained_model"
+    if not (path / "config.json").is_file():
+        raise SystemExit(f"{run}: no checkpoint at step {step}")
+    return path
+
+
+def evaluated(
+    ex: Experiment,
+    task: TaskSpec,
+    policy: Path,
+    label: str,
+    folder: Path,
+    episodes: list[EpisodePlan],
+    suite: RegisteredSuite | None,
+) -> dict[str, Any]:
+    settings = EvalSettings(
+        DecodeConfig.for_policy("act"),
+        ex.image_size,
+        ex.render_profile,
+        label,
+        None if suite is None else suite.record(),
+    )
+    episodes = episodes[: ex.max_episodes] if ex.max_episodes else episodes
+    done = evaluate_runs(
+        [TaskRun(task, folder, tuple(episodes))], PolicySource(checkpoint=policy), settings, workers=ex.workers
+    )
+    summary = done.summaries[task.id]
+    say(f"{task.id} {label} -> {folder.name}: {summary['successes']}/{summary['episodes']}")
+    return summary
+
+
+# ------------------------------------------------------------------------------------------- pilot
+def pilot(ex: Experiment, tasks: list[TaskSpec], docs: Path) -> dict[str, Any]:
+    rates: dict[str, dict[int, float]] = {}
+    for task in tasks:
+        raw = demonstrations(ex, task, ex.demos, "raw")
+        run = trained(ex, task, "raw", raw, max(ex.pilot_steps), min(ex.pilot_steps))
+        plan = adhoc_plan(task, ex.pilot_episodes, PILOT_SEED)
+        rates[task.id] = {}
+        for steps in ex.pilot_steps:
+            policy = checkpoint(run, steps, max(ex.pilot_steps))
+            summary = evaluated(ex, task, policy, f"raw@{steps}", ex.folder(task, "pilot", str(steps)), plan, None)
+            rates[task.id][steps] = summary["successes"] / summary["episodes"]
+    choice = choose(rates, ex.pilot_steps)
+    data = {"seeds": [PILOT_SEED, PILOT_SEED + ex.pilot_episodes - 1], "demos": ex.demos, "success": rates, **choice}
+    docs.mkdir(parents=True, exist_ok=True)
+    (docs / "pilot.json").write_text(json.dumps(data, indent=2) + "\n")
+    say(f"pilot: S = {choice['steps']}, tasks {choice['tasks']}")
+    return data
+
+
+def choose(rates: dict[str, dict[int, float]], counts: tuple[int, ...] = PILOT_STEPS) -> dict[str, Any]:
+    """The plan's rule: the smallest step count with >= 4 tasks in the band, a hinge and a placement
+    among them; else the count with the most tasks in the band (ties: fewer steps)."""
+
+    def band(steps: int) -> list[str]:
+        return [t for t, r in rates.items() if BAND[0] <= r[steps] <= BAND[1]]
+
+    def ok(tasks: list[str]) -> bool:
+        return len(tasks) >= 4 and bool(HINGES & set(tasks)) and bool(PLACEMENTS & set(tasks))
+
+    steps = next((s for s in counts if ok(band(s))), None)
+    if steps is None:
+        steps = max(counts, key=lambda s: (len(band(s)), -s))
+    tasks = band(steps)
+    return {"steps": steps, "tasks": tasks, "rule_met": ok(tasks)}
+
+
+# --------------------------------------------------------------------------------------------- run
+def run_task(
+    ex: Experiment, task: TaskSpec, steps: int, suites: dict[str, RegisteredSuite], settings: list[str]
+) -> None:
+    raw = demonstrations(ex, task, ex.demos, "raw")
+    sources: dict[str, Path] = {"raw": raw}
+    reports: dict[str, Any] = {}
+    for setting in ("aug_all", "aug_object", "aug_visual"):
+        if setting in settings or (setting == "aug_all" and "more_demos" in settings):
+            sources[setting], reports[setting] = augmented(ex, task, raw, setting)
+    if "more_demos" in settings:
+        sources["more_demos"] = demonstrations(ex, task, len(scan(sources["aug_all"]).episodes), "more_demos")
+    (ex.folder(task, "yield.json")).write_text(json.dumps(reports, indent=2) + "\n")
+    quarter = max(1, steps // 4)
+    for setting in settings:
+        # raw trains once for the pilot's longest run: without a learning-rate schedule (ACT has
+        # none), its checkpoint at step S is the S-step run
+        total = max(ex.pilot_steps) if setting == "raw" else steps
+        run = trained(ex, task, setting, sources[setting], total, quarter if setting != "raw" else min(ex.pilot_steps))
+        final = checkpoint(run, steps, total)
+        for name, suite in suites.items():
+            plan = episode_plan(suite.spec, [task.id])[task.id]
+            evaluated(ex, task, final, setting, ex.folder(task, "eval", name, setting), plan, suite)
+        if setting in ("raw", "aug_all"):
+            plan = episode_plan(suites["nominal"].spec, [task.id])[task.id]
+            for step in (steps // 4, steps // 2):
+                if step >= 1 and (setting != "raw" or step % min(ex.pilot_steps) == 0):
+                    label = f"{setting}@{step}"
+                    folder = ex.folder(task, "eval", "curve", label)
+                    evaluated(ex, task, checkpoint(run, step, total), label, folder, plan, suites["nominal"])
+
+
+# ------------------------------------------------------------------------------------------ report
+Cells = dict[tuple[str, str], dict[tuple[str, int], bool]]
+
+
+def outcomes(folder: Path) -> dict[tuple[str, int], bool]:
+    """(task, seed) -> success of every episode logged in ``folder``."""
+    return (
+        {(log["task"], int(log["seed"])): bool(log["success"]) for log in read_logs(folder)} if folder.is_dir() else {}
+    )
+
+
+def failure_modes(folder: Path) -> dict[str, Any]:
+    """Failure reasons, and the mean of each evaluator metric over the failed episodes."""
+    failed = [log for log in (read_logs(folder) if folder.is_dir() else []) if not log["success"]]
+    keys = set.intersection(*(set(log.get("metrics", {})) for log in failed)) if failed else set()
+    return {
+        "reasons": dict(Counter(str(log.get("failure_reason")) for log in failed)),
+        "mean_metric_at_failure": {
+            k: round(sum(log["metrics"][k] for log in failed) / len(failed), 4) for k in sorted(keys)
+        },
+    }
+
+
+def cell_text(o: dict[tuple[str, int], bool]) -> str:
+    k, n = sum(o.values()), len(o)
+    if not n:
+        return "-"
+    lo, hi = wilson_interval(k, n)
+    return f"{k}/{n} ({100 * lo:.0f}-{100 * hi:.0f})"
+
+
+def comparisons(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
+    """The plan's tests on one suite: McNemar exact per task and pooled over tasks, Holm-adjusted
+    (primary: per task over the tasks, the pooled test alone; secondary: over all its tests)."""
+    rows: list[dict[str, Any]] = []
+    for family, pairs in (("primary", PRIMARY), ("secondary", SECONDARY)):
+        found = []
+        for a, b in pairs:
+            for task in [*tasks, "pooled"]:
+                group = tasks if task == "pooled" else [task]
+                left = {k: v for t in group for k, v in cells.get((t, a), {}).items()}
+                right = {k: v for t in group for k, v in cells.get((t, b), {}).items()}
+                if left and set(left) == set(right):
+                    found.append(
+                        {"family": family, "comparison": f"{b} vs {a}", "task": task, **compare(left, right).as_dict()}
+                    )
+        groups = [[r for r in found if r["task"] != "pooled"], [r for r in found if r["task"] == "pooled"]]
+        for group in groups if family == "primary" else [groups[0] + groups[1]]:
+            for row, p in zip(group, holm([r["p_value"] for r in group]), strict=True):
+                rows.append({**row, "p_holm": p, "significant": p < ALPHA})
+    return rows
+
+
+def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str, Any]]) -> list[str]:
+    lines = [
+        f"### {name.capitalize()} suite",
+        "",
+        "| task | " + " | ".join(SETTINGS) + " |",
+        "|---" * (len(SETTINGS) + 1) + "|",
+    ]
+    lines += [f"| {t} | " + " | ".join(cell_text(cells.get((t, s), {})) for s in SETTINGS) + " |" for t in tasks]
+    lines += [
+        "",
+        "| comparison | task | difference | discordant (b only / a only) | p | p (Holm) |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {r['comparison']} ({r['family']}) | {r['task']} | {100 * r['difference']:+.0f} pt | {r['only_b']} / {r['only_a']} "
+        f"| {r['p_value']:.3g} | {r['p_holm']:.3g}{' *' if r['significant'] else ''} |"
+        for r in rows
+    ]
+    return [*lines, ""]
+
+
+def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str:
+    """results.json and table.md in ``docs`` from the episode logs under ``ex.work``."""
+    ids = [t.id for t in tasks]
+    results: dict[str, Any] = {"steps": steps, "tasks": ids, "suites": {}}
+    lines: list[str] = []
+    for name in ("nominal", "shifted"):
+        cells = {(t.id, s): outcomes(ex.folder(t, "eval", name, s)) for t in tasks for s in SETTINGS}
+        rows = comparisons(cells, ids)
+        lines += suite_section(name, cells, ids, rows)
+        results["suites"][name] = {
+            "cells": {f"{t} {s}": {"successes": sum(o.values()), "episodes": len(o)} for (t, s), o in cells.items()},
+            "comparisons": rows,
+            "failure_modes": {
+                f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in SETTINGS
+            },
+        }
+    marks = [steps // 4, steps // 2]
+    curve = {
+        f"{t.id} {s}": {str(m): cell_text(outcomes(ex.folder(t, "eval", "curve", f"{s}@{m}"))) for m in marks}
+        | {str(steps): cell_text(outcomes(ex.folder(t, "eval", "nominal", s)))}
+        for t in tasks
+        for s in ("raw", "aug_all")
+    }
+    lines += [
+        "### Learning curves (nominal suite)",
+        "",
+        "| task, setting | " + " | ".join(f"{m} steps" for m in [*marks, steps]) + " |",
+        "|---" * 4 + "|",
+    ]
+    lines += [f"| {key} | " + " | ".join(row.values()) + " |" for key, row in curve.items()]
+    results["learning_curves"] = curve
+    results["yield"] = {
+        t.id: json.loads(ex.folder(t, "yield.json").read_text()) if ex.folder(t, "yield.json").is_file() else {}
+        for t in tasks
+    }
+    lines += [
+        "",
+        "### Augmentation yield (kept / tried)",
+        "",
+        "| task | " + " | ".join(VARIANTS) + " |",
+        "|---" * (len(VARIANTS) + 1) + "|",
+    ]
+    for t in tasks:
+        found = results["yield"][t.id]
+        lines.append(
+            f"| {t.id} | "
+            + " | ".join(f"{found[s]['kept']}/{found[s]['attempts']}" if s in found else "-" for s in VARIANTS)
+            + " |"
+        )
+    commit, dirty = git_state()
+    results.update(
+        {
+            "git_commit": commit,
+            "git_dirty": dirty,
+            "command": " ".join(sys.argv),
+            "demos": ex.demos,
+            "max_episodes": ex.max_episodes,
+            "atoms": ATOMS,
+            "variants": VARIANTS,
+            "act_flags": list(SMALL_ACT),
+            "batch_size": BATCH,
+        }
+    )
+    docs.mkdir(parents=True, exist_ok=True)
+    (docs / "results.json").write_text(json.dumps(results, indent=2) + "\n")
+    text = "\n".join(lines) + "\n"
+    (docs / "table.md").write_text(text)
+    return text
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("stage", choices=("pilot", "run", "report"))
+    parser.add_argument("--work", type=Path, default=Path("runs/augmentation"))
+    parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction" / "augmentation")
+    parser.add_argument(
+        "--tasks", default=None, help="Comma-separated task ids (default: the pilot's, or the suite's)."
+    )
+    parser.add_argument("--settings", default=",".join(SETTINGS), help="Data settings to run.")
+    parser.add_argument("--steps", type=int, default=None, help="Training steps (default: the pilot's S).")
+    parser.add_argument("--workers", type=int, default=1)
+    smoke = parser.add_argument_group("smoke runs only (never for results)")
+    smoke.add_argument("--demos", type=int, default=DEMOS)
+    smoke.add_argument("--pilot-steps", default=",".join(map(str, PILOT_STEPS)))
+    smoke.add_argument("--pilot-episodes", type=int, default=PILOT_EPISODES)
+    smoke.add_argument("--max-episodes", type=int, default=None)
+    args = parser.parse_args()
+    registry = load_registry()
+    found = load_suites(registry)
+    suites = {"nominal": found.get(NOMINAL), "shifted": found.get(SHIFTED)}
+    nominal = suites["nominal"].spec
+    ex = Experiment(
+        args.work,
+        args.workers,
+        nominal.image_size or 64,
+        nominal.render_profile,
+        args.demos,
+        tuple(int(s) for s in args.pilot_steps.split(",")),
+        args.pilot_episodes,
+        args.max_episodes,
+    )
+    pilot_file = args.docs / "pilot.json"
+    chosen = json.loads(pilot_file.read_text()) if pilot_file.is_file() else {}
+    names = args.tasks.split(",") if args.tasks else chosen.get("tasks") or [e.task for e in nominal.tasks]
+    tasks = [registry.get(n) for n in names]
+    if args.stage == "pilot":
+        pilot(ex, tasks, args.docs)
+        return
+    steps = args.steps or chosen.get("steps")
+    if steps is None:
+        raise SystemExit("no training steps: run the pilot first or pass --steps")
+    if args.stage == "run":
+        for task in tasks:
+            run_task(ex, task, steps, suites, [s for s in args.settings.split(",") if s])
+    print(report(ex, tasks, args.docs, steps))
+
+
+if __name__ == "__main__":
+    main()

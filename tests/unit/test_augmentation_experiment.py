@@ -1,0 +1,71 @@
+"""The augmentation experiment's pre-registered rules (docs/reproduction/plan.md): the pilot's
+choice of training steps and tasks, and the paired tests on synthetic outcomes."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "augmentation_experiment.py"
+spec = importlib.util.spec_from_file_location("augmentation_experiment", PATH)
+assert spec is not None and spec.loader is not None
+experiment = importlib.util.module_from_spec(spec)
+sys.modules["augmentation_experiment"] = experiment
+spec.loader.exec_module(experiment)
+
+HINGE, PLACE = "pipette/CloseCentrifugeLid-v1", "pipette/PlaceTubeOnBalance-v1"
+PICK, LIFT, OTHER = "pipette/PickUpTestTube-v1", "pipette/OpenWaterBathLid-v1", "pipette/RemoveTubeFromBalance-v1"
+
+
+def test_the_pilot_picks_the_fewest_steps_with_four_tasks_in_the_band_a_hinge_and_a_placement() -> None:
+    rates = {
+        HINGE: {500: 0.9, 1000: 0.5, 2000: 0.9, 4000: 1.0},
+        PLACE: {500: 0.0, 1000: 0.1, 2000: 0.3, 4000: 0.6},
+        PICK: {500: 0.2, 1000: 0.3, 2000: 0.5, 4000: 0.7},
+        LIFT: {500: 0.3, 1000: 0.5, 2000: 0.6, 4000: 0.9},
+        OTHER: {500: 0.1, 1000: 0.2, 2000: 0.4, 4000: 0.8},
+    }
+    # 1000: four in the band but no placement; 2000: four with the placement but no hinge (0.9):
+    # no count meets the rule, so the most tasks in the band, fewer steps first
+    assert experiment.choose(rates) == {"steps": 1000, "tasks": [HINGE, PICK, LIFT, OTHER], "rule_met": False}
+    rates[HINGE][2000] = 0.85  # the band is closed: 85 % is in it
+    assert experiment.choose(rates) == {"steps": 2000, "tasks": [HINGE, PLACE, PICK, LIFT, OTHER], "rule_met": True}
+
+
+def test_without_a_qualifying_count_the_most_tasks_in_the_band_win_then_fewer_steps() -> None:
+    rates = {HINGE: {500: 0.5, 1000: 0.5}, PICK: {500: 0.5, 1000: 0.5}, LIFT: {500: 1.0, 1000: 0.0}}
+    assert experiment.choose(rates, (500, 1000)) == {"steps": 500, "tasks": [HINGE, PICK], "rule_met": False}
+
+
+def outcomes(task: str, successes: list[int]) -> dict[tuple[str, int], bool]:
+    return {(task, 100_000 + i): bool(s) for i, s in enumerate(successes)}
+
+
+def test_paired_tests_per_task_and_pooled_with_holm() -> None:
+    cells = {
+        (PICK, "raw"): outcomes(PICK, [0] * 10 + [1] * 10),
+        (PICK, "aug_all"): outcomes(PICK, [1] * 8 + [0] * 2 + [1] * 10),  # 8 discordant, all for aug_all
+        (HINGE, "raw"): outcomes(HINGE, [1] * 20),
+        (HINGE, "aug_all"): outcomes(HINGE, [1] * 19 + [0]),
+        (HINGE, "aug_object"): outcomes(HINGE, [1] * 20),
+    }
+    rows = experiment.comparisons(cells, [PICK, HINGE])
+    primary = {r["task"]: r for r in rows if r["family"] == "primary"}
+    assert set(primary) == {PICK, HINGE, "pooled"}
+    assert (primary[PICK]["only_b"], primary[PICK]["only_a"]) == (8, 0) and primary[PICK]["p_value"] == pytest.approx(
+        2 / 2**8
+    )
+    assert primary[PICK]["p_holm"] == pytest.approx(2 * primary[PICK]["p_value"])  # Holm over the two tasks
+    pooled = primary["pooled"]  # 40 paired episodes: 8 for aug_all, 1 for raw
+    assert (pooled["n_a"], pooled["only_b"], pooled["only_a"]) == (40, 8, 1) and pooled["p_holm"] == pooled["p_value"]
+    assert pooled["difference"] == pytest.approx(7 / 40) and pooled["significant"]
+    secondary = [r for r in rows if r["family"] == "secondary"]
+    assert [(r["comparison"], r["task"]) for r in secondary] == [  # only complete pairs: no pooled test
+        ("aug_object vs raw", HINGE),
+        ("aug_all vs aug_object", HINGE),
+    ]
+    text = "\n".join(experiment.suite_section("nominal", cells, [PICK, HINGE], rows))
+    assert "| pipette/PickUpTestTube-v1 | 10/20 (30-70) | 18/20 (70-97) |" in text and "+40 pt" in text
