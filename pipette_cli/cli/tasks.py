@@ -101,6 +101,7 @@ def list_suites(
                 "episodes": sum(len(spec.task_seeds(t)) for t in spec.tasks),
                 "image_size": spec.image_size,
                 "render_profile": spec.render_profile,
+                "perturbations": [p.model_dump(mode="json") for p in spec.perturbations],
                 "sha256": entry.sha256,
                 "path": str(entry.path),
             }
@@ -114,9 +115,18 @@ def list_suites(
         Column("episodes", justify="right"),
         Column("image"),
         Column("name", wrap=True),
+        Column("varied per episode", wrap=True),
     ]
     cells = [
-        [r["id"], str(len(r["tasks"])), str(r["episodes"]), f"{r['image_size'] or 'task'} px", r["name"]] for r in rows
+        [
+            r["id"],
+            str(len(r["tasks"])),
+            str(r["episodes"]),
+            f"{r['image_size'] or 'task'} px",
+            r["name"],
+            ", ".join(p["type"] for p in r["perturbations"]),
+        ]
+        for r in rows
     ]
     out_console.print(Listing(plural(len(rows), "evaluation suite"), columns, cells))
 

@@ -120,7 +120,11 @@ def test_tasks_suites_fits(run_cli, columns, width: int) -> None:
     columns(width)
     result = run_cli("tasks", "suites")
     assert result.exit_code == 0, result.stderr
-    assert_listed(result.stdout, width, [[s["id"], str(len(s["tasks"])), s["name"]] for s in suites])
+    assert_listed(
+        result.stdout,
+        width,
+        [[s["id"], str(len(s["tasks"])), s["name"], ", ".join(p["type"] for p in s["perturbations"])] for s in suites],
+    )
 
 
 @pytest.mark.parametrize("width", WIDTHS)
