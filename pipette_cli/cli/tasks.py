@@ -327,4 +327,5 @@ def new_task(
     validate_task_document(parse_yaml(text, str(target)), str(target))
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(text, encoding="utf-8")
-    err_console.print(f"wrote {target}; check the VERIFY fields, then: pipette tasks validate {target}")
+    check = "check the VERIFY fields, then: " if "VERIFY" in text else "edit it, then: "
+    err_console.print(f"wrote {target}; {check}pipette tasks validate {target}", soft_wrap=True)

@@ -181,12 +181,17 @@ def test_new_from_each_template_writes_a_valid_task(run_cli, tmp_path: Path) -> 
         written = next(tmp_path.glob(f"try_{template}.yaml"))
         spec = load_task_file(written)
         assert spec.id == task_id and "VERIFY" in written.read_text()
+        assert "check the VERIFY fields, then: pipette tasks validate" in result.stderr
+    drafted = run_cli("tasks", "new", "mylab/CloseLid-v1", "--from", "CloseMicrocentrifugeLid", "--out", tmp_path)
+    assert drafted.exit_code == 0 and "check the VERIFY fields" in drafted.stderr  # a copy of a drafted task has some
 
 
 def test_new_by_copying_keeps_comments_and_refuses_overwrite(run_cli, tmp_path: Path) -> None:
     out = tmp_path / "copy.yaml"
     args = ("tasks", "new", "mylab/PickUpTestTube-v2", "--from", "PickUpTestTube", "--out", out)
-    assert run_cli(*args).exit_code == 0
+    first = run_cli(*args)
+    assert first.exit_code == 0 and "VERIFY" not in out.read_text()
+    assert f"wrote {out}; edit it, then: pipette tasks validate {out}" in first.stderr  # no VERIFY fields to check
     assert load_task_file(out).success.min_height_gain == 0.02
     assert "# paper A.8: z_t > z_0 + 0.02 m" in out.read_text()
     assert "paper-benchmark" not in load_task_file(out).tags  # a copy is not one of the twelve
