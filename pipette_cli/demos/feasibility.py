@@ -28,11 +28,11 @@ def scene_problems(task: TaskSpec) -> list[tuple[Loc, str]]:
     """``(field path, message)`` for every problem above; ``[]`` for a task that passes."""
     try:
         world = World(task, meshes="decimated", check=False)
+        world.reset(seed=0)  # the evaluator looks up the parts it reads
     except EvaluatorError as exc:  # a task pack's criterion type without its runtime
         return [(("success", "type"), str(exc))]
     except SimError as exc:
         return [_located(task, str(exc))]
-    world.reset(seed=0)
     far = world.out_of_reach([obj.name for obj in task.scene.objects])
     problems = world.interpenetrations() + far
     reported = {loc for loc, _ in far}
