@@ -141,6 +141,21 @@ def task_files(dirs: Iterable[Path]) -> list[Path]:
     return files
 
 
+def registered_files(extra_dirs: Iterable[Path] = ()) -> dict[str, Path]:
+    """Each task id in the registry folders and the file defining it (the first, for an id defined
+    twice), read without validating: the registry a task file would join, even where it does not load.
+    A file that does not parse is left out."""
+    found: dict[str, Path] = {}
+    for path in task_files(registry_dirs(extra_dirs)):
+        try:
+            task_id = read_yaml(path).get("id")
+        except SpecError:
+            continue
+        if isinstance(task_id, str):
+            found.setdefault(task_id, path)
+    return found
+
+
 @dataclass(frozen=True)
 class Registry:
     """All registered tasks by id."""

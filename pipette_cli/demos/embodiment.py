@@ -289,6 +289,23 @@ def reachable_base(task: TaskSpec, config: RobotSpec, space: Workspace) -> tuple
     )
 
 
+def reach_problems(task: TaskSpec, config: RobotSpec, space: Workspace) -> list[tuple[str, str]]:
+    """``(work point, why)`` for each work point of ``space`` out of the robot's reach from the task's
+    own base: farther than its ``reach`` or nearer than its ``min_reach`` (the hard limits; where
+    :func:`reachable_base` places a robot it keeps inside them by a margin, and takes what it picks
+    up from above within its ``top_down_reach``, a limit the grasp pitches the hand past)."""
+    base = np.asarray(task.embodiment.base.pos[:2], dtype=float)
+    out = []
+    for ref, point in space.points.items():
+        dist = float(np.linalg.norm(point[:2] - base))
+        where = f"{ref!r} is {dist:.2f} m from the {config.name} base axis"
+        if dist > config.reach:
+            out.append((ref, f"{where}, beyond its {config.reach:.2f} m reach"))
+        elif dist < config.min_reach:
+            out.append((ref, f"{where}, inside its {config.min_reach:.2f} m minimum reach"))
+    return out
+
+
 def _box_distance(boxes: np.ndarray, xy: np.ndarray) -> np.ndarray:
     """Horizontal distance from ``xy`` to each box (0 inside)."""
     nearest = np.clip(xy, boxes[:, :2], boxes[:, 3:5])

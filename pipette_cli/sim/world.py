@@ -9,6 +9,7 @@ nothing; see :mod:`.render`.
 from __future__ import annotations
 
 import logging
+from collections.abc import Iterable
 from functools import cached_property
 
 import mujoco
@@ -36,9 +37,11 @@ class World:
         task: The task spec.
         meshes: ``"decimated"`` swaps heavy visual-only meshes for simplified ones (the
             ``fast`` render profile, :mod:`.meshes`); the physics does not change.
+        check: Refuse a scene that fails :meth:`check_initial_state` (``False``: build it anyway,
+            to list every problem with :meth:`interpenetrations` and :meth:`out_of_reach`).
     """
 
-    def __init__(self, task: TaskSpec, *, meshes: MeshDetail = "full") -> None:
+    def __init__(self, task: TaskSpec, *, meshes: MeshDetail = "full", check: bool = True) -> None:
         self.task = task
         spec, self.robot, self.objects = make_scene_spec(task)
         self.spec = spec
@@ -74,7 +77,8 @@ class World:
         self.verdict = Verdict()
         self.step_count = 0
         self.seed: int | None = None
-        self.check_initial_state()
+        if check:
+            self.check_initial_state()
 
     # ------------------------------------------------------------------ lookups
     def _id(self, kind: mujoco.mjtObj, name: str) -> int:
@@ -362,29 +366,50 @@ class World:
 
     # ------------------------------------------------------------- build checks
     def check_initial_state(self) -> None:
-        """Refuse scenes whose objects interpenetrate at reset or stand out of the robot's reach."""
+        """Refuse scenes whose objects interpenetrate at reset or whose targets stand out of the
+        robot's reach (the first of :meth:`interpenetrations` and :meth:`out_of_reach`)."""
         self.reset(seed=0)
+        for loc, message in self.interpenetrations() + self.out_of_reach(self.task.targets):
+            raise SimError(f"{self.task.id}: {'.'.join(map(str, loc))}: {message}")
+
+    def interpenetrations(self) -> list[tuple[tuple[str | int, ...], str]]:
+        """``(field path, message)`` for each two owners (scene objects, the bench, the robot) whose
+        bodies interpenetrate now by more than :data:`PENETRATION_TOLERANCE`; the object listed last
+        in the task (the one added) is blamed."""
         m, d = self.model, self.data
-        robot_bodies = {i for i in range(m.nbody) if m.body(i).name.startswith(ROBOT_PREFIX)}
-        for i in range(d.ncon):
-            contact = d.contact[i]
-            if contact.dist < -PENETRATION_TOLERANCE:
-                b1, b2 = m.geom_bodyid[contact.geom1], m.geom_bodyid[contact.geom2]
-                if b1 in robot_bodies and b2 in robot_bodies:
-                    continue
-                names = sorted({m.body(b1).name.split("/")[0], m.body(b2).name.split("/")[0]})
-                raise SimError(
-                    f"{self.task.id}: scene.objects: {' and '.join(names)} interpenetrate by "
-                    f"{-contact.dist * 1000:.1f} mm at reset; move them apart"
-                )
-        base = np.asarray(self.task.embodiment.base.pos)
-        for i, obj in enumerate(self.task.scene.objects):
-            if obj.name not in self.task.targets:
+        robot = ROBOT_PREFIX.rstrip("/")
+        index = {obj.name: i for i, obj in enumerate(self.task.scene.objects)}
+        depths: dict[tuple[str, ...], float] = {}
+        for contact in d.contact[: d.ncon]:
+            if contact.dist >= -PENETRATION_TOLERANCE:
                 continue
-            reach = self.robot.reach
+            bodies = m.geom_bodyid[contact.geom1], m.geom_bodyid[contact.geom2]
+            owners = tuple(sorted({self._owners[b] for b in bodies}))
+            if owners != (robot,):  # the robot's links touch each other by design
+                depths[owners] = max(depths.get(owners, 0.0), -float(contact.dist))
+        problems: list[tuple[tuple[str | int, ...], str]] = []
+        for owners, depth in sorted(depths.items()):
+            named = [index[o] for o in owners if o in index]
+            loc: tuple[str | int, ...] = ("embodiment", "base") if robot in owners else ("scene",)
+            if named:
+                loc = ("scene", "objects", max(named), "pose")
+            message = f"{' and '.join(owners)} interpenetrate by {depth * 1000:.1f} mm at reset; move them apart"
+            problems.append((loc, message))
+        return problems
+
+    def out_of_reach(self, names: Iterable[str]) -> list[tuple[tuple[str | int, ...], str]]:
+        """``(field path, message)`` for each object of ``names`` whose collision geometry is all beyond
+        the robot's reach from its base axis, where it stands now."""
+        base = np.asarray(self.task.embodiment.base.pos)
+        reach = self.robot.reach
+        problems: list[tuple[tuple[str | int, ...], str]] = []
+        for i, obj in enumerate(self.task.scene.objects):
+            if obj.name not in names:
+                continue
             distance = self._nearest_xy(obj.name, base[:2])
             if distance > reach:
-                raise SimError(
-                    f"{self.task.id}: scene.objects.{i}.pose: {obj.name!r} is {distance:.2f} m from the "
-                    f"{self.robot.name} base, beyond its {reach} m reach"
+                message = (
+                    f"{obj.name!r} is {distance:.2f} m from the {self.robot.name} base, beyond its {reach} m reach"
                 )
+                problems.append((("scene", "objects", i, "pose"), message))
+        return problems

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 from pipette_cli.registry import load_registry, load_task_file
@@ -84,8 +85,82 @@ def test_validate_reports_duplicate_ids(run_cli) -> None:
 
 
 def test_validate_the_registry_and_a_good_file(run_cli) -> None:
-    assert run_cli("tasks", "validate").exit_code == 0
+    """Every shipped task passes every check, the scene built (reach, interpenetration) included."""
+    whole = run_cli("tasks", "validate")
+    assert whole.exit_code == 0, whole.stderr
+    assert f"{len(load_registry().tasks)} tasks and " in whole.stderr
     assert run_cli("tasks", "validate", FIXTURES / "valid_pick.yaml").exit_code == 0
+    folder = run_cli("tasks", "validate", REGISTRY)
+    assert folder.exit_code == 0, folder.stderr
+    assert folder.stderr.count("ok  ") == len(load_registry().tasks)
+
+
+REGISTRY = Path(__file__).parents[2] / "registry"
+TUBE_YAML = (REGISTRY / "pick_up_test_tube.yaml").read_text()
+
+
+def _line(path: Path, start: str) -> int:
+    return next(i for i, line in enumerate(path.read_text().splitlines(), 1) if line.lstrip().startswith(start))
+
+
+def test_validate_refuses_a_copy_whose_id_the_registry_has_naming_both_files(run_cli, tmp_path: Path) -> None:
+    copy = tmp_path / "my_tube.yaml"
+    copy.write_text(TUBE_YAML)
+    result = run_cli("tasks", "validate", copy)
+    assert result.exit_code == 1 and "ok  " not in result.stderr
+    assert (
+        f"error: {copy}:{_line(copy, 'id:')}: id: duplicate task id 'pipette/PickUpTestTube-v1', already defined in "
+        f"{REGISTRY / 'pick_up_test_tube.yaml'}" in result.stderr
+    )
+    # the registry's own file is not its own duplicate; the folders of --registry-dir are joined too
+    assert run_cli("tasks", "validate", REGISTRY / "pick_up_test_tube.yaml").exit_code == 0
+    (tmp_path / "pack").mkdir()
+    mine = TUBE_YAML.replace("pipette/PickUpTestTube-v1", "mylab/Tube-v1")
+    (tmp_path / "pack" / "tube.yaml").write_text(mine)
+    copy.write_text(mine)
+    assert run_cli("tasks", "validate", copy).exit_code == 0
+    joined = run_cli("--registry-dir", tmp_path / "pack", "tasks", "validate", copy)
+    assert joined.exit_code == 1 and f"already defined in {tmp_path / 'pack' / 'tube.yaml'}" in joined.stderr
+
+
+def test_validate_refuses_an_object_out_of_reach(run_cli, tmp_path: Path) -> None:
+    far = tmp_path / "far_tube.yaml"
+    far.write_text(
+        TUBE_YAML.replace("pipette/PickUpTestTube-v1", "mylab/FarTube-v1").replace(
+            "[0.5, 0.0, 0.55]", "[1.6, 0.0, 0.55]"
+        )
+    )
+    result = run_cli("tasks", "validate", far)
+    assert result.exit_code == 1 and "ok  " not in result.stderr
+    errors = [line for line in result.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and re.fullmatch(
+        rf"error: {re.escape(str(far))}:{_line(far, 'pose:')}: scene\.objects\.0\.pose: 'tube' is 1\.[56]\d m from the "
+        r"franka_panda base, beyond its 0\.82 m reach",
+        errors[0],
+    ), errors
+    assert run_cli("tasks", "validate", "--no-physics", far).exit_code == 0
+    near = tmp_path / "near_tube.yaml"  # where the expert grasps it, too near the base for the arm
+    near.write_text(far.read_text().replace("[1.6, 0.0, 0.55]", "[0.2, 0.12, 0.55]"))
+    result = run_cli("tasks", "validate", near)
+    assert (
+        result.exit_code == 1 and f"{near}:{_line(near, 'pose:')}: scene.objects.0.pose: 'tube' is 0.2" in result.stderr
+    )
+    assert "from the franka_panda base axis, inside its 0.28 m minimum reach" in result.stderr
+
+
+def test_validate_refuses_objects_that_interpenetrate_at_reset(run_cli, tmp_path: Path) -> None:
+    sunk = tmp_path / "sunk_tube.yaml"
+    sunk.write_text(
+        TUBE_YAML.replace("pipette/PickUpTestTube-v1", "mylab/SunkTube-v1").replace(
+            "[0.5, 0.0, 0.55]", "[0.5, 0.0, 0.50]"
+        )
+    )
+    result = run_cli("tasks", "validate", sunk)
+    assert result.exit_code == 1
+    assert (
+        f"error: {sunk}:{_line(sunk, 'pose:')}: scene.objects.0.pose: bench and tube interpenetrate by "
+        in result.stderr
+    )
 
 
 def test_usage_error_exits_2(run_cli) -> None:
@@ -119,12 +194,17 @@ def test_new_from_each_template_writes_a_valid_task(run_cli, tmp_path: Path) -> 
         written = next(tmp_path.glob(f"try_{template}.yaml"))
         spec = load_task_file(written)
         assert spec.id == task_id and "VERIFY" in written.read_text()
+        assert "check the VERIFY fields, then: pipette tasks validate" in result.stderr
+    drafted = run_cli("tasks", "new", "mylab/CloseLid-v1", "--from", "CloseMicrocentrifugeLid", "--out", tmp_path)
+    assert drafted.exit_code == 0 and "check the VERIFY fields" in drafted.stderr  # a copy of a drafted task has some
 
 
 def test_new_by_copying_keeps_comments_and_refuses_overwrite(run_cli, tmp_path: Path) -> None:
     out = tmp_path / "copy.yaml"
     args = ("tasks", "new", "mylab/PickUpTestTube-v2", "--from", "PickUpTestTube", "--out", out)
-    assert run_cli(*args).exit_code == 0
+    first = run_cli(*args)
+    assert first.exit_code == 0 and "VERIFY" not in out.read_text()
+    assert f"wrote {out}; edit it, then: pipette tasks validate {out}" in first.stderr  # no VERIFY fields to check
     assert load_task_file(out).success.min_height_gain == 0.02
     assert "# paper A.8: z_t > z_0 + 0.02 m" in out.read_text()
     assert "paper-benchmark" not in load_task_file(out).tags  # a copy is not one of the twelve

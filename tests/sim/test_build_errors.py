@@ -27,7 +27,7 @@ def test_unknown_robot_names_the_known_ones() -> None:
 
 
 def test_object_inside_the_bench_is_refused() -> None:
-    with pytest.raises(SimError, match=r"PickUpTestTube-v1: scene.objects: bench and tube interpenetrate"):
+    with pytest.raises(SimError, match=r"PickUpTestTube-v1: scene.objects.0.pose: bench and tube interpenetrate"):
         World(with_object_pose((0.5, 0.0, 0.50)))
 
 

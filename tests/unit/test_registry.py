@@ -149,6 +149,7 @@ PACK_WITH_EVALUATOR = """
 from pathlib import Path
 from typing import Literal
 
+from pipette_cli.evaluators.base import Verdict, register
 from pipette_cli.specs.evaluators import EvaluatorSpec, register_evaluator
 
 
@@ -158,6 +159,18 @@ class TouchSpec(EvaluatorSpec):
     object: str
 
 
+@register("mylab_touch")
+class Touch:
+    def __init__(self, spec):
+        self.spec = spec
+
+    def reset(self, state):
+        pass
+
+    def update(self, state):
+        return Verdict()
+
+
 TASKS = Path(__file__).parent / "mylab_tasks"
 """
 
@@ -165,7 +178,9 @@ TASKS = Path(__file__).parent / "mylab_tasks"
 def test_validating_one_file_knows_the_evaluator_types_of_task_packs(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, run_cli
 ) -> None:
-    """A pack that registers its own evaluator type: `tasks validate FILE` imports it first."""
+    """A pack that registers its own evaluator type (spec and runtime): `tasks validate FILE` imports it
+    first, and builds the task's scene with it."""
+    from pipette_cli.evaluators.base import EVALUATOR_RUNTIMES
     from pipette_cli.specs.evaluators import EVALUATORS
 
     (tmp_path / "mylab_tasks").mkdir()
@@ -185,5 +200,7 @@ def test_validating_one_file_knows_the_evaluator_types_of_task_packs(
         assert "mylab_touch" in EVALUATORS
     finally:
         EVALUATORS._types.remove("mylab_touch")
+        EVALUATOR_RUNTIMES._items.pop("mylab_touch", None)
+        EVALUATOR_RUNTIMES._sources.pop("mylab_touch", None)
         sys.modules.pop("mylab_evalpack", None)
     assert run_cli("tasks", "validate", tmp_path / "missing.yaml").exit_code == 1
