@@ -2,6 +2,8 @@
 
 Stages (each resumes: rerun the same command after an interruption and finished work is reused):
 
+  data    per task: the 30 demonstrations, the three augmented sets and the matching number of
+          fresh demonstrations (what does not depend on training; `run` does it too).
   pilot   raw ACT on every candidate task of the nominal suite, checkpoints at 500-4000 steps,
           each evaluated on 30 demonstration-range seeds (1000-1029, never a suite seed); picks
           the training steps S and the tasks by the plan's rule; writes pilot.json.
@@ -9,9 +11,10 @@ Stages (each resumes: rerun the same command after an interruption and finished 
           LeRobot dataset -> ACT for S steps -> evaluation on the nominal and the shifted suite
           (and the learning-curve checkpoints of raw and aug_all on the nominal suite).
   report  the tables of the plan's analysis: Wilson intervals, McNemar's exact test per task and
-          pooled over tasks, Holm-adjusted; failure modes, augmentation yield; results.json,
-          table.md and a chart in --docs.
+          pooled over tasks, Holm-adjusted; learning curves, failure modes, augmentation yield;
+          results.json and table.md in --docs.
 
+    python benchmarks/augmentation_experiment.py data --work runs/augmentation
     python benchmarks/augmentation_experiment.py pilot --work runs/augmentation
     python benchmarks/augmentation_experiment.py run --work runs/augmentation
     python benchmarks/augmentation_experiment.py report --work runs/augmentation
@@ -218,18 +221,26 @@ def choose(rates: dict[str, dict[int, float]], counts: tuple[int, ...] = PILOT_S
 
 
 # --------------------------------------------------------------------------------------------- run
+def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]:
+    """The demonstration file of each setting (recorded or augmented here unless done before);
+    each augmentation's yield report goes to ``yield.json``."""
+    raw = demonstrations(ex, task, ex.demos, "raw")
+    sources: dict[str, Path] = {"raw": raw}
+    path = ex.folder(task, "yield.json")
+    reports: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
+    for setting in VARIANTS:
+        if setting in settings or (setting == "aug_all" and "more_demos" in settings):
+            sources[setting], reports[setting] = augmented(ex, task, raw, setting)
+    path.write_text(json.dumps(reports, indent=2) + "\n")
+    if "more_demos" in settings:
+        sources["more_demos"] = demonstrations(ex, task, len(scan(sources["aug_all"]).episodes), "more_demos")
+    return sources
+
+
 def run_task(
     ex: Experiment, task: TaskSpec, steps: int, suites: dict[str, RegisteredSuite], settings: list[str]
 ) -> None:
-    raw = demonstrations(ex, task, ex.demos, "raw")
-    sources: dict[str, Path] = {"raw": raw}
-    reports: dict[str, Any] = {}
-    for setting in ("aug_all", "aug_object", "aug_visual"):
-        if setting in settings or (setting == "aug_all" and "more_demos" in settings):
-            sources[setting], reports[setting] = augmented(ex, task, raw, setting)
-    if "more_demos" in settings:
-        sources["more_demos"] = demonstrations(ex, task, len(scan(sources["aug_all"]).episodes), "more_demos")
-    (ex.folder(task, "yield.json")).write_text(json.dumps(reports, indent=2) + "\n")
+    sources = data(ex, task, settings)
     quarter = max(1, steps // 4)
     for setting in settings:
         # raw trains once for the pilot's longest run: without a learning-rate schedule (ACT has
@@ -395,7 +406,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("stage", choices=("pilot", "run", "report"))
+    parser.add_argument("stage", choices=("data", "pilot", "run", "report"))
     parser.add_argument("--work", type=Path, default=Path("runs/augmentation"))
     parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction" / "augmentation")
     parser.add_argument(
@@ -430,6 +441,10 @@ def main() -> None:
     tasks = [registry.get(n) for n in names]
     if args.stage == "pilot":
         pilot(ex, tasks, args.docs)
+        return
+    if args.stage == "data":  # what does not depend on training: demonstrations and augmentation
+        for task in tasks:
+            data(ex, task, [s for s in args.settings.split(",") if s])
         return
     steps = args.steps or chosen.get("steps")
     if steps is None:
