@@ -384,19 +384,18 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
             + " |"
         )
     commit, dirty = git_state()
-    results.update(
-        {
-            "git_commit": commit,
-            "git_dirty": dirty,
-            "command": " ".join(sys.argv),
-            "demos": ex.demos,
-            "max_episodes": ex.max_episodes,
-            "atoms": ATOMS,
-            "variants": VARIANTS,
-            "act_flags": list(SMALL_ACT),
-            "batch_size": BATCH,
-        }
-    )
+    results["settings"] = {
+        "git_commit": commit,
+        "git_dirty": dirty,
+        "command": " ".join(sys.argv),
+        "demos": ex.demos,
+        "max_episodes": ex.max_episodes,
+        "atoms": ATOMS,
+        "variants": VARIANTS,
+        "act_flags": list(SMALL_ACT),
+        "batch_size": BATCH,
+        "suites": {"nominal": NOMINAL, "shifted": SHIFTED},
+    }
     docs.mkdir(parents=True, exist_ok=True)
     (docs / "results.json").write_text(json.dumps(results, indent=2) + "\n")
     text = "\n".join(lines) + "\n"
