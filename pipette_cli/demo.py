@@ -50,12 +50,17 @@ SMALL_ACT = (
     "--policy.n_action_steps=20",
     "--policy.optimizer_lr=1e-4",
     "--policy.optimizer_lr_backbone=1e-4",
-    "--num_workers=0",
+    "--num_workers=1",
     "--log_freq=20",
     "--seed=1000",
 )
 """The ACT of the CPU reproduction (``docs/reproduction``): dim 128, 2 encoder / 1 decoder layers,
-chunk 20, ResNet-18 from scratch; it learns the lid tasks from a few dozen demonstrations."""
+chunk 20, ResNet-18 from scratch; it learns the lid tasks from a few dozen demonstrations. Its batches
+are loaded by one dataloader worker while the training process computes (docs/training.md)."""
+SMALL_ACT_THREADS = 1
+"""Torch threads of the training process for :data:`SMALL_ACT` on a CPU: the training process on one
+core, its dataloader worker on the other (a 2-core machine); with other work on the machine, two
+threads wait for each other (``benchmarks/bench_train.py``, docs/training.md)."""
 TINY_ACT = (
     "--policy.dim_model=64",
     "--policy.dim_feedforward=128",
