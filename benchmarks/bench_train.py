@@ -107,13 +107,14 @@ CONFIGS = {
 DATASETS = {"images": (64, False), "video": (64, True), "images32": (32, False)}
 
 
-def build_datasets(work: Path, episodes: int) -> dict[str, Path]:
-    """``work/<name>/<task>/raw`` for each of :data:`DATASETS` (reused when present)."""
+def build_datasets(work: Path, episodes: int, names: set[str]) -> dict[str, Path]:
+    """``work/<name>/<task>/raw`` for each of :data:`DATASETS` in ``names`` (reused when present)."""
     task = load_registry().get(TASK)
     roots = {}
-    for name, (size, video) in DATASETS.items():
-        root = dataset_root(TASK, DatasetVersion.raw, work / name)
+    for name in sorted(names):
+        size, video = DATASETS[name]
         roots[name] = work / name
+        root = dataset_root(TASK, DatasetVersion.raw, roots[name])
         if (root / "meta" / "info.json").is_file():
             continue
         demos = work / f"demos_{size}.h5"
@@ -265,7 +266,9 @@ def main() -> None:
     unknown = set(names) - set(CONFIGS)
     if unknown:
         parser.error(f"unknown --configs {sorted(unknown)}; choose from {', '.join(CONFIGS)}")
-    roots = build_datasets(args.work, args.episodes)
+    roots = build_datasets(
+        args.work, args.episodes, {CONFIGS[n].data for n in names} | ({"images", "video"} if args.components else set())
+    )
     runs: dict[str, list[dict[str, Any]]] = {name: [] for name in names}
     for r in range(args.rounds):
         for name in names:
@@ -289,12 +292,17 @@ def main() -> None:
     commit, dirty = git_state()
     data = {
         "benchmark": "bench_train",
-        "git_commit": commit,
-        "git_dirty": dirty,
         "command": "python benchmarks/bench_train.py " + " ".join(sys.argv[1:]),
         "machine": {"cpus": os.cpu_count(), "platform": platform.platform(), "inherited_env": INHERITED},
         "task": TASK,
-        "settings": {"steps": args.steps, "warmup": args.warmup, "rounds": args.rounds, "episodes": args.episodes},
+        "settings": {
+            "steps": args.steps,
+            "warmup": args.warmup,
+            "rounds": args.rounds,
+            "episodes": args.episodes,
+            "git_commit": commit,
+            "git_dirty": dirty,
+        },
         "preset_flags": list(SMALL_ACT),
         "rows": {name: {"what": CONFIGS[name].what, **row} for name, row in rows.items()},
         "components_s": parts,

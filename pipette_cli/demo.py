@@ -88,6 +88,7 @@ class DemoSize:
     eval_episodes: int
     variants: str
     act: tuple[str, ...]
+    threads: int | None
     judged: bool
     """Whether the policy is expected to learn (False: a smoke run of every stage)."""
 
@@ -100,6 +101,7 @@ FULL = DemoSize(
     eval_episodes=10,
     variants="original,light,speed",
     act=SMALL_ACT,
+    threads=SMALL_ACT_THREADS,
     judged=True,
 )
 FAST = DemoSize(
@@ -110,6 +112,7 @@ FAST = DemoSize(
     eval_episodes=2,
     variants="light,speed",
     act=TINY_ACT,
+    threads=SMALL_ACT_THREADS,
     judged=False,
 )
 
@@ -282,6 +285,7 @@ def run_demo(task: TaskSpec, out: Path, size: DemoSize, *, say: Any = print) -> 
         output_root=out / "train",
         if_exists=IfExists.overwrite,
         offline=True,
+        threads=size.threads,
         extra=size.act,
     )
     checkpoint = train_checkpoint(task.id, options)
