@@ -11,7 +11,8 @@ reused, and an evaluation continues after its last finished episode.
 Presets (each setting can be overridden by its flag):
 
   cpu    this machine's scale: suite pipette/CpuReproduction-v1 (4 tasks, 64 px, 50 episodes
-         each), a small ACT, 300 steps of batch 8 (lr 1e-4).
+         each), a small ACT, 300 steps of batch 8 (lr 1e-4), one torch thread and one dataloader
+         worker (docs/training.md: "Training speed on a CPU").
   paper  the paper's settings (appendix D.1, table 6): suite pipette/PaperBenchmark-v1 (12 tasks,
          400 px, 75 episodes each), LeRobot's default ACT, 15000 steps of batch 32, on CUDA.
 
@@ -43,7 +44,7 @@ if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie")
 
 from pipette_cli.augment.run import augment  # noqa: E402
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
-from pipette_cli.demo import SMALL_ACT  # noqa: E402
+from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
@@ -67,6 +68,8 @@ class Preset:
     batch_size: int
     device: str
     act_flags: tuple[str, ...]
+    threads: int | None
+    """Torch threads of each training run (None: torch's, one per core)."""
 
 
 PRESETS = {
@@ -78,6 +81,7 @@ PRESETS = {
         batch_size=8,
         device="cpu",
         act_flags=SMALL_ACT,
+        threads=SMALL_ACT_THREADS,
     ),
     "paper": Preset(
         suite="pipette/PaperBenchmark-v1",
@@ -87,6 +91,7 @@ PRESETS = {
         batch_size=32,
         device="cuda",
         act_flags=("--num_workers=4",),
+        threads=None,
     ),
 }
 # The paper's ACT success rates (table 2), raw ("Unenh.") and augmented ("Enh."), in percent.
@@ -158,6 +163,7 @@ def run_task(task: TaskSpec, suite: RegisteredSuite, preset: Preset, work: Path,
             output_root=folder / "train",
             if_exists=IfExists.skip,
             offline=True,
+            threads=preset.threads,
             extra=preset.act_flags,
         )
         checkpoint = train_checkpoint(
@@ -300,7 +306,7 @@ def main() -> None:
         default=min(2, os.cpu_count() or 1),
         help="Processes for collection, augmentation and evaluation.",
     )
-    for field in ("demos", "steps", "batch_size"):
+    for field in ("demos", "steps", "batch_size", "threads"):
         parser.add_argument(f"--{field.replace('_', '-')}", type=int, default=None)
     parser.add_argument("--variants", default=None, help="Augmentation variants, as `pipette augment --variants`.")
     parser.add_argument("--device", default=None)
@@ -308,7 +314,7 @@ def main() -> None:
     preset = PRESETS[args.preset]
     overrides = {
         k: getattr(args, k)
-        for k in ("suite", "demos", "steps", "batch_size", "variants", "device")
+        for k in ("suite", "demos", "steps", "batch_size", "threads", "variants", "device")
         if getattr(args, k) is not None
     }
     preset = replace(preset, **overrides)

@@ -55,12 +55,17 @@ SMALL_ACT = (
     "--policy.n_action_steps=20",
     "--policy.optimizer_lr=1e-4",
     "--policy.optimizer_lr_backbone=1e-4",
-    "--num_workers=0",
+    "--num_workers=1",
     "--log_freq=20",
     "--seed=1000",
 )
 """The ACT of the CPU reproduction (``docs/reproduction``): dim 128, 2 encoder / 1 decoder layers,
-chunk 20, ResNet-18 from scratch; it learns the lid tasks from a few dozen demonstrations."""
+chunk 20, ResNet-18 from scratch; it learns the lid tasks from a few dozen demonstrations. Its batches
+are loaded by one dataloader worker while the training process computes (docs/training.md)."""
+SMALL_ACT_THREADS = 1
+"""Torch threads of the training process for :data:`SMALL_ACT` on a CPU: the training process on one
+core, its dataloader worker on the other (a 2-core machine); with other work on the machine, two
+threads wait for each other (``benchmarks/bench_train.py``, docs/training.md)."""
 TINY_ACT = (
     "--policy.dim_model=64",
     "--policy.dim_feedforward=128",
@@ -88,6 +93,7 @@ class DemoSize:
     eval_episodes: int
     variants: str
     act: tuple[str, ...]
+    threads: int | None
     judged: bool
     """Whether the policy is expected to learn (False: a smoke run of every stage)."""
 
@@ -100,6 +106,7 @@ FULL = DemoSize(
     eval_episodes=10,
     variants="original,light,speed",
     act=SMALL_ACT,
+    threads=SMALL_ACT_THREADS,
     judged=True,
 )
 FAST = DemoSize(
@@ -110,6 +117,7 @@ FAST = DemoSize(
     eval_episodes=2,
     variants="light,speed",
     act=TINY_ACT,
+    threads=SMALL_ACT_THREADS,
     judged=False,
 )
 
@@ -316,6 +324,7 @@ def run_demo(
         output_root=out / "train",
         if_exists=IfExists.overwrite,
         offline=True,
+        threads=size.threads,
         extra=size.act,
     )
     with _stage(report_progress("train", "steps")) as shown:

@@ -66,6 +66,9 @@ def train(
     offline: Annotated[bool, typer.Option("--offline", help=spec_help(TrainOptions, "offline"))] = spec_default(
         TrainOptions, "offline"
     ),
+    threads: Annotated[
+        int | None, typer.Option("--threads", min=1, help=spec_help(TrainOptions, "threads"))
+    ] = spec_default(TrainOptions, "threads"),
     extra: Annotated[
         list[str] | None,
         typer.Option(
@@ -109,6 +112,7 @@ def train(
         vlm_path=vlm_path,
         act_backbone_weights=act_backbone_weights,
         offline=offline,
+        threads=threads,
         extra=tuple(extra or ()),
     )
     executable = "lerobot-train" if dry_run else lerobot_train_executable()

@@ -109,6 +109,9 @@ class TrainOptions:
         None, "torchvision weights for ACT's ResNet, e.g. ResNet18_Weights.IMAGENET1K_V1 (default: none, random init)"
     )
     offline: bool = described(False, "Run with HF_HUB_OFFLINE=1: only local folders and the Hugging Face cache")
+    threads: int | None = described(
+        None, "CPU threads of the training process (OMP_NUM_THREADS; default: torch's, one per core)"
+    )
     extra: tuple[str, ...] = ()
 
 
@@ -265,6 +268,8 @@ def plan(task_ids: Sequence[str], options: TrainOptions, *, executable: str = "l
             training output.
     """
     env = {"HF_HUB_OFFLINE": "1", "HF_DATASETS_OFFLINE": "1"} if options.offline else {}
+    if options.threads is not None:
+        env |= {"OMP_NUM_THREADS": str(options.threads), "MKL_NUM_THREADS": str(options.threads)}
     jobs: list[TrainJob] = []
     problems: list[str] = []
     for task_id in task_ids:

@@ -257,3 +257,25 @@ def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp
     stamp = [p.stat().st_mtime for p in checkpoints]
     again = bench("augmentation_experiment.py", "run", *run, timeout=600)  # every stage reused
     assert "training" not in again.stdout and [p.stat().st_mtime for p in checkpoints] == stamp
+
+
+@pytest.mark.render
+def test_bench_train_times_lerobot_train_steps_of_each_config(tmp_path) -> None:
+    out = tmp_path / "train.json"
+    result = bench(
+        "bench_train.py",
+        *("--work", str(tmp_path / "work"), "--episodes", "1", "--configs", "before,after"),
+        *("--steps", "4", "--warmup", "1", "--rounds", "1", "--out", str(out)),
+    )
+    data = read(out)
+    assert list(data["rows"]) == ["before", "after"]
+    for row in data["rows"].values():
+        [step] = row["s_per_step_rounds"]
+        assert row["s_per_step"] == step and row["samples_per_s"] == pytest.approx(8 / step)
+        assert 0 < row["data_s"] < step and 0 < row["update_s"] < step
+    [before], [after] = data["runs"]["before"], data["runs"]["after"]
+    assert [a for a in before["argv"] if a.startswith("--num_workers")][-1] == "--num_workers=0"
+    assert "OMP_NUM_THREADS" not in before["env"]  # the preset as it was: data in-process, torch's threads
+    assert [a for a in after["argv"] if a.startswith("--num_workers")][-1] == "--num_workers=1"
+    assert after["env"]["OMP_NUM_THREADS"] == "1"
+    assert "--log_freq=1" in after["argv"] and "| before |" in result.stdout

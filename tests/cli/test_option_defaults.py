@@ -76,6 +76,7 @@ BOUND: dict[tuple[str, str], tuple[type, str]] = {
             "vlm_path",
             "act_backbone_weights",
             "offline",
+            "threads",
         )
     },
     ("eval", "--dataset-version"): (EvalSettings, "dataset_version"),

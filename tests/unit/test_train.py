@@ -317,3 +317,33 @@ def test_lerobot_parser_rejects_an_unknown_flag() -> None:
     with pytest.raises(SystemExit) as exc:
         parse_train_config(argv)
     assert exc.value.code == 2
+
+
+def test_threads_sets_the_training_process_threads(workdir: Path, run_cli) -> None:
+    [job] = dry_run(run_cli, "--tasks", TASK, "--policy", "act", "--threads", "1", "--offline")
+    assert job["env"] == {
+        "HF_HUB_OFFLINE": "1",
+        "HF_DATASETS_OFFLINE": "1",
+        "OMP_NUM_THREADS": "1",
+        "MKL_NUM_THREADS": "1",
+    }
+    assert not any("thread" in a for a in job["argv"])  # an environment setting, not a lerobot-train flag
+
+
+def test_the_cpu_small_act_loads_in_one_worker_on_one_thread() -> None:
+    """The small ACT of `pipette demo` and the CPU reproduction preset, as lerobot-train reads it:
+    the settings docs/training.md measured (one dataloader worker, one torch thread)."""
+    from pipette_cli.demo import FULL, SMALL_ACT, SMALL_ACT_THREADS
+
+    options = TrainOptions(policy=Policy.act, device="cpu", batch_size=8, threads=FULL.threads, extra=FULL.act)
+    cfg = parse_train_config(train_argv(TASK, options))
+    assert FULL.act == SMALL_ACT and SMALL_ACT_THREADS == 1
+    assert cfg.num_workers == 1 and cfg.persistent_workers  # the worker lives through the run, not one epoch
+    assert (cfg.policy.dim_model, cfg.policy.n_encoder_layers, cfg.policy.chunk_size, cfg.policy.use_amp) == (
+        128,
+        2,
+        20,
+        False,
+    )
+    [job] = plan([TASK], options)
+    assert job.env["OMP_NUM_THREADS"] == "1"
