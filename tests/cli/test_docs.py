@@ -152,12 +152,21 @@ def test_the_guides_runnable_blocks_run(run_cli, tmp_path: Path, monkeypatch: py
     assert (tmp_path / "datasets" / "pipette_PickUpTestTube-v1" / "raw" / "meta" / "info.json").is_file()
 
 
-def test_the_readmes_runnable_blocks_run(run_cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The README's blocks install and run the full demo (minutes): none is marked today; one that is runs here."""
-    page = ROOT / "README.md"
-    if not runnable_blocks(page):
-        pytest.skip("README.md marks no block runnable")
-    _run_page(page, run_cli, tmp_path, monkeypatch)
+def test_the_readmes_two_commands_are_the_ones_ci_and_the_tests_run(
+    run_cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's blocks install and run the full demo (minutes): CI runs its install and its test
+    command as written (.ci/run), and ``pipette demo --fast`` runs every stage in tests/cli/test_demo_cli.py;
+    a README block marked runnable would run here like the guide's."""
+    readme = (ROOT / "README.md").read_text()
+    blocks = re.findall(r"```bash\n(.*?)```", readme, re.S)
+    install, tests = blocks[0].strip(), blocks[1].strip()
+    assert install == "bash .ci/install && .venv/bin/pipette demo"
+    ci = (ROOT / ".ci" / "run").read_text()
+    assert "bash .ci/install" in ci and f"{tests}\n" in ci
+    assert "# README command 2:" in ci
+    if runnable_blocks(ROOT / "README.md"):  # a block marked runnable runs as the guide's do
+        _run_page(ROOT / "README.md", run_cli, tmp_path, monkeypatch)
 
 
 def test_markers_are_parsed_with_their_replacements() -> None:
