@@ -39,7 +39,7 @@ if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie")
 
 from pipette_cli.augment.run import augment  # noqa: E402
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
-from pipette_cli.demo import SMALL_ACT  # noqa: E402
+from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
@@ -144,6 +144,7 @@ def trained(ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: i
         output_root=ex.folder(task, setting, "train"),
         if_exists=IfExists.skip,
         offline=True,
+        threads=SMALL_ACT_THREADS,
         extra=(*SMALL_ACT, f"--save_freq={save_freq}", f"--seed={TRAIN_SEED}"),
     )
     last = train_checkpoint(task.id, options, on_train=lambda job: say(f"{task.id} {setting}: training {steps} steps"))
@@ -393,6 +394,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
         "atoms": ATOMS,
         "variants": VARIANTS,
         "act_flags": list(SMALL_ACT),
+        "train_threads": SMALL_ACT_THREADS,
         "batch_size": BATCH,
         "suites": {"nominal": NOMINAL, "shifted": SHIFTED},
     }
