@@ -121,8 +121,11 @@ def augmented(ex: Experiment, task: TaskSpec, raw: Path, setting: str) -> tuple[
     return out, result.report
 
 
-def trained(ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: int, save_freq: int) -> Path:
-    """The run folder of ACT trained ``steps`` steps on ``source`` (checkpoints every ``save_freq``)."""
+def trained(
+    ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: int, save_freq: int, folder: str = "train"
+) -> Path:
+    """The run folder of ACT trained ``steps`` steps on ``source`` (checkpoints every ``save_freq``),
+    under ``<task>/<setting>/<folder>``."""
     version = DatasetVersion.raw if setting in ("raw", "more_demos") else DatasetVersion.augmented
     datasets = ex.folder(task, setting, "datasets")
     slug = task.id.replace("/", "_")
@@ -141,7 +144,7 @@ def trained(ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: i
         batch_size=BATCH,
         device="cpu",
         datasets_root=datasets,
-        output_root=ex.folder(task, setting, "train"),
+        output_root=ex.folder(task, setting, folder),
         if_exists=IfExists.skip,
         offline=True,
         threads=SMALL_ACT_THREADS,
@@ -243,22 +246,27 @@ def run_task(
 ) -> None:
     sources = data(ex, task, settings)
     quarter = max(1, steps // 4)
+    every = min(ex.pilot_steps)
     for setting in settings:
-        # raw trains once for the pilot's longest run: without a learning-rate schedule (ACT has
-        # none), its checkpoint at step S is the S-step run
-        total = max(ex.pilot_steps) if setting == "raw" else steps
-        run = trained(ex, task, setting, sources[setting], total, quarter if setting != "raw" else min(ex.pilot_steps))
+        if setting == "raw" and quarter % every == 0 and steps <= max(ex.pilot_steps):
+            # the pilot's run: without a learning-rate schedule (ACT has none) and with the same
+            # seed, its checkpoints at S/4, S/2 and S are those of an S-step run
+            total = max(ex.pilot_steps)
+            run = trained(ex, task, setting, sources[setting], total, every)
+        else:
+            folder = "train" if setting != "raw" else f"train_{steps}"
+            total = steps
+            run = trained(ex, task, setting, sources[setting], total, quarter, folder)
         final = checkpoint(run, steps, total)
         for name, suite in suites.items():
             plan = episode_plan(suite.spec, [task.id])[task.id]
             evaluated(ex, task, final, setting, ex.folder(task, "eval", name, setting), plan, suite)
         if setting in ("raw", "aug_all"):
             plan = episode_plan(suites["nominal"].spec, [task.id])[task.id]
-            for step in (steps // 4, steps // 2):
-                if step >= 1 and (setting != "raw" or step % min(ex.pilot_steps) == 0):
-                    label = f"{setting}@{step}"
-                    folder = ex.folder(task, "eval", "curve", label)
-                    evaluated(ex, task, checkpoint(run, step, total), label, folder, plan, suites["nominal"])
+            for step in sorted({steps // 4, steps // 2} - {0}):
+                label = f"{setting}@{step}"
+                into = ex.folder(task, "eval", "curve", label)
+                evaluated(ex, task, checkpoint(run, step, total), label, into, plan, suites["nominal"])
 
 
 # ------------------------------------------------------------------------------------------ report

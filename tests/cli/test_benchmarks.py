@@ -238,10 +238,10 @@ def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp
     """About 6 minutes: a pilot, five data settings trained and evaluated on both suites, the report."""
     work, docs = tmp_path / "work", tmp_path / "docs"
     tiny = ("--work", str(work), "--docs", str(docs), "--tasks", "pipette/PickUpTestTube-v1", "--demos", "2")
-    bench("augmentation_experiment.py", "pilot", *tiny, "--pilot-steps", "2,4", "--pilot-episodes", "2")
+    bench("augmentation_experiment.py", "pilot", *tiny, "--pilot-steps", "1,4", "--pilot-episodes", "2")
     pilot = json.loads((docs / "pilot.json").read_text())
-    assert set(pilot["success"]["pipette/PickUpTestTube-v1"]) == {"2", "4"} and pilot["seeds"] == [1000, 1001]
-    run = (*tiny, "--pilot-steps", "2,4", "--steps", "4", "--max-episodes", "2")
+    assert set(pilot["success"]["pipette/PickUpTestTube-v1"]) == {"1", "4"} and pilot["seeds"] == [1000, 1001]
+    run = (*tiny, "--pilot-steps", "1,4", "--steps", "4", "--max-episodes", "2")
     bench("augmentation_experiment.py", "run", *run, timeout=1200)
     data = read(docs / "results.json")
     for suite in ("nominal", "shifted"):
@@ -253,7 +253,8 @@ def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp
     logs = list((work / "pipette_PickUpTestTube-v1" / "eval" / "shifted" / "raw").glob("episode_*.json"))
     assert logs and all(json.loads(p.read_text())["conditions"]["object_pose"]["task_range"] == 1.5 for p in logs)
     checkpoints = sorted(work.rglob("checkpoints/last/pretrained_model/config.json"))
-    assert len(checkpoints) == 5 and kept >= 2
+    assert len(checkpoints) == 5 and kept >= 2  # raw is the pilot's run (its checkpoints at 1, 2 and 4 steps)
+    assert (work / "pipette_PickUpTestTube-v1" / "eval" / "curve" / "raw@1").is_dir()
     stamp = [p.stat().st_mtime for p in checkpoints]
     again = bench("augmentation_experiment.py", "run", *run, timeout=600)  # every stage reused
     assert "training" not in again.stdout and [p.stat().st_mtime for p in checkpoints] == stamp
