@@ -122,6 +122,18 @@ class TypeRegistry(Generic[T]):
             raise TypeError(f"{cls.__name__} needs a default for its {self.key!r} field")
         return self._types.add(name, cls)
 
+    def name_of(self, cls: type[T]) -> str:
+        """The name ``cls`` is registered under (the default of its key field).
+
+        Raises:
+            SpecError: ``cls`` is not the class registered under that name.
+        """
+        field = cls.model_fields.get(self.key)
+        name = field.default if field is not None else None
+        if not isinstance(name, str) or self._types.find(name) is not cls:
+            raise SpecError(f"{cls.__name__} is not a registered {self.kind} type (register it first)")
+        return name
+
     def names(self) -> list[str]:
         return self._types.names()
 

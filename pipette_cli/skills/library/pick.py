@@ -132,7 +132,7 @@ def _upright_follow_through(ctx: SkillContext, step: InsertIntoSpec) -> FollowTh
     return then
 
 
-@skill("pick")
+@skill(PickSpec)
 def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
     yield from grasp(ctx, step.object, at=step.at, mode=step.grasp, height=step.height)
     yield from ctx.lift_clear(step.lift, required=True)
@@ -141,7 +141,7 @@ def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-@skill("remove_from")
+@skill(RemoveFromSpec)
 def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
     source = ctx.scene.bodies(step.source)
     yield from grasp(ctx, step.object, at=step.at, extra_touch=source)
