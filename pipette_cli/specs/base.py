@@ -26,6 +26,9 @@ Name = Annotated[str, Field(pattern=NAME_PATTERN, description="lower_snake_case 
 # "object" or "object/part" where part is a body, joint or site inside the object's asset.
 Ref = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*(/[A-Za-z0-9_]+)?$", description="object or object/part")]
 Vec3 = tuple[float, float, float]
+BENCH_TOP_Z = 0.55
+"""Height (m) of the bench top in the bench frame (origin on the floor under the robot base, z up): what
+the bench asset is built to and the robots stand on by default."""
 
 
 def described(default: Any, description: str) -> Any:
