@@ -1,14 +1,18 @@
 """The layers of ARCHITECTURE.md, enforced: a package imports only from its own layer's packages
 below it, never from a layer above (function-level imports included); modules import each other
 without cycles; an import inside a function says which heavy dependency it defers (and `pipette
---help` imports none of them); and modules keep to size."""
+--help` imports none of them); every third-party package imported is declared in pyproject.toml; and
+modules keep to size."""
 
 from __future__ import annotations
 
 import ast
 import json
+import re
 import subprocess
 import sys
+import tomllib
+from importlib.metadata import packages_distributions
 from pathlib import Path
 
 import pytest
@@ -245,3 +249,33 @@ def test_pipette_help_imports_no_heavy_dependency() -> None:
     )
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert json.loads(loaded) == []
+
+
+def _distribution(name: str) -> str:
+    """A distribution's name as pip compares them (PEP 503): ``ruamel.yaml`` and ``Ruamel_YAML`` are one."""
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def test_every_imported_package_is_declared() -> None:
+    project = tomllib.loads((ROOT.parent / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    requirements = project["dependencies"] + [r for extra in project["optional-dependencies"].values() for r in extra]
+    declared = {_distribution(re.split(r"[\s\[<>=!~;]", r, maxsplit=1)[0]) for r in requirements}
+    providers = packages_distributions()
+    undeclared = []
+    for path in MODULES:
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                tops = [node.module.split(".")[0]]
+            elif isinstance(node, ast.Import):
+                tops = [alias.name.split(".")[0] for alias in node.names]
+            else:
+                continue
+            for top in tops:
+                if top == "pipette_cli" or top in sys.stdlib_module_names:
+                    continue
+                dists = {_distribution(d) for d in providers.get(top, [top])}
+                if not dists & declared:
+                    undeclared.append(
+                        f"{path.relative_to(ROOT.parent)}:{node.lineno}: {top} ({', '.join(sorted(dists))})"
+                    )
+    assert not undeclared, "declare in pyproject.toml what these import:\n" + "\n".join(undeclared)
