@@ -1,8 +1,8 @@
 """The layers of ARCHITECTURE.md, enforced: a package imports only from its own layer's packages
 below it, never from a layer above (function-level imports included); modules import each other
-without cycles; an import inside a function says which heavy dependency it defers (and `pipette
---help` imports none of them); every third-party package imported is declared in pyproject.toml; and
-modules keep to size."""
+without cycles, and never a private ``_name`` of another module; an import inside a function says
+which heavy dependency it defers (and `pipette --help` imports none of them); every third-party
+package imported is declared in pyproject.toml; and modules keep to size."""
 
 from __future__ import annotations
 
@@ -91,6 +91,30 @@ def test_the_layer_check_sees_a_wrong_import(tmp_path: Path) -> None:
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from pipette_cli.cli.main import app\n")
     assert _imports(module) == [(2, "cli")]
+
+
+def _private_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, ``module.name``) for every ``_name`` the module imports from another module of the package."""
+    return [
+        (node.lineno, f"{node.module}.{alias.name}")
+        for node in ast.walk(ast.parse(path.read_text(), str(path)))
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("pipette_cli")
+        for alias in node.names
+        if alias.name.startswith("_") and not alias.name.startswith("__")
+    ]
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    private = [
+        f"{path.relative_to(ROOT.parent)}:{line}: {name}" for path in MODULES for line, name in _private_imports(path)
+    ]
+    assert private == [], "make the name public in the module that owns it (or move it where both can import it)"
+
+
+def test_the_private_import_check_sees_one(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text("from pipette_cli.skills.grasp import Grasp, __all__, _first_reachable\n")
+    assert _private_imports(module) == [(1, "pipette_cli.skills.grasp._first_reachable")]
 
 
 def _function_imports(path: Path) -> list[tuple[int, bool]]:
