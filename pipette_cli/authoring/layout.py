@@ -18,10 +18,9 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.sim.scene import robot_boxes
+from pipette_cli.specs.base import BENCH_TOP_Z
 from pipette_cli.specs.robot import robot_spec
 
-BENCH_Z = 0.55
-"""Height of the bench top (the task's default robot base height stands on it)."""
 BENCH_X = (-0.3, 1.2)
 BENCH_Y = (-0.47, 0.47)
 GRID_STEP = 0.025
@@ -99,7 +98,7 @@ class Layout:
     def __init__(self, robot: str) -> None:
         self.workspace = Workspace.of(robot)
         arm = robot_boxes(robot)
-        self.robot = arm[arm[:, 5] > BENCH_Z + 0.002]  # parts below the bench top never collide
+        self.robot = arm[arm[:, 5] > BENCH_TOP_Z + 0.002]  # parts below the bench top never collide
         self.obstacles = np.zeros((0, 6))
         xs = np.arange(0.1, BENCH_X[1] + 1e-9, GRID_STEP)
         ys = np.arange(-0.45, 0.45 + 1e-9, GRID_STEP)
@@ -108,7 +107,7 @@ class Layout:
     def place(
         self,
         fp: Footprint,
-        z: float = BENCH_Z,
+        z: float = BENCH_TOP_Z,
         *,
         commit: bool = True,
         away: tuple[tuple[float, float], float] | None = None,

@@ -22,7 +22,7 @@ from pipette_cli.assets.loader import attach_asset
 from pipette_cli.errors import AssetError, SimError
 from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
 from pipette_cli.sim.robots import make_robot_spec, match_options, wrist_camera_pose
-from pipette_cli.specs.base import PoseSpec
+from pipette_cli.specs.base import BENCH_TOP_Z, PoseSpec
 from pipette_cli.specs.robot import RobotSpec
 from pipette_cli.specs.task import CameraSpec, TaskSpec
 
@@ -213,7 +213,7 @@ def collision_boxes(model: mujoco.MjModel, data: mujoco.MjData, geoms: Iterable[
 
 @cache
 def robot_boxes(
-    robot: str, base: tuple[float, float, float] = (0.0, 0.0, 0.55), joints: tuple[float, ...] | None = None
+    robot: str, base: tuple[float, float, float] = (0.0, 0.0, BENCH_TOP_Z), joints: tuple[float, ...] | None = None
 ) -> np.ndarray:
     """Collision boxes (n, 6) of ``robot`` standing at ``base`` in its home pose (or arm ``joints``)."""
     spec, config = make_robot_spec(robot)

@@ -17,6 +17,7 @@ from typing import Any
 from pipette_cli.errors import PipetteError
 from pipette_cli.plugins import Plugins
 from pipette_cli.specs import evaluators as ev
+from pipette_cli.specs.base import BENCH_TOP_Z
 from pipette_cli.specs.expert import (
     CloseHingeSpec,
     MoveSpec,
@@ -126,7 +127,7 @@ def _mechanism(task: TaskSpec, spec: ev.MechanismTriggeredSpec) -> list[StepSpec
 def _near(task: TaskSpec, spec: ev.NearTargetSpec) -> list[StepSpec]:
     obj = _held(task, spec.object)
     point = spec.object if "/" in spec.object else None
-    height = max(0.05, (spec.min_z or 0.0) - 0.55 + 0.03)
+    height = max(0.05, (spec.min_z or 0.0) - BENCH_TOP_Z + 0.03)
     return [
         PickSpec(object=obj),
         PositionOverSpec(object=obj, point=point, target=spec.target, height=height, hold_s=spec.hold_s + 0.5),

@@ -422,7 +422,7 @@ def _first_reachable(
     later: FollowThrough | None = None,
     exact: bool = False,
 ) -> Grasp:
-    touch = ctx.scene.bodies(name) | _support_of(ctx, name)
+    touch = ctx.scene.bodies(name) | support_of(ctx, name)
     if later is not None:
         margins = [ctx.margin(later(g), touch, collisions=False) for g in candidates]
         order = sorted((exact and m < COMFORT, i) for i, m in enumerate(margins) if m is not None)
@@ -442,8 +442,9 @@ def _first_reachable(
     )
 
 
-def _support_of(ctx: SkillContext, name: str) -> set[int]:
-    """The body ``name`` rests on (fingertips reaching low may graze it)."""
+def support_of(ctx: SkillContext, name: str) -> set[int]:
+    """The body ``name`` rests on, as a set (empty when nothing is under it): fingertips reaching low
+    may graze it, so a grasp may touch it."""
     shape = ctx.scene.shape(name)
     _, body = ctx.scene.ray(
         np.array([shape.center[0], shape.center[1], shape.bottom + 0.002]), -UP, ctx.scene.bodies(name)

@@ -93,7 +93,7 @@ class ProgramExpert:
                         return
                     step = self.steps[self.step_index]
                     ctx.next_step = self.steps[self.step_index + 1] if self.step_index + 1 < len(self.steps) else None
-                    self._moves = skill_runtime(step.skill)(ctx, step)
+                    self._moves = skill_runtime(type(step))(ctx, step)
                 self._move = next(self._moves)
             except StopIteration:
                 self._moves = None

@@ -46,6 +46,7 @@ from pipette_cli.skills.moves import (  # re-exported: skills import them from h
     fmt,
 )
 from pipette_cli.skills.scene import SceneQuery
+from pipette_cli.specs.expert import SKILLS, StepSpec
 
 log = logging.getLogger(__name__)
 
@@ -486,10 +487,9 @@ class SkillContext:
 SKILL_RUNTIMES: Plugins[Skill] = Plugins("skill", SkillFailure)
 
 
-def skill(name: str) -> Callable[[Skill], Skill]:
-    """Register the runtime of the skill step type ``name`` (:mod:`pipette_cli.specs.expert`)."""
-
-    return SKILL_RUNTIMES.register(name)
+def skill(spec: type[StepSpec]) -> Callable[[Skill], Skill]:
+    """Register the runtime of the skill step ``spec`` (registered in :mod:`pipette_cli.specs.expert`) by its name."""
+    return SKILL_RUNTIMES.register(SKILLS.name_of(spec))
 
 
 def _pose_key(pos: np.ndarray, rot: np.ndarray) -> tuple:

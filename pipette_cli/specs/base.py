@@ -26,6 +26,9 @@ Name = Annotated[str, Field(pattern=NAME_PATTERN, description="lower_snake_case 
 # "object" or "object/part" where part is a body, joint or site inside the object's asset.
 Ref = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*(/[A-Za-z0-9_]+)?$", description="object or object/part")]
 Vec3 = tuple[float, float, float]
+BENCH_TOP_Z = 0.55
+"""Height (m) of the bench top in the bench frame (origin on the floor under the robot base, z up): what
+the bench asset is built to and the robots stand on by default."""
 
 
 def described(default: Any, description: str) -> Any:
@@ -121,6 +124,18 @@ class TypeRegistry(Generic[T]):
         if not isinstance(name, str):
             raise TypeError(f"{cls.__name__} needs a default for its {self.key!r} field")
         return self._types.add(name, cls)
+
+    def name_of(self, cls: type[T]) -> str:
+        """The name ``cls`` is registered under (the default of its key field).
+
+        Raises:
+            SpecError: ``cls`` is not the class registered under that name.
+        """
+        field = cls.model_fields.get(self.key)
+        name = field.default if field is not None else None
+        if not isinstance(name, str) or self._types.find(name) is not cls:
+            raise SpecError(f"{cls.__name__} is not a registered {self.kind} type (register it first)")
+        return name
 
     def names(self) -> list[str]:
         return self._types.names()

@@ -21,7 +21,7 @@ from pydantic import Field, ValidationError, model_validator
 
 from pipette_cli.errors import SpecError, suggest
 from pipette_cli.resources import data_dir
-from pipette_cli.specs.base import Name, Spec, Vec3
+from pipette_cli.specs.base import BENCH_TOP_Z, Name, Spec, Vec3
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
 
 Axis = Literal["+x", "-x", "+y", "-y", "+z", "-z"]
@@ -166,7 +166,7 @@ class RobotSpec(Spec):
     gripper: GripperSpec
     end_effector: EndEffectorSpec
     wrist_camera: WristCameraSpec
-    base_height: float = Field(0.55, description="default base height: the bench top")
+    base_height: float = Field(BENCH_TOP_Z, description="default base height: the bench top")
     footprint_radius: float = Field(gt=0, lt=0.5, description="metres around the base axis kept clear of objects")
     reach: float = Field(
         gt=0,

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from pipette_cli.errors import SpecError, suggest
-from pipette_cli.specs.base import Name, PoseSpec, Ref, Spec, Vec3
+from pipette_cli.specs.base import BENCH_TOP_Z, Name, PoseSpec, Ref, Spec, Vec3
 from pipette_cli.specs.evaluators import EvaluatorField
 from pipette_cli.specs.expert import StepField
 from pipette_cli.specs.mechanisms import MechanismField
@@ -27,7 +27,7 @@ class EmbodimentSpec(Spec):
     """Which robot, where it stands, and its joint state at reset."""
 
     robot: str = Field(DEFAULT_ROBOT, description="a robot of registry/robots/ (name or alias)")
-    base: PoseSpec = PoseSpec(pos=(0.0, 0.0, 0.55))
+    base: PoseSpec = PoseSpec(pos=(0.0, 0.0, BENCH_TOP_Z))
     initial_joints: list[float] = Field(description="arm joint positions in radians")
     gripper: Literal["open", "closed"] = "open"
 

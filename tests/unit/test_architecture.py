@@ -1,14 +1,18 @@
 """The layers of ARCHITECTURE.md, enforced: a package imports only from its own layer's packages
 below it, never from a layer above (function-level imports included); modules import each other
-without cycles; an import inside a function says which heavy dependency it defers (and `pipette
---help` imports none of them); and modules keep to size."""
+without cycles, and never a private ``_name`` of another module; an import inside a function says
+which heavy dependency it defers (and `pipette --help` imports none of them); every third-party
+package imported is declared in pyproject.toml; and modules keep to size."""
 
 from __future__ import annotations
 
 import ast
 import json
+import re
 import subprocess
 import sys
+import tomllib
+from importlib.metadata import packages_distributions
 from pathlib import Path
 
 import pytest
@@ -87,6 +91,30 @@ def test_the_layer_check_sees_a_wrong_import(tmp_path: Path) -> None:
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from pipette_cli.cli.main import app\n")
     assert _imports(module) == [(2, "cli")]
+
+
+def _private_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, ``module.name``) for every ``_name`` the module imports from another module of the package."""
+    return [
+        (node.lineno, f"{node.module}.{alias.name}")
+        for node in ast.walk(ast.parse(path.read_text(), str(path)))
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or "").startswith("pipette_cli")
+        for alias in node.names
+        if alias.name.startswith("_") and not alias.name.startswith("__")
+    ]
+
+
+def test_no_module_imports_a_private_name_of_another() -> None:
+    private = [
+        f"{path.relative_to(ROOT.parent)}:{line}: {name}" for path in MODULES for line, name in _private_imports(path)
+    ]
+    assert private == [], "make the name public in the module that owns it (or move it where both can import it)"
+
+
+def test_the_private_import_check_sees_one(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text("from pipette_cli.skills.grasp import Grasp, __all__, _first_reachable\n")
+    assert _private_imports(module) == [(1, "pipette_cli.skills.grasp._first_reachable")]
 
 
 def _function_imports(path: Path) -> list[tuple[int, bool]]:
@@ -245,3 +273,33 @@ def test_pipette_help_imports_no_heavy_dependency() -> None:
     )
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert json.loads(loaded) == []
+
+
+def _distribution(name: str) -> str:
+    """A distribution's name as pip compares them (PEP 503): ``ruamel.yaml`` and ``Ruamel_YAML`` are one."""
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
+def test_every_imported_package_is_declared() -> None:
+    project = tomllib.loads((ROOT.parent / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    requirements = project["dependencies"] + [r for extra in project["optional-dependencies"].values() for r in extra]
+    declared = {_distribution(re.split(r"[\s\[<>=!~;]", r, maxsplit=1)[0]) for r in requirements}
+    providers = packages_distributions()
+    undeclared = []
+    for path in MODULES:
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                tops = [node.module.split(".")[0]]
+            elif isinstance(node, ast.Import):
+                tops = [alias.name.split(".")[0] for alias in node.names]
+            else:
+                continue
+            for top in tops:
+                if top == "pipette_cli" or top in sys.stdlib_module_names:
+                    continue
+                dists = {_distribution(d) for d in providers.get(top, [top])}
+                if not dists & declared:
+                    undeclared.append(
+                        f"{path.relative_to(ROOT.parent)}:{node.lineno}: {top} ({', '.join(sorted(dists))})"
+                    )
+    assert not undeclared, "declare in pyproject.toml what these import:\n" + "\n".join(undeclared)

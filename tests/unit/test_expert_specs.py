@@ -4,6 +4,7 @@ file:line errors and did-you-mean, and derived from the success criterion when i
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Literal
 
 import pytest
 
@@ -88,6 +89,33 @@ def test_every_documented_skill_is_registered() -> None:
         "move",
         "wait",
     }
+
+
+def test_every_skill_spec_has_a_runtime_and_every_runtime_a_spec() -> None:
+    from pipette_cli.skills.library import skill_runtime, unmatched_skills
+    from pipette_cli.skills.runtime import SKILL_RUNTIMES
+
+    assert unmatched_skills() == []
+    assert SKILL_RUNTIMES.names() == skill_names()
+    wait = SKILL_RUNTIMES.remove("wait")  # a spec left without its runtime is named
+    try:
+        assert wait is not None
+        (found,) = unmatched_skills()
+        assert found.startswith("skill 'wait' has a spec (") and "but no runtime" in found
+    finally:
+        SKILL_RUNTIMES.add("wait", wait)
+    assert skill_runtime(PickSpec).__name__ == "pick"
+
+
+def test_a_runtime_registers_only_against_a_registered_spec() -> None:
+    from pipette_cli.skills.runtime import skill
+    from pipette_cli.specs.expert import StepSpec
+
+    class StirSpec(StepSpec):  # never passed to register_skill
+        skill: Literal["stir"] = "stir"
+
+    with pytest.raises(SpecError, match="StirSpec is not a registered skill type"):
+        skill(StirSpec)
 
 
 def test_programs_derived_from_criteria() -> None:

@@ -37,7 +37,8 @@ def test_every_registry_of_the_package_is_one() -> None:
     from pipette_cli.skills.derive import DERIVERS
     from pipette_cli.skills.library import skill_runtime
     from pipette_cli.skills.runtime import SKILL_RUNTIMES
+    from pipette_cli.specs.expert import PickSpec
 
-    skill_runtime("pick")
+    skill_runtime(PickSpec)
     assert all(isinstance(r, Plugins) for r in (GENERATORS, DERIVERS, SKILL_RUNTIMES))
     assert len(all_generators()) > 100 and "place_on" in SKILL_RUNTIMES and "region_hold" in DERIVERS

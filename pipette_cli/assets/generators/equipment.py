@@ -14,6 +14,7 @@ from pipette_cli.assets import geometry as g
 from pipette_cli.assets import parts as p
 from pipette_cli.assets.generators import register
 from pipette_cli.assets.model import AssetDef, Body, Joint, Material
+from pipette_cli.specs.base import BENCH_TOP_Z
 
 CATEGORY = "equipment"
 RACK_BLUE = Material("rack_blue", (0.25, 0.50, 0.85), roughness=0.5)
@@ -27,14 +28,14 @@ def _asset(asset_id: str, description: str, bodies: list[Body], **kw) -> AssetDe
 
 def lab_bench() -> AssetDef:
     base = Body("base", 80.0)
-    top_z, t = 0.55, 0.03
+    top_z, t = BENCH_TOP_Z, 0.03
     p.solid_box(base, "top", (1.6, 1.0, t), (0, 0, top_z - t / 2), p.BENCH_TOP)
     for i, (x, y) in enumerate(((-0.75, -0.45), (0.75, -0.45), (-0.75, 0.45), (0.75, 0.45))):
         p.solid_box(base, f"leg_{i}", (0.05, 0.05, top_z - t), (x, y, (top_z - t) / 2), p.PAINTED_METAL)
     p.solid_box(base, "shelf", (1.45, 0.85, 0.02), (0, 0, 0.12), p.PAINTED_METAL)
     p.solid_box(base, "back_rail", (1.45, 0.03, 0.08), (0, 0.46, top_z - t - 0.04), p.PAINTED_METAL)
     p.site(base, "top_center", (0, 0, top_z))
-    return _asset("lab_bench", "Laboratory bench, 1.6 x 1.0 m epoxy top at 0.55 m, steel frame with lower shelf.", [base],
+    return _asset("lab_bench", f"Laboratory bench, 1.6 x 1.0 m epoxy top at {BENCH_TOP_Z} m, steel frame with lower shelf.", [base],
                   extra={"top_height": top_z, "top_size": (1.6, 1.0)})
 
 

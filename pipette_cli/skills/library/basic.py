@@ -10,12 +10,12 @@ from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import RetreatSpec, WaitSpec
 
 
-@skill("wait")
+@skill(WaitSpec)
 def wait(ctx: SkillContext, step: WaitSpec) -> Iterator[Move]:
     yield ctx.hold(step.seconds)
 
 
-@skill("retreat")
+@skill(RetreatSpec)
 def retreat(ctx: SkillContext, step: RetreatSpec) -> Iterator[Move]:
 
     if ctx.gripper != OPEN:

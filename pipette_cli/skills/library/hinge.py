@@ -244,7 +244,7 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         yield from ctx.lift_clear(0.10)
 
 
-@skill("close_hinge")
+@skill(CloseHingeSpec)
 def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
     if ctx.held is not None:
         raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before closing {step.joint!r}")
@@ -259,7 +259,7 @@ def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-@skill("open_hinge")
+@skill(OpenHingeSpec)
 def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
     """Pull the handle along the arc as far as the arm follows it, then push the part the rest of the way."""
     if ctx.held is not None:
@@ -342,7 +342,7 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-@skill("slide")
+@skill(SlideSpec)
 def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
 
     w = ctx.world

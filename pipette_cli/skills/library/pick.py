@@ -9,7 +9,7 @@ from functools import partial
 import numpy as np
 
 from pipette_cli.skills.frames import UP, horizontal
-from pipette_cli.skills.grasp import FollowThrough, Grasp, _support_of, closed_over, plan_grasp, semantics
+from pipette_cli.skills.grasp import FollowThrough, Grasp, closed_over, plan_grasp, semantics, support_of
 from pipette_cli.skills.library.place import insertion, put_down, resolve_target, upright_rotations
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Held, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
@@ -54,7 +54,7 @@ def grasp(
         yield ctx.grip(OPEN, 0.3)
     yield from ctx.transit(plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
 
-    with ctx.touching(exclude | set(extra_touch) | _support_of(ctx, name)):
+    with ctx.touching(exclude | set(extra_touch) | support_of(ctx, name)):
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
@@ -132,7 +132,7 @@ def _upright_follow_through(ctx: SkillContext, step: InsertIntoSpec) -> FollowTh
     return then
 
 
-@skill("pick")
+@skill(PickSpec)
 def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
     yield from grasp(ctx, step.object, at=step.at, mode=step.grasp, height=step.height)
     yield from ctx.lift_clear(step.lift, required=True)
@@ -141,7 +141,7 @@ def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-@skill("remove_from")
+@skill(RemoveFromSpec)
 def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
     source = ctx.scene.bodies(step.source)
     yield from grasp(ctx, step.object, at=step.at, extra_touch=source)

@@ -165,7 +165,7 @@ def back_off(ctx: SkillContext, distance: float) -> Iterator[Move]:
     yield from ctx.lift_clear(distance)
 
 
-@skill("place_on")
+@skill(PlaceOnSpec)
 def place_on(ctx: SkillContext, step: PlaceOnSpec) -> Iterator[Move]:
     target = resolve_target(ctx, step.target)
     yield from put_down(ctx, step.object, target, release=step.release, retreat=step.retreat)
@@ -234,7 +234,7 @@ def _beyond(ctx: SkillContext, holder: str, site: np.ndarray, direction: np.ndar
     return max(0.0, min(exits)) + SLIDE_ROOM
 
 
-@skill("insert_into")
+@skill(InsertIntoSpec)
 def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     held = ctx.holding(step.object)
     rotations = upright_tool(ctx, step.object) if step.axis == "auto" else [ctx.rot]
@@ -358,7 +358,7 @@ def _lowest_along_axis(ctx: SkillContext, name: str) -> float:
     return 0.0 if not np.isfinite(low) else low
 
 
-@skill("move")
+@skill(MoveSpec)
 def move(ctx: SkillContext, step: MoveSpec) -> Iterator[Move]:
     if step.by is not None:
         yield ctx.move(ctx.pos + np.asarray(step.by, dtype=float), speed=APPROACH_SPEED, what="the move")

@@ -15,7 +15,7 @@ STANDOFFS = (0.08, 0.05, 0.03)
 """Metres in front of the button where the approach starts (less where the arm is cramped)."""
 
 
-@skill("press")
+@skill(PressSpec)
 def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
     if ctx.held is not None:
         raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before pressing")

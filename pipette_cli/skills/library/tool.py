@@ -32,7 +32,7 @@ def tool_point(ctx: SkillContext, name: str, point: str | None) -> np.ndarray:
     return tcp_rot.T @ (ctx.world.position(point) - tcp_pos)
 
 
-@skill("position_over")
+@skill(PositionOverSpec)
 def position_over(ctx: SkillContext, step: PositionOverSpec) -> Iterator[Move]:
     offset = tool_point(ctx, step.object, step.point)
     target = resolve_target(ctx, step.target, surface=False)
@@ -51,7 +51,7 @@ def position_over(ctx: SkillContext, step: PositionOverSpec) -> Iterator[Move]:
         yield ctx.hold(step.hold_s)
 
 
-@skill("tilt")
+@skill(TiltSpec)
 def tilt(ctx: SkillContext, step: TiltSpec) -> Iterator[Move]:
     ctx.holding(step.object)
     axis = ctx.rot[:, 1].copy()  # across the hand: the fingers' closing direction
