@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.augment import formulas
-from pipette_cli.augment.simulate import ObjectOffset, Placement
+from pipette_cli.augment.simulate import ObjectOffset, Placement, wrap_deg
 from pipette_cli.augment.specs import VariantSpec
 from pipette_cli.sim.scene import CAMERA_NAMES
 from pipette_cli.specs.perturbations import (
@@ -61,10 +61,6 @@ def variant_rng(seed: int, demo_seed: int, variant: str) -> np.random.Generator:
     return np.random.default_rng([seed, demo_seed, zlib.crc32(variant.encode())])
 
 
-def _wrap_deg(angle: float) -> float:
-    return (angle + 180.0) % 360.0 - 180.0
-
-
 def _object_offset(
     obj: ObjectPoseSpec, name: str, rng: np.random.Generator, placement: Placement | None
 ) -> ObjectOffset:
@@ -79,7 +75,7 @@ def _object_offset(
         for nominal, span in zip(placement.nominal, placement.span)
     ]
     start = placement.start
-    return ObjectOffset(name, new[0] - start[0], new[1] - start[1], _wrap_deg(new[2] - start[2]))
+    return ObjectOffset(name, new[0] - start[0], new[1] - start[1], wrap_deg(new[2] - start[2]))
 
 
 def placed_object(variant: VariantSpec, default_object: str | None) -> str | None:
@@ -146,15 +142,15 @@ def plan_variant(
             names = list(CAMERA_NAMES)
         else:
             names = [cam.camera if cam.camera != "random" else str(rng.choice(CAMERA_NAMES))]
-        for name in names:
-            radius = cam.wrist_radius if name == "wrist" else cam.radius
+        radii = {name: cam.wrist_radius if name == "wrist" else cam.radius for name in names}
+        for name, radius in radii.items():
             plan.camera_offsets[name] = formulas.ball_offset(rng, radius)
         if len(names) == 1:
-            radius = cam.wrist_radius if names[0] == "wrist" else cam.radius
+            [name] = names
             chosen: dict[str, Any] = {
-                "chosen": names[0],
-                "radius_used": radius,
-                "delta": plan.camera_offsets[names[0]].tolist(),
+                "chosen": name,
+                "radius_used": radii[name],
+                "delta": plan.camera_offsets[name].tolist(),
             }
         else:
             chosen = {"chosen": "all", "delta": {n: d.tolist() for n, d in plan.camera_offsets.items()}}

@@ -48,6 +48,11 @@ class Placement:
     span: tuple[float, float, float]
 
 
+def wrap_deg(angle: float) -> float:
+    """``angle`` in degrees, wrapped into [-180, 180)."""
+    return (angle + 180.0) % 360.0 - 180.0
+
+
 def placement(world: World, name: str) -> Placement:
     """Where ``name`` stands in ``world`` now, with its task's nominal pose and randomisation range.
 
@@ -72,7 +77,7 @@ def placement(world: World, name: str) -> Placement:
     randomize = spec.randomize
     span = (0.0, 0.0, 0.0) if randomize is None else (*randomize.xy, randomize.yaw_deg)
     nominal = (spec.pose.pos[0], spec.pose.pos[1], 0.0)
-    return Placement(name, (float(pos[0]), float(pos[1]), (yaw + 180.0) % 360.0 - 180.0), nominal, span)
+    return Placement(name, (float(pos[0]), float(pos[1]), wrap_deg(yaw)), nominal, span)
 
 
 @dataclass
@@ -152,10 +157,7 @@ def restore(world: World, seed: int, state0: np.ndarray, offset: ObjectOffset | 
     mujoco.mj_setState(world.model, world.data, state0, SIM_STATE)
     mujoco.mj_forward(world.model, world.data)
     if offset is not None:
-        for mech in world.mechanisms.values():
-            mech.reset()
-        world.evaluator.reset(world)
-        world.verdict = Verdict()
+        world.restart()
 
 
 def start_state(world: World, seed: int, state0: np.ndarray, offset: ObjectOffset | None) -> np.ndarray:

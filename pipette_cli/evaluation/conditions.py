@@ -22,7 +22,6 @@ from pipette_cli.augment.perturb import VariantPlan, placed_object, plan_variant
 from pipette_cli.augment.render import visual_perturbation
 from pipette_cli.augment.simulate import apply_offset, placement
 from pipette_cli.augment.specs import VariantSpec
-from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import Observation, PipetteEnv
 from pipette_cli.specs.perturbations import PerturbationSpec
 
@@ -56,8 +55,5 @@ def episode_conditions(
     with visual_perturbation(world.model, plan, env.rig.ids if env.rig is not None else {}):
         mujoco.mj_forward(world.model, world.data)  # the moved object and cameras
         if plan.offset is not None:
-            for mech in world.mechanisms.values():
-                mech.reset()
-            world.evaluator.reset(world)
-            world.verdict = Verdict()
+            world.restart()  # judged from where the object now starts
         yield env.observe(), plan.params

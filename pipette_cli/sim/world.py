@@ -345,6 +345,12 @@ class World:
             hinge = m.jnt_type[index] == mujoco.mjtJoint.mjJNT_HINGE
             d.qpos[m.jnt_qposadr[index]] = np.deg2rad(value) if hinge else value
         mujoco.mj_forward(m, d)
+        self.restart()
+
+    def restart(self) -> None:
+        """Start the episode from the state the world is in now: mechanisms, the step count and the
+        evaluator begin again (the end of :meth:`reset`; again after a scene object is moved
+        between the reset and the first step, so it is judged from where it now starts)."""
         for mech in self.mechanisms.values():
             mech.reset()
         self.step_count = 0
