@@ -13,6 +13,7 @@ the Hub (``--policy.push_to_hub=false``).
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -402,7 +403,9 @@ def train_checkpoint(
     return the last checkpoint.
 
     With ``if_exists=skip``, a run folder without a checkpoint (stopped before its first save) is
-    trained again from scratch. ``on_train`` is called before a run actually starts, ``on_step``
+    trained again from scratch, and one stopped between checkpoints continues from its last one
+    (lerobot's resume: optimizer and random state restored; the data order after the resume
+    differs from an uninterrupted run's). ``on_train`` is called before a run actually starts, ``on_step``
     with each step the run logs (see :func:`run_job`).
 
     Raises:
@@ -412,6 +415,8 @@ def train_checkpoint(
     [job] = plan([task_id], options, executable=executable)
     if job.action == "skip" and not (job.output_dir / LAST_CHECKPOINT / "config.json").is_file():
         [job] = plan([task_id], replace(options, if_exists=IfExists.overwrite), executable=executable)
+    elif job.action == "skip" and options.steps and trained_steps(job.output_dir) < options.steps:
+        [job] = plan([task_id], replace(options, if_exists=IfExists.continue_), executable=executable)
     if job.action != "skip":
         if on_train is not None:
             on_train(job)
@@ -419,6 +424,15 @@ def train_checkpoint(
         if result.returncode != 0 or result.checkpoint is None:
             raise TrainError(f"training {task_id} failed; see {job.log_file}")
     return job.output_dir / LAST_CHECKPOINT
+
+
+def trained_steps(output_dir: Path) -> int:
+    """The step of a run folder's last checkpoint (0 without one)."""
+    state = output_dir / LAST_CHECKPOINT.parent / "training_state" / "training_step.json"
+    try:
+        return int(json.loads(state.read_text())["step"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return 0
 
 
 @contextmanager

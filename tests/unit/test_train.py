@@ -7,6 +7,7 @@ import json
 import shlex
 import sys
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -22,6 +23,8 @@ from pipette_cli.lerobot.train import (
     plan,
     run_job,
     train_argv,
+    train_checkpoint,
+    trained_steps,
 )
 
 TASK = "pipette/PickUpTestTube-v1"
@@ -242,6 +245,28 @@ def test_if_exists_skip_overwrite_continue(tmp_path: Path) -> None:
     assert run_job(over).returncode == 0
     assert not stale.exists() and (first.output_dir / LAST_CHECKPOINT / "config.json").is_file()
     assert first.log_file.read_text().count("# pipette train") == 1  # the old log went with the old run
+
+
+def test_skip_continues_a_run_stopped_before_its_steps(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import pipette_cli.lerobot.train as train_module
+
+    make_dataset(tmp_path / "datasets")
+    exe = fake_lerobot_train(tmp_path)
+    monkeypatch.setattr(train_module, "lerobot_train_executable", lambda: exe)
+    [first] = plan([TASK], options(tmp_path, IfExists.skip), executable=exe)
+    run_job(first)
+    state = first.output_dir / LAST_CHECKPOINT.parent / "training_state"
+    state.mkdir()
+    (state / "training_step.json").write_text('{"step": 1000}')
+    assert trained_steps(first.output_dir) == 1000
+    started: list[str] = []
+    opts = replace(options(tmp_path, IfExists.skip), steps=4000)
+    train_checkpoint(TASK, opts, on_train=lambda job: started.append(job.action))
+    assert started == ["continue"]  # stopped at 1000 of 4000: resumed, not skipped nor retrained
+    assert "--resume=true" in first.log_file.read_text()
+    (state / "training_step.json").write_text('{"step": 4000}')
+    train_checkpoint(TASK, opts, on_train=lambda job: started.append(job.action))
+    assert started == ["continue"]  # finished: skipped
 
 
 def test_continue_without_checkpoint_and_overwrite_of_foreign_folder_are_refused(tmp_path: Path) -> None:
