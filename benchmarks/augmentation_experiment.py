@@ -24,13 +24,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
 import sys
 import time
 from collections import Counter
-from dataclasses import dataclass
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 ROOT = Path(__file__).resolve().parents[1]
@@ -81,6 +84,7 @@ BAND = (0.15, 0.85)
 HINGES = {"pipette/CloseCentrifugeLid-v1", "pipette/CloseSpectrophotometerLid-v1"}
 PLACEMENTS = {"pipette/PlaceTubeOnBalance-v1"}
 BATCH, TRAIN_SEED = 8, 1000
+T = TypeVar("T")
 
 
 def say(message: str) -> None:
@@ -98,12 +102,30 @@ class Experiment:
     pilot_episodes: int = PILOT_EPISODES
     max_episodes: int | None = None
     """Smoke runs only: at most this many episodes per evaluation (results.json records it)."""
+    jobs: int = 1
+    """Tasks run at once, each in its own process (training uses one thread per run)."""
+    fewer: tuple[tuple[str, int], ...] = ()
+    """Tasks that use fewer demonstrations than ``demos`` (the pilot's step 4), with their count."""
+
+    def demos_of(self, task: TaskSpec) -> int:
+        return dict(self.fewer).get(task.id, self.demos)
 
     def folder(self, task: TaskSpec, *parts: str) -> Path:
-        path = self.work / task.id.replace("/", "_")
+        """``<work>/<task>`` (``<task>@<n>demos`` for a task with fewer demonstrations) / parts."""
+        count = self.demos_of(task)
+        path = self.work / (task.id.replace("/", "_") + ("" if count == self.demos else f"@{count}demos"))
         for part in parts:
             path = path / part
         return path
+
+
+def each_task(ex: Experiment, work: Callable[..., T], tasks: list[TaskSpec], *args: Any) -> list[T]:
+    """``work(ex, task, *args)`` for every task, ``ex.jobs`` tasks at once (spawned processes)."""
+    if ex.jobs <= 1 or len(tasks) <= 1:
+        return [work(ex, task, *args) for task in tasks]
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(min(ex.jobs, len(tasks)), mp_context=context) as pool:
+        return list(pool.map(work, *zip(*[(ex, task, *args) for task in tasks], strict=True)))
 
 
 def demonstrations(ex: Experiment, task: TaskSpec, count: int, name: str) -> Path:
@@ -188,19 +210,41 @@ def evaluated(
 
 
 # ------------------------------------------------------------------------------------------- pilot
+def pilot_rates(ex: Experiment, task: TaskSpec) -> dict[int, float]:
+    """Raw ACT's success on the pilot seeds at each pilot step count (one run, its checkpoints)."""
+    raw = demonstrations(ex, task, ex.demos_of(task), "raw")
+    run = trained(ex, task, "raw", raw, max(ex.pilot_steps), min(ex.pilot_steps))
+    plan = adhoc_plan(task, ex.pilot_episodes, PILOT_SEED)
+    rates = {}
+    for steps in ex.pilot_steps:
+        policy = checkpoint(run, steps, max(ex.pilot_steps))
+        summary = evaluated(ex, task, policy, f"raw@{steps}", ex.folder(task, "pilot", str(steps)), plan, None)
+        rates[steps] = summary["successes"] / summary["episodes"]
+    return rates
+
+
 def pilot(ex: Experiment, tasks: list[TaskSpec], docs: Path) -> dict[str, Any]:
-    rates: dict[str, dict[int, float]] = {}
-    for task in tasks:
-        raw = demonstrations(ex, task, ex.demos, "raw")
-        run = trained(ex, task, "raw", raw, max(ex.pilot_steps), min(ex.pilot_steps))
-        plan = adhoc_plan(task, ex.pilot_episodes, PILOT_SEED)
-        rates[task.id] = {}
-        for steps in ex.pilot_steps:
-            policy = checkpoint(run, steps, max(ex.pilot_steps))
-            summary = evaluated(ex, task, policy, f"raw@{steps}", ex.folder(task, "pilot", str(steps)), plan, None)
-            rates[task.id][steps] = summary["successes"] / summary["episodes"]
+    """The plan's pilot, steps 1-4: if no step count meets the rule, the tasks above the band at
+    the chosen count are piloted again with half the demonstrations (their first ones), which
+    then become their ``raw`` for every setting, and the rule is applied again."""
+    rates = dict(zip([t.id for t in tasks], each_task(ex, pilot_rates, tasks), strict=True))
     choice = choose(rates, ex.pilot_steps)
-    data = {"seeds": [PILOT_SEED, PILOT_SEED + ex.pilot_episodes - 1], "demos": ex.demos, "success": rates, **choice}
+    first = {"success": dict(rates), **choice}
+    above = [t for t in tasks if rates[t.id][choice["steps"]] > BAND[1]] if not choice["rule_met"] else []
+    fewer = replace(ex, fewer=tuple((t.id, ex.demos // 2) for t in above))
+    for task in above:
+        say(f"pilot: {task.id} above the band at {choice['steps']} steps: again with {ex.demos // 2} demonstrations")
+    rates.update(zip([t.id for t in above], each_task(fewer, pilot_rates, above), strict=True))
+    if above:
+        choice = choose(rates, ex.pilot_steps)
+    data = {
+        "seeds": [PILOT_SEED, PILOT_SEED + ex.pilot_episodes - 1],
+        "demos": ex.demos,
+        "demos_per_task": {t.id: fewer.demos_of(t) for t in tasks},
+        "success": rates,
+        **choice,
+        **({"first_pass": first} if above else {}),
+    }
     docs.mkdir(parents=True, exist_ok=True)
     (docs / "pilot.json").write_text(json.dumps(data, indent=2) + "\n")
     say(f"pilot: S = {choice['steps']}, tasks {choice['tasks']}")
@@ -228,7 +272,7 @@ def choose(rates: dict[str, dict[int, float]], counts: tuple[int, ...] = PILOT_S
 def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]:
     """The demonstration file of each setting (recorded or augmented here unless done before);
     each augmentation's yield report goes to ``yield.json``."""
-    raw = demonstrations(ex, task, ex.demos, "raw")
+    raw = demonstrations(ex, task, ex.demos_of(task), "raw")
     sources: dict[str, Path] = {"raw": raw}
     path = ex.folder(task, "yield.json")
     reports: dict[str, Any] = json.loads(path.read_text()) if path.is_file() else {}
@@ -398,6 +442,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
         "git_dirty": dirty,
         "command": " ".join(sys.argv),
         "demos": ex.demos,
+        "demos_per_task": {t.id: ex.demos_of(t) for t in tasks},
         "max_episodes": ex.max_episodes,
         "atoms": ATOMS,
         "variants": VARIANTS,
@@ -423,7 +468,8 @@ def main() -> None:
     )
     parser.add_argument("--settings", default=",".join(SETTINGS), help="Data settings to run.")
     parser.add_argument("--steps", type=int, default=None, help="Training steps (default: the pilot's S).")
-    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--workers", type=int, default=1, help="Processes per collection, augmentation, evaluation.")
+    parser.add_argument("--jobs", type=int, default=1, help="Tasks run at once (pilot and run stages).")
     smoke = parser.add_argument_group("smoke runs only (never for results)")
     smoke.add_argument("--demos", type=int, default=DEMOS)
     smoke.add_argument("--pilot-steps", default=",".join(map(str, PILOT_STEPS)))
@@ -443,10 +489,15 @@ def main() -> None:
         tuple(int(s) for s in args.pilot_steps.split(",")),
         args.pilot_episodes,
         args.max_episodes,
+        args.jobs,
     )
     pilot_file = args.docs / "pilot.json"
     chosen = json.loads(pilot_file.read_text()) if pilot_file.is_file() else {}
+    if args.stage != "pilot":  # the pilot starts from every candidate with all its demonstrations
+        ex = replace(ex, fewer=tuple((t, n) for t, n in chosen.get("demos_per_task", {}).items() if n != ex.demos))
     names = args.tasks.split(",") if args.tasks else chosen.get("tasks") or [e.task for e in nominal.tasks]
+    if args.stage == "pilot" and not args.tasks:
+        names = [e.task for e in nominal.tasks]
     tasks = [registry.get(n) for n in names]
     if args.stage == "pilot":
         pilot(ex, tasks, args.docs)
@@ -459,8 +510,7 @@ def main() -> None:
     if steps is None:
         raise SystemExit("no training steps: run the pilot first or pass --steps")
     if args.stage == "run":
-        for task in tasks:
-            run_task(ex, task, steps, suites, [s for s in args.settings.split(",") if s])
+        each_task(ex, run_task, tasks, steps, suites, [s for s in args.settings.split(",") if s])
     print(report(ex, tasks, args.docs, steps))
 
 

@@ -69,3 +69,46 @@ def test_paired_tests_per_task_and_pooled_with_holm() -> None:
     ]
     text = "\n".join(experiment.suite_section("nominal", cells, [PICK, HINGE], rows))
     assert "| pipette/PickUpTestTube-v1 | 10/20 (30-70) | 18/20 (70-97) |" in text and "+40 pt" in text
+
+
+class Task:
+    def __init__(self, id: str) -> None:
+        self.id = id
+
+
+def test_tasks_above_the_band_are_piloted_again_with_half_the_demonstrations(tmp_path, monkeypatch) -> None:
+    full = {  # 30 demonstrations: both hinges at the ceiling, so no count meets the rule
+        HINGE: {500: 0.9, 1000: 1.0},
+        "pipette/CloseSpectrophotometerLid-v1": {500: 1.0, 1000: 1.0},
+        PLACE: {500: 0.3, 1000: 0.5},
+        PICK: {500: 0.2, 1000: 0.4},
+        LIFT: {500: 0.1, 1000: 0.05},  # below the band: not piloted again, not chosen
+    }
+    half = {HINGE: {500: 0.5, 1000: 0.8}, "pipette/CloseSpectrophotometerLid-v1": {500: 0.9, 1000: 0.9}}
+    seen: list[tuple[str, int, str]] = []
+
+    def rates(ex, task):
+        seen.append((task.id, ex.demos_of(task), ex.folder(task).name))
+        return (half if ex.demos_of(task) < ex.demos else full)[task.id]
+
+    monkeypatch.setattr(experiment, "pilot_rates", rates)
+    ex = experiment.Experiment(tmp_path, 1, 64, "fast", pilot_steps=(500, 1000))
+    data = experiment.pilot(ex, [Task(t) for t in full], tmp_path / "docs")
+    # first pass: 500 steps has the most tasks in the band (hinge 0.9 is above it); the two hinges
+    # above the band at 500 are piloted again with 15 demonstrations, in their own folders
+    assert seen[5:] == [
+        (HINGE, 15, "pipette_CloseCentrifugeLid-v1@15demos"),
+        ("pipette/CloseSpectrophotometerLid-v1", 15, "pipette_CloseSpectrophotometerLid-v1@15demos"),
+    ]
+    assert data["first_pass"]["steps"] == 500 and not data["first_pass"]["rule_met"]
+    assert (data["steps"], data["tasks"], data["rule_met"]) == (500, [HINGE, PLACE, PICK], False)
+    assert data["demos_per_task"][HINGE] == 15 and data["demos_per_task"][PICK] == 30
+    assert experiment.json.loads((tmp_path / "docs" / "pilot.json").read_text())["success"][HINGE] == {
+        "500": 0.5,
+        "1000": 0.8,
+    }
+    full[LIFT], full[HINGE] = {500: 0.2, 1000: 0.3}, {500: 0.5, 1000: 1.0}
+    seen.clear()
+    met = experiment.pilot(ex, [Task(t) for t in full], tmp_path / "docs")
+    assert met["rule_met"] and met["steps"] == 500 and len(seen) == 5  # the rule met: nothing again
+    assert "first_pass" not in met and set(met["demos_per_task"].values()) == {30}
