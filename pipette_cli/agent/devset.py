@@ -3,7 +3,9 @@
 A case (YAML) gives a request and what it must become: ``plan``, one line per step in the
 form ``collect pipette/PickUpTestTube-v1 --out data/PickUpTestTube.h5 --episodes 20`` where
 ``@N`` is the output of step N; ``missing`` (step -> required values the request lacks); or
-``error``, a part of the one-line refusal (an unsupported policy, an ambiguous task). Options
+``error``, a part of the one-line refusal (an unsupported policy, an ambiguous task); and
+``unused``, the request's words the plan must list as not understood (none unless given: a
+plan that leaves a word unexplained without expecting it is wrong). Options
 equal to the CLI's default are left out on both sides before comparing, so a plan that spells
 out ``--episodes 10`` matches one that relies on it.
 """
@@ -34,6 +36,8 @@ class DevCaseSpec(Spec):
     plan: list[str] = Field(default_factory=list)
     missing: dict[int, list[str]] = Field(default_factory=dict)
     error: str | None = None
+    unused: list[str] = Field(default_factory=list)
+    """The request's words the plan must list as not understood (none unless given)."""
 
 
 class Planner(Protocol):
@@ -108,6 +112,8 @@ class CaseResult:
     missing: dict[int, list[str]]
     error: str | None
     crashed: bool
+    unused: list[str]
+    """The words the plan listed as not understood."""
     """A traceback, i.e. not a clean :class:`PipetteError`."""
     seconds: float
 
@@ -117,10 +123,11 @@ def run_case(planner: Planner, case: DevCaseSpec, catalog: CommandCatalog) -> Ca
     started = time.perf_counter()
     got: list[str] = []
     missing: dict[int, list[str]] = {}
+    unused: list[str] = []
     error, crashed = None, False
     try:
         plan = planner.plan(case.request)
-        got, missing = step_lines(plan, catalog), plan.missing
+        got, missing, unused = step_lines(plan, catalog), plan.missing, plan.unused
     except PipetteError as exc:
         error = str(exc)
     except Exception:
@@ -129,5 +136,5 @@ def run_case(planner: Planner, case: DevCaseSpec, catalog: CommandCatalog) -> Ca
         right = error is not None and not crashed and case.error.lower() in error.lower()
     else:
         expected = [canonical(line, catalog) for line in case.plan]
-        right = error is None and got == expected and missing == case.missing
-    return CaseResult(case, right, got, missing, error, crashed, time.perf_counter() - started)
+        right = error is None and got == expected and missing == case.missing and unused == case.unused
+    return CaseResult(case, right, got, missing, error, crashed, unused, time.perf_counter() - started)

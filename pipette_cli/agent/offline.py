@@ -21,7 +21,7 @@ from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_vocabulary, phrase_pattern
+from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_lexicon, phrase_pattern
 from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
 from pipette_cli.registry import Registry
 
@@ -48,9 +48,9 @@ class OfflineAgent:
     def __init__(self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec | None = None) -> None:
         self.catalog = catalog
         self.registry = registry
-        self.vocab = vocab or load_vocabulary()
+        self.vocab = vocab or load_lexicon()
         self.index = TaskIndex(registry, self.vocab)
-        self.validator = Validator(catalog, registry, self.vocab)
+        self.validator = Validator(catalog, registry, self.vocab, self.index)
         self.intents = Intents(self.vocab, catalog, registry.ids())
 
     def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
@@ -259,7 +259,8 @@ class OfflineAgent:
                 if m:
                     found.append((m.start(), value))
             names = "|".join(phrase_pattern(n).pattern for n in param.names)
-            for value in param.hinted:
+            named = {p.lower() for phrases in self.vocab.values.get(param.name, {}).values() for p in phrases}
+            for value in (v for v in param.hinted if v.lower() not in named):  # the lexicon's value wins
                 v = re.escape(value.lower())
                 if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
                     m = re.search(rf"(?<![\w-]){v}(?![\w-])", words)

@@ -62,6 +62,9 @@ class CheckedPlan:
 
     steps: list[CheckedStep]
     request: str = ""
+    unused: list[str] = field(default_factory=list)
+    """Words of the request the plan does not use (not understood), in order; a plan with any
+    is shown with them and never run without asking (see :mod:`.accounting`)."""
 
     @property
     def missing(self) -> dict[int, list[str]]:

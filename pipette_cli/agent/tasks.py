@@ -144,6 +144,15 @@ class TaskIndex:
         n = max(len(self.terms), 1)
         return {t: math.log(1 + n / d) for t, d in df.items()}
 
+    def synonyms(self) -> list[tuple[re.Pattern[str], str]]:
+        """(phrase pattern, the word it stands for), longest phrase first."""
+        return self._synonyms
+
+    def aliases_of(self, task: str) -> list[str]:
+        """The asset library's names for the objects of ``task`` ("falcon tube")."""
+        kinds = {t.removeprefix("kind:") for t in self.terms.get(task, {}) if t.startswith("kind:")}
+        return [alias for alias in self._aliases if self._alias_kind[alias] in kinds]
+
     def concepts(self, text: str) -> set[str]:
         """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out."""
         lowered = text.lower()

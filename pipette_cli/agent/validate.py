@@ -22,10 +22,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from pipette_cli.agent.accounting import Accountant
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, StepRef
 from pipette_cli.agent.products import product_of
-from pipette_cli.agent.tasks import short_name, task_in_file_name
+from pipette_cli.agent.tasks import TaskIndex, short_name, task_in_file_name
 from pipette_cli.agent.vocabulary import VocabularySpec
 from pipette_cli.demos.store import scan
 from pipette_cli.errors import PipetteError, suggest
@@ -37,10 +38,13 @@ _TRUE, _FALSE = {"true", "yes", "1", "on"}, {"false", "no", "0", "off"}
 class Validator:
     """Checks and completes plans against the catalog, the registry and the vocabulary."""
 
-    def __init__(self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec) -> None:
+    def __init__(
+        self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec, index: TaskIndex | None = None
+    ) -> None:
         self.catalog = catalog
         self.registry = registry
         self.vocab = vocab
+        self.accountant = Accountant(catalog, vocab, index or TaskIndex(registry, vocab))
 
     def check(self, plan: PlanSpec, *, request: str = "", context: Context | None = None) -> CheckedPlan:
         """Validate and complete ``plan`` (see the module docstring).
@@ -69,10 +73,11 @@ class Validator:
             steps.append(CheckedStep(index, info.name, args, missing, product, kind, notes))
             if task:
                 carried["task"] = task
-            for name in ("dataset_version", "image_size"):
-                if name in args:
+            for name in (*self.vocab.carry, *self.vocab.carry_to):
+                if name != "task" and name in args:
                     carried[name] = args[name]
-        return CheckedPlan(steps, request)
+        checked = CheckedPlan(steps, request)
+        return replace(checked, unused=self.accountant.unused_words(request, checked)) if request else checked
 
     # -- one argument -------------------------------------------------------------------------
 

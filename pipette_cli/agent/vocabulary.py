@@ -82,6 +82,16 @@ class VocabularySpec(Spec):
     products: dict[str, ProductSpec]
     consumes: dict[str, str]
     stands_in: dict[str, dict[str, str]] = {}
+    refers: dict[str, list[str]] = Field(default_factory=dict)
+    """A kind of thing (``demos``, ``policy``, ``task``...) -> words that refer to it."""
+    explains: dict[str, list[str]] = Field(default_factory=dict)
+    """Command -> words its plan explains without asking for the command."""
+    opening: list[str] = Field(default_factory=list)
+    """Words that only open a request ("first, ...")."""
+    corrections: list[str] = Field(default_factory=list)
+    """Words that take back what came before ("actually", "no -")."""
+    filler: list[str] = Field(default_factory=list)
+    """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""
 
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
@@ -106,6 +116,23 @@ def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
         return VocabularySpec.model_validate(raw)
     except ValidationError as exc:
         raise SpecError(validation_problems(exc, VocabularySpec, raw, doc, str(path))) from None
+
+
+def robot_words() -> dict[str, list[str]]:
+    """Robot id -> the words that name it: its id, aliases and words (``registry/robots/``)."""
+    from pipette_cli.specs.robot import load_robot_specs  # deferred: robot facts only when a lexicon is built
+
+    return {
+        name: sorted({name, *spec.aliases, *spec.words, name.replace("_", " ")}, key=len, reverse=True)
+        for name, spec in load_robot_specs().items()
+    }
+
+
+@cache
+def load_lexicon(path: Path = VOCABULARY_FILE) -> VocabularySpec:
+    """The vocabulary with the registries' words added: every robot's names as values of ``robot``."""
+    vocab = load_vocabulary(path)
+    return vocab.model_copy(update={"values": {**vocab.values, "robot": robot_words()}})
 
 
 def _item(token: str) -> str:

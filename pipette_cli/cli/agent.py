@@ -57,7 +57,13 @@ def plan_json(plan: CheckedPlan, agent: Any) -> dict[str, Any]:
             found = answer(step.command, plan.resolved_args(step), agent.registry)
             item["answer"] = {"text": found.text, **found.data}
         steps.append(item)
-    return {"request": plan.request, "backend": agent.name, "runnable": plan.runnable, "steps": steps}
+    return {
+        "request": plan.request,
+        "backend": agent.name,
+        "runnable": plan.runnable,
+        "not_understood": plan.unused,
+        "steps": steps,
+    }
 
 
 def show_plan(catalog: CommandCatalog, plan: CheckedPlan) -> None:
@@ -71,6 +77,20 @@ def show_plan(catalog: CommandCatalog, plan: CheckedPlan) -> None:
         notes += [escape(n) for n in step.notes]
         table.add_row(str(step.index), escape(command_text(catalog, plan, step.index)), "\n".join(notes))
     out_console.print(table)
+
+
+def not_understood(plan: CheckedPlan) -> str:
+    """The line that names the request's words the plan does not use ('' if none)."""
+    if not plan.unused:
+        return ""
+    said = ", ".join(repr(w) for w in plan.unused)
+    return f"not understood: {said} (the plan above does not use {'it' if len(plan.unused) == 1 else 'them'})"
+
+
+def show_not_understood(plan: CheckedPlan) -> None:
+    line = not_understood(plan)
+    if line:
+        err_console.print(f"[yellow]{escape(line)}[/yellow]", soft_wrap=True)
 
 
 def show_answer(found: Answer) -> None:
@@ -108,6 +128,7 @@ def _handle(
             print_json({**plan_json(plan, agent), "dry_run": True})
             return
         show_plan(agent.catalog, plan)
+        show_not_understood(plan)
         steps = f"{len(plan.steps)} step{'s' if len(plan.steps) != 1 else ''}"
         err_console.print(f"dry run: {steps} planned, nothing run", soft_wrap=True)
         return
@@ -128,12 +149,20 @@ def _handle(
     context.remember(plan)
     if as_json:
         print_json(plan_json(plan, agent))
-        if not (yes and plan.runnable):
+        if not (yes and plan.runnable and not plan.unused):
             return
     catalog = agent.catalog
     answers_only = all(catalog.get(s.command).is_answer for s in plan.steps)
     if not as_json and not answers_only:
         show_plan(agent.catalog, plan)
+    if not as_json:
+        show_not_understood(plan)
+    if plan.unused and not answers_only and yes:
+        raise AgentError(
+            f"not run: the request's {', '.join(repr(w) for w in plan.unused)} "
+            f"{'is' if len(plan.unused) == 1 else 'are'} not understood; rephrase the request "
+            "(or leave those words out) to run it with --yes"
+        )
     if not answers_only and not yes:
         if not (interactive or sys.stdin.isatty()):
             err_console.print(f"[dim]add --yes to run {'it' if len(plan.steps) == 1 else 'them'}[/dim]")

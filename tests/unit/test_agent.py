@@ -40,7 +40,7 @@ CASES = load_dev_set(DEV_SET)
 def test_dev_set_request_becomes_the_expected_plan(case) -> None:
     result = run_case(AGENT, case, CATALOG)
     assert not result.crashed, result.error
-    assert result.right, f"got {result.got} missing={result.missing} error={result.error}"
+    assert result.right, f"got {result.got} missing={result.missing} unused={result.unused} error={result.error}"
 
 
 def test_dev_set_is_large_and_covers_every_kind() -> None:

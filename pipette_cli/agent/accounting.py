@@ -1,0 +1,264 @@
+"""Every word of a request accounted for: the words a checked plan uses, and those it does not.
+
+Whoever wrote the plan (the offline parser or an LLM), a word of the request is *used* when the
+plan explains it:
+
+* it is a function word (vocabulary ``filler``), a chain word ("then"), a question word of a
+  plan that answers, or part of a command cue of a command the plan runs (the literal words of
+  the cue, never the gap of a ``...`` phrase);
+* it names a task the plan uses (the task's name, tags, robot, instruction and its objects' asset
+  names, through the registry index and the vocabulary's synonyms);
+* it names a value the plan holds: a number equal to an argument (written or spelled, "64x64",
+  "15k") with the words of that option, a value's words (vocabulary ``values``, CLI choices, the
+  value itself, a policy's names, a robot's names), a flag's words, or it lies inside free text
+  the plan carries (a description, what to list tasks about).
+
+Anything else is *not understood* and listed in the request's order (:func:`unused_words`); a
+plan with such words is shown with them and never run without asking.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
+from pipette_cli.agent.clauses import ANSWER_PREFIX, words_of
+from pipette_cli.agent.mentions import find_mentions
+from pipette_cli.agent.plan import CheckedPlan, StepRef
+from pipette_cli.agent.tasks import TaskIndex, short_name, stem
+from pipette_cli.agent.vocabulary import VocabularySpec, phrase_pattern
+
+FREE_TEXT = ("description", "about", "name", "asset_id")
+"""Parameters whose value is the request's own words."""
+_NUMBER = re.compile(r"^-?\d+(?:,\d{3})*(?:\.\d+)?(k)?(%)?$")
+_SIZE = re.compile(r"^(\d+)[x×](\d+)$")
+_GLUED = re.compile(r"^(\d+(?:\.\d+)?)([a-z]+)$")
+SAVE_VERB = re.compile(r"(?:save|write|store|put|keep|place)[sd]?|saved|written|stored|wrote")
+
+
+def _literals(phrase: str) -> tuple[set[str], tuple[str, ...]]:
+    """The literal words of a vocabulary phrase and its ``word*`` prefixes."""
+    words: set[str] = set()
+    prefixes: list[str] = []
+    for token in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()):
+        token = token.rstrip("?") if len(token) > 1 else token
+        for alt in token.strip("()").split("|"):
+            for word in alt.split():
+                if word == "...":
+                    continue
+                if word.endswith("*"):
+                    prefixes.append(word[:-1])
+                else:
+                    words.add(word)
+    return words, tuple(prefixes)
+
+
+def _several(value: Any) -> bool:
+    """A list of two or more values, or several comma-separated ones."""
+    return (isinstance(value, list) and len(value) > 1) or (isinstance(value, str) and "," in value)
+
+
+@dataclass
+class _Words:
+    """The request's words (as the parser reads them) and which of them are used."""
+
+    tokens: list[str]
+    used: list[bool]
+
+    @classmethod
+    def of(cls, text: str, names: list[str], units: set[str]) -> _Words:
+        """The words the parser reads; quotes and a final full stop taken off, one of ``units``
+        glued to its number set apart ("48px" -> "48 px"; "15k", "5e" stay)."""
+        tokens = []
+        for token in words_of(find_mentions(text, names).words).split():
+            token = token.strip("'\"").rstrip(".")
+            glued = _GLUED.match(token)
+            tokens += [glued.group(1), glued.group(2)] if glued and glued.group(2) in units else [token]
+        tokens = [t for t in tokens if t]
+        return cls(tokens, [False] * len(tokens))
+
+    @property
+    def text(self) -> str:
+        return " ".join(self.tokens)
+
+    def _index_at(self) -> list[int]:
+        """Character offset of each token in :attr:`text`."""
+        offsets, at = [], 0
+        for token in self.tokens:
+            offsets.append(at)
+            at += len(token) + 1
+        return offsets
+
+    def phrase(self, phrase: str) -> None:
+        """Mark the literal words of every match of ``phrase``."""
+        words, prefixes = _literals(phrase.lower())
+        offsets = self._index_at()
+        greedy = re.compile(phrase_pattern(phrase.lower()).pattern.replace("{0,10}?", "{0,10}"))  # the whole span
+        for m in greedy.finditer(self.text):
+            for i, at in enumerate(offsets):
+                token = self.tokens[i]
+                if m.start() <= at < m.end() and (token in words or token.startswith(prefixes or ("\0",))):
+                    self.used[i] = True
+
+    def where(self, test: Any) -> None:
+        for i, token in enumerate(self.tokens):
+            if not self.used[i] and test(token):
+                self.used[i] = True
+
+    def unused(self) -> list[str]:
+        return [t for t, u in zip(self.tokens, self.used, strict=True) if not u]
+
+
+class Accountant:
+    """Says which words of a request a checked plan leaves unexplained."""
+
+    def __init__(self, catalog: CommandCatalog, vocab: VocabularySpec, index: TaskIndex) -> None:
+        self.catalog = catalog
+        self.vocab = vocab
+        self.index = index
+        self.filler = {w.lower() for w in vocab.filler}
+        self.units = {u for info in catalog.commands.values() for p in info.params.values() for u in p.units}
+
+    def unused_words(self, request: str, plan: CheckedPlan) -> list[str]:
+        """The words of ``request`` that ``plan`` does not explain, in order (see the module docstring)."""
+        mentions = find_mentions(request, self.index.registry.ids())
+        words = _Words.of(request, self.index.registry.ids(), self.units)
+        words.where(lambda t: t in self.filler or not re.search(r"[a-z0-9]", t))
+        if mentions.paths:  # "store them in out/x.h5", "write the augmented file to x.h5"
+            words.where(lambda t: SAVE_VERB.fullmatch(t) is not None)
+        self._superseded(words)
+        for phrase in self.vocab.opening:
+            m = phrase_pattern(phrase.lower()).match(words.text)
+            if m:
+                words.used[: len(m.group(0).split())] = [True] * len(m.group(0).split())
+        for phrase in self.vocab.chain.strong:
+            words.phrase(phrase)
+        for kind in self._kinds(plan):
+            for phrase in self.vocab.tasks.all if kind == "all tasks" else self.vocab.refers.get(kind, []):
+                words.phrase(phrase)
+        commands = [s.command for s in plan.steps]
+        values = [v for s in plan.steps for v in s.args.values()]
+        if len(set(commands)) < len(commands) or any(_several(v) for v in values):
+            words.where(lambda t: t == "both")  # two steps of one command, or two values of one option
+        for step in plan.steps:
+            info = self.catalog.get(step.command)
+            product = self.vocab.products.get(step.command)
+            for name, value in product.sets.items() if product else ():  # an augmented file
+                for phrase in self.vocab.values.get(name, {}).get(value, []):
+                    words.phrase(phrase)
+            cues = self.vocab.intents.get(step.command)
+            for phrase in [*cues.phrases, *cues.verbs, *cues.nouns] if cues else []:
+                words.phrase(phrase)
+            for phrase in self.vocab.explains.get(step.command, []):
+                words.phrase(phrase)
+            if step.command.startswith(ANSWER_PREFIX):
+                for phrase in self.vocab.questions:
+                    words.phrase(phrase)
+            for name, value in step.args.items():
+                param = info.params.get(name)
+                if param is not None:
+                    self._value(words, param, value)
+        return words.unused()
+
+    def _superseded(self, words: _Words) -> None:
+        """Words before a correction ("make 3 copies? no - just augment ...") are taken back."""
+        for phrase in self.vocab.corrections:
+            m = phrase_pattern(phrase.lower()).search(words.text)
+            if m:
+                upto = len(words.text[: m.end()].split())
+                words.used[:upto] = [True] * upto
+
+    def _kinds(self, plan: CheckedPlan) -> set[str]:
+        """The kinds of thing the plan makes or reads (``task`` when a step takes one)."""
+        kinds = {s.product_kind for s in plan.steps if s.product_kind}
+        for step in plan.steps:
+            product = self.vocab.products.get(step.command)
+            if product is not None:
+                kinds.add(product.kind)
+            kinds |= {k for key, k in self.vocab.consumes.items() if key.rsplit(".", 1)[0] == step.command}
+            param = self.catalog.get(step.command).task_param()
+            if param is not None or step.args.get("suite_id"):
+                kinds.add("task")
+            if param is not None and not param.required and step.args.get(param.name) in (None, "all"):
+                kinds.add("all tasks")  # a command whose tasks default to all of them
+        return kinds
+
+    # -- one argument -------------------------------------------------------------------------
+
+    def _value(self, words: _Words, param: ParamInfo, value: Any) -> None:
+        if isinstance(value, list):
+            for item in value:
+                self._value(words, param, item)
+            return
+        if value is None or isinstance(value, StepRef):
+            return
+        if param.name in TASK_PARAMS and isinstance(value, str):
+            for task in value.split(","):
+                self._task(words, task.strip())
+        elif isinstance(value, bool):
+            for phrase in param.names if value else param.off_words:
+                words.phrase(phrase)
+        elif isinstance(value, int | float):
+            self._number(words, float(value))
+            for phrase in [*param.units, *param.names]:
+                words.phrase(phrase)
+        elif param.name in FREE_TEXT or (
+            param.kind == "str" and not param.values() and param.name not in self.vocab.values
+        ):
+            said = set(words_of(str(value)).split()) | set(words_of(str(value).replace("_", " ")).split())
+            words.where(lambda t: t in said)
+            for phrase in param.names:
+                words.phrase(phrase)
+        else:
+            self._choice(words, param, str(value))
+
+    def _choice(self, words: _Words, param: ParamInfo, value: str) -> None:
+        lowered = value.lower()
+        phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
+        policy = self.vocab.policies.get(lowered)
+        if policy is not None:
+            phrases += [policy.name.lower(), *policy.words]
+        said = {p.lower() for p in phrases}
+        words.where(lambda t: t in said)
+        for phrase in phrases:
+            words.phrase(re.sub(r"[()|*?]", " ", phrase))
+        for phrase in param.names:
+            words.phrase(phrase)
+
+    def _number(self, words: _Words, value: float) -> None:
+        spelled = {w for w, n in self.vocab.numbers.items() if n == value}
+        for phrase in spelled:
+            words.phrase(phrase)
+
+        def same(token: str) -> bool:
+            m = _NUMBER.match(token)
+            if m:
+                number = float(token.rstrip("k%").replace(",", "")) * (1000 if m.group(1) else 1)
+                return number / (100 if m.group(2) else 1) == value or number == value
+            size = _SIZE.match(token)
+            if size:
+                return float(size.group(1)) == value
+            return False
+
+        words.where(same)
+
+    def _task(self, words: _Words, task: str) -> None:
+        if task == "all":
+            for phrase in self.vocab.tasks.all:
+                words.phrase(phrase)
+            return
+        if task not in self.index.terms:
+            return
+        names = {task.lower(), *task.lower().split("/"), short_name(task).lower()}
+        terms = self.index.terms[task]
+        for pattern, word in self.index.synonyms():
+            if stem(word) in terms:
+                for m in pattern.finditer(words.text):
+                    words.phrase(m.group(0))
+        for alias in self.index.aliases_of(task):
+            words.phrase(alias)
+        words.where(
+            lambda t: t in names or bool((self.index.concepts(t) | self.index.concepts(stem(t))) & terms.keys())
+        )
