@@ -28,7 +28,7 @@ from pipette_cli.agent.clauses import ANSWER_PREFIX, words_of
 from pipette_cli.agent.mentions import find_mentions
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex, short_name, stem
-from pipette_cli.agent.vocabulary import VocabularySpec, phrase_pattern
+from pipette_cli.agent.vocabulary import RecipeSpec, VocabularySpec, phrase_pattern
 
 FREE_TEXT = ("description", "about", "name", "asset_id")
 """Parameters whose value is the request's own words."""
@@ -53,6 +53,16 @@ def _literals(phrase: str) -> tuple[set[str], tuple[str, ...]]:
                 else:
                     words.add(word)
     return words, tuple(prefixes)
+
+
+def _holds(plan: CheckedPlan, recipe: RecipeSpec) -> bool:
+    """Whether the plan's steps include the recipe's, in order, with its fixed values."""
+    steps = iter(plan.steps)
+    for item in recipe.steps:
+        fixed = {k: v for k, v in item.args.items() if isinstance(v, str | int | float) and "{" not in str(v)}
+        if not any(s.command == item.command and all(s.args.get(k) == v for k, v in fixed.items()) for s in steps):
+            return False
+    return True
 
 
 def _several(value: Any) -> bool:
@@ -138,6 +148,10 @@ class Accountant:
         for kind in self._kinds(plan):
             for phrase in self.vocab.tasks.all if kind == "all tasks" else self.vocab.refers.get(kind, []):
                 words.phrase(phrase)
+        for recipe in self.vocab.recipes.values():
+            if _holds(plan, recipe):  # "compare raw vs augmented": the whole workflow is planned
+                for phrase in [*recipe.cues, *recipe.explains]:
+                    words.phrase(phrase)
         commands = [s.command for s in plan.steps]
         values = [v for s in plan.steps for v in s.args.values()]
         if len(set(commands)) < len(commands) or any(_several(v) for v in values):
@@ -223,7 +237,7 @@ class Accountant:
         said = {p.lower() for p in phrases}
         words.where(lambda t: t in said)
         for phrase in phrases:
-            words.phrase(re.sub(r"[()|*?]", " ", phrase))
+            words.phrase(phrase)
         for phrase in param.names:
             words.phrase(phrase)
 

@@ -10,6 +10,8 @@ computes the answer in this process: from the task registry, from HDF5 demo file
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,8 +24,23 @@ from pipette_cli.errors import DatasetError, PipetteError, plural
 from pipette_cli.registry import Registry, load_registry
 
 app = typer.Typer(add_completion=False)
-DEMOS_ROOT = Path("data")
-RESULTS_ROOT = Path("evals")
+SEARCH_DEPTH = 4
+"""How deep under the working directory the answers look for demo files and evaluation results."""
+_SKIP = {".git", ".venv", "venv", "node_modules", "__pycache__", "site-packages", ".cache", "wandb"}
+
+
+def find_files(root: Path, match: Callable[[str], bool], depth: int = SEARCH_DEPTH) -> list[Path]:
+    """Files under ``root`` (at most ``depth`` folders down, hidden and tool folders skipped)
+    whose name ``match`` accepts: where `pipette collect`, `eval` and `demo` wrote their output."""
+    found: list[Path] = []
+    base = len(root.resolve().parts)
+    for folder, subfolders, files in os.walk(root):
+        here = Path(folder)
+        if len(here.resolve().parts) - base >= depth:
+            subfolders[:] = []
+        subfolders[:] = sorted(d for d in subfolders if d not in _SKIP and not d.startswith("."))
+        found += [here / f for f in sorted(files) if match(f)]
+    return found
 
 
 @dataclass(frozen=True)
@@ -68,18 +85,16 @@ def _demo_files(file: Path | None, task: str | None) -> list[Path]:
         if not file.exists() and not Path(f"{file}.parts").is_dir():
             raise DatasetError(f"{file}: no such file")
         return [file]
-    found = sorted(DEMOS_ROOT.rglob("*.h5")) if DEMOS_ROOT.is_dir() else []
+    found = find_files(Path("."), lambda name: name.endswith((".h5", ".hdf5")))
     if not found:
-        raise DatasetError(
-            f"no demo files under {DEMOS_ROOT}/; name the file (`pipette collect --out FILE` writes one)"
-        )
+        raise DatasetError("no demo files under this folder; name the file (`pipette collect --out FILE` writes one)")
     return found
 
 
 @app.command("demos")
 def demos(
     file: Annotated[
-        Path | None, typer.Option("--file", help="HDF5 demo file (default: every file under data/).")
+        Path | None, typer.Option("--file", help="HDF5 demo file (default: every one under this folder).")
     ] = None,
     task_id: Annotated[str | None, typer.Option("--task", help="Only files of this task.")] = None,
 ) -> Answer:
@@ -122,7 +137,7 @@ def demos(
             ]
         )
     if not files:
-        raise DatasetError(f"no demo files of {task_id} under {DEMOS_ROOT}/" if task_id else "no demo files found")
+        raise DatasetError(f"no demo files of {task_id} under this folder" if task_id else "no demo files found")
     total = sum(f["episodes"] for f in files)
     if len(files) == 1:
         f = files[0]
@@ -142,7 +157,9 @@ def _summaries(folder: Path) -> list[dict[str, Any]]:
     """Evaluation results under ``folder``: each summary.json, and folders holding only
     episode_XXXX.json files (an interrupted evaluation), newest first."""
     results = []
-    for summary in folder.rglob("summary.json"):
+    episodes = find_files(folder, lambda name: name.startswith("episode_") and name.endswith(".json"))
+    logged = {p.parent for p in episodes}
+    for summary in find_files(folder, lambda name: name == "summary.json"):
         try:
             data = json.loads(summary.read_text())
             results.append(
@@ -159,9 +176,11 @@ def _summaries(folder: Path) -> list[dict[str, Any]]:
                 }
             )
         except (OSError, ValueError, KeyError, TypeError) as exc:
+            if summary.parent not in logged:
+                continue  # another tool's summary.json; an evaluation's sits beside its episode logs
             raise DatasetError(f"{summary}: not an evaluation summary ({exc})") from None
     summarized = {r["folder"] for r in results}
-    for parent in {p.parent for p in folder.rglob("episode_*.json")} - {Path(f) for f in summarized}:
+    for parent in logged - {Path(f) for f in summarized}:
         logs = [json.loads(p.read_text()) for p in sorted(parent.glob("episode_*.json"))]
         ok = sum(bool(log.get("success")) for log in logs)
         results.append(
@@ -183,7 +202,8 @@ def _summaries(folder: Path) -> list[dict[str, Any]]:
 @app.command("score")
 def score(
     folder: Annotated[
-        Path | None, typer.Option("--folder", help="Evaluation output folder (default: the newest under evals/).")
+        Path | None,
+        typer.Option("--folder", help="Evaluation output folder (default: the newest under this folder)."),
     ] = None,
     task_id: Annotated[str | None, typer.Option("--task", help="Only evaluations of this task.")] = None,
 ) -> Answer:
@@ -191,7 +211,7 @@ def score(
 
     Example: answer score --folder evals/PickUpTestTube
     """
-    root = folder or RESULTS_ROOT
+    root = folder or Path(".")
     if not root.is_dir():
         raise DatasetError(f"{root}: no such folder; evaluation results are where `pipette eval --out DIR` wrote them")
     results = [r for r in _summaries(root) if not task_id or r["task"] == task_id]

@@ -20,6 +20,8 @@ from pipette_cli.agent.mentions import find_mentions
 from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, phrase_pattern
 
 ANSWER_PREFIX = "answer "
+RECIPE_PREFIX = "recipe: "
+"""A clause's command for a whole workflow (vocabulary ``recipes``): ``recipe: compare augmentation``."""
 
 
 _CONTRACTIONS = [
@@ -49,6 +51,9 @@ class Clause:
     """The clause as written (paths included)."""
     command: str | None
     score: int
+    after: str = "strong"
+    """What separates it from the clause before: ``strong`` (a chain word such as "then", or
+    the request's start), ``sentence`` or ``weak`` ("," or "and")."""
 
 
 class Intents:
@@ -58,8 +63,16 @@ class Intents:
         self.vocab = vocab
         self.names = task_names
         commands = set(catalog.commands)
-        self.option_words = {
-            name: {w for p in info.params for w in p.split("_")} for name, info in catalog.commands.items()
+        filler = set(vocab.filler)
+        self.option_words = {  # an option's own words and the words of its multi-word names ("render profile")
+            name: {
+                w
+                for p in info.params.values()
+                for n in (p.name.replace("_", " "), *(n for n in p.names if " " in n))
+                for w in n.split()
+                if w not in filler
+            }
+            for name, info in catalog.commands.items()
         }
         self.cues = [
             (command, WEIGHTS[kind], phrase)
@@ -68,7 +81,13 @@ class Intents:
             for kind in ("phrases", "verbs", "nouns")
             for phrase in getattr(cues, kind)
         ]
-        self.order = [c for c in vocab.intents if c in commands]
+        recipes = [
+            (f"{RECIPE_PREFIX}{name}", WEIGHTS["phrases"] + 1, cue)
+            for name, r in vocab.recipes.items()
+            for cue in r.cues
+        ]
+        self.cues = recipes + self.cues  # a workflow asked for as a whole outweighs any one of its commands
+        self.order = [f"{RECIPE_PREFIX}{name}" for name in vocab.recipes] + [c for c in vocab.intents if c in commands]
 
     def scores(self, text: str) -> dict[str, int]:
         """Command -> cue weight for ``text`` (paths and addresses do not count)."""
@@ -156,12 +175,14 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         )
         if merged and not (starts and merged[-1][1] is not None):
             merged[-1][0] += separator + piece
-            merged[-1][1] = merged[-1][1] or command
+            merged[-1][1] = merged[-1][1] or command or intents.best(merged[-1][0])[0]
         else:
-            merged.append([piece, command])
+            merged.append([piece, command, kind if merged else "strong"])
     clauses = []
-    for clause_text, command in merged:  # a clause keeps the command of the piece that started it
+    for clause_text, command, after in merged:  # a clause keeps the command of the piece that started it
         clause_text = clause_text.strip(" ,;")
         best, score = intents.best(clause_text)
-        clauses.append(Clause(clause_text, command or best, score))
+        if best is not None and best.startswith(RECIPE_PREFIX):
+            command = best  # "train X with and without augmentation": the workflow, not its first command
+        clauses.append(Clause(clause_text, command or best, score, after))
     return clauses

@@ -19,7 +19,7 @@ from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import VocabularySpec, load_lexicon
+from pipette_cli.agent.vocabulary import VocabularySpec, lexicon
 from pipette_cli.llm import ChatClient, ask_structured, make_client, strict_json_schema
 from pipette_cli.registry import Registry
 
@@ -114,7 +114,7 @@ class LLMAgent:
         self.name = kind
         self.catalog = catalog
         self.registry = registry
-        self.vocab = vocab or load_lexicon()
+        self.vocab = vocab or lexicon(registry)
         self.client = client or make_client(kind, **options)
         self.validator = Validator(catalog, registry, self.vocab)
         self.intents = Intents(self.vocab, catalog, registry.ids())

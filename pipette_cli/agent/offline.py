@@ -15,13 +15,20 @@ from __future__ import annotations
 import re
 from typing import Any
 
-from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
-from pipette_cli.agent.clauses import Intents, split_clauses, words_of
+from pipette_cli.agent.catalog import (
+    AgentError,
+    CommandCatalog,
+    CommandInfo,
+    ParamInfo,
+    Unsupported,
+    is_empty,
+)
+from pipette_cli.agent.clauses import RECIPE_PREFIX, Intents, split_clauses, words_of
 from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase, load_lexicon, phrase_pattern
+from pipette_cli.agent.vocabulary import RecipeSpec, VocabularySpec, find_phrase, lexicon, phrase_pattern
 from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
 from pipette_cli.registry import Registry
 
@@ -36,6 +43,16 @@ def _stems(text: str) -> str:
     return " ".join(stem(w) for w in text.split())
 
 
+def _recipe_value(value: Any, before: int) -> Any:
+    """A recipe's value in a plan that has ``before`` steps ahead of the recipe (its step
+    references shifted; ``{Task}`` and ``{policy}`` are filled by the validator)."""
+    if isinstance(value, list):
+        return [_recipe_value(v, before) for v in value]
+    if isinstance(value, dict) and "from_step" in value:
+        return {"from_step": int(value["from_step"]) + before}
+    return value
+
+
 def _typed(param: ParamInfo, number: float) -> int | float:
     return int(number) if param.kind == "int" and number == int(number) else number
 
@@ -48,7 +65,7 @@ class OfflineAgent:
     def __init__(self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec | None = None) -> None:
         self.catalog = catalog
         self.registry = registry
-        self.vocab = vocab or load_lexicon()
+        self.vocab = vocab or lexicon(registry)
         self.index = TaskIndex(registry, self.vocab)
         self.validator = Validator(catalog, registry, self.vocab, self.index)
         self.intents = Intents(self.vocab, catalog, registry.ids())
@@ -83,13 +100,29 @@ class OfflineAgent:
     def _read(self, text: str) -> tuple[PlanSpec, list[str]]:
         steps: list[StepSpec] = []
         problems: list[str] = []
-        for clause in split_clauses(text, self.intents):
+        clauses = split_clauses(text, self.intents)
+        while clauses:
+            clause = clauses.pop(0)
+            if clause.command is not None and clause.command.startswith(RECIPE_PREFIX):
+                recipe = self.vocab.recipes[
+                    clause.command.removeprefix(RECIPE_PREFIX)
+                ]  # "..., and compare them on the paper suite": one workflow
+                own = {item.command for item in recipe.steps}
+                said = [clause.text]
+                while clauses and clauses[0].after != "strong" and clauses[0].command in own:
+                    said.append(clauses.pop(0).text)
+                steps += self._expand(recipe, ", ".join(said), len(steps), problems)
+                continue
             command = clause.command or self._policy_only(clause.text)
             if command is None:
                 continue
             info = self.catalog.get(command)
             args = self.fill(info, clause.text, problems)
             both = self._both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            each = [] if both else self._each_product(info, clause.text, args, steps)
+            if each:  # "convert both": one step per earlier output of the kind it reads
+                steps += [StepSpec(command=command, args={**args, **one}) for one in each]
+                continue
             for value in both[1] if both else [None]:  # "convert both the raw and the augmented data"
                 steps.append(StepSpec(command=command, args={**args, both[0]: value} if both else args))
         if not steps:
@@ -99,20 +132,64 @@ class OfflineAgent:
             )
         return PlanSpec(steps=steps), problems
 
+    def _expand(self, recipe: RecipeSpec, text: str, before: int, problems: list[str]) -> list[StepSpec]:
+        """The recipe's steps, each filled from the clause's words (the recipe's own values win;
+        its ``{from_step: N}`` count from the recipe's first step)."""
+        steps: list[StepSpec] = []
+        filled: dict[str, Any] = {}
+        for item in recipe.steps:
+            info = self.catalog.get(item.command)
+            bound = {float(v) for k, v in filled.items() if isinstance(v, int | float) and not isinstance(v, bool)}
+            args = self.fill(info, text, problems, bound)
+            for key, value in recipe.defaults.items():
+                name = "policy_type" if key == "policy" and "policy_type" in info.params else key
+                if name in info.params and is_empty(args.get(name)) and not info.params[name].path:
+                    args[name] = filled.get(key, value)
+            filled.update({k: v for k, v in args.items() if not is_empty(v)})
+            for key, value in item.args.items():
+                args[key] = _recipe_value(value, before)
+            steps.append(StepSpec(command=item.command, args=args))
+        return steps
+
+    def _each_product(
+        self, info: CommandInfo, text: str, args: dict[str, Any], steps: list[StepSpec]
+    ) -> list[dict[str, Any]]:
+        """For a clause saying "both" or "each of them" about earlier outputs ("convert both"),
+        the input of one step per earlier output of the kind the command reads."""
+        if not find_phrase(self.vocab.each, words_of(text)):
+            return []
+        for key, kind in self.vocab.consumes.items():
+            command, _, name = key.rpartition(".")
+            if command != info.name or not is_empty(args.get(name)):
+                continue
+            made = [
+                i
+                for i, step in enumerate(steps, 1)
+                if step.command in self.vocab.products and self.vocab.products[step.command].kind == kind
+            ]
+            if len(made) > 1:
+                many = info.params[name].multiple
+                return [{name: [{"from_step": i}] if many else {"from_step": i}} for i in made]
+        return []
+
     def _policy_only(self, text: str) -> str | None:
         """A clause naming a policy and no command asks to train it ("use VQ-BeT on the tube task")."""
         return "train" if "train" in self.catalog and self._policy(words_of(text)) else None
 
     # -- filling one step ---------------------------------------------------------------------
 
-    def fill(self, info: CommandInfo, text: str, problems: list[str] | None = None) -> dict[str, Any]:
+    def fill(
+        self, info: CommandInfo, text: str, problems: list[str] | None = None, bound: set[float] = frozenset()
+    ) -> dict[str, Any]:
         """Arguments of ``info`` that ``text`` gives; a task that is unknown or ambiguous is
-        added to ``problems`` (raised at once without it)."""
+        added to ``problems`` (raised at once without it). Numbers in ``bound`` belong to an
+        option of another step: never a bare count here."""
         mentions = find_mentions(text, self.registry.ids())
         words = words_of(mentions.words)
         args: dict[str, Any] = {}
+        named = self._registry_names(info, mentions.words)
         try:
-            self._task(info, mentions.words, words, args, [m.path for m in mentions.paths])
+            self._task(info, named, words_of(named), args, [m.path for m in mentions.paths])
         except AgentError as exc:
             if problems is None:
                 raise
@@ -143,11 +220,20 @@ class OfflineAgent:
             param = next((p for p in info.params.values() if set(p.values()) & set(self.vocab.policies)), None)
             if param is not None:
                 args[param.name] = policy
-        self._numbers(info, words, args)
+        self._numbers(info, words, args, bound)
         self._values(info, words, args)
         self._flags(info, words, args)
         self._text(info, text, saved, mentions.words, words, args)
         return args
+
+    def _registry_names(self, info: CommandInfo, text: str) -> str:
+        """``text`` without the suite it names ("the paper benchmark suite" names no task)."""
+        if "suite_id" not in info.params:
+            return text
+        phrases = [p for names in self.vocab.values.get("suite_id", {}).values() for p in names]
+        lowered = words_of(text)
+        m = find_phrase(sorted(phrases, key=len, reverse=True), lowered)
+        return lowered[: m.start()] + " " + lowered[m.end() :] if m else text
 
     def _task(self, info: CommandInfo, raw: str, words: str, args: dict[str, Any], paths: list[str]) -> None:
         param = info.task_param()
@@ -195,7 +281,7 @@ class OfflineAgent:
                 return key
         return None
 
-    def _numbers(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
+    def _numbers(self, info: CommandInfo, words: str, args: dict[str, Any], bound: set[float] = frozenset()) -> None:
         """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
         before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
         numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
@@ -235,7 +321,7 @@ class OfflineAgent:
             if best is not None:
                 args[best[1].name] = _typed(best[1], number)
                 taken.add(best[1].name)
-            elif not m.group(3) and not _MEASURE.match(after):
+            elif not m.group(3) and not _MEASURE.match(after) and number not in bound:
                 bare.append(number)
         fallback = info.params.get(self.vocab.bare_number)
         if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
@@ -249,15 +335,15 @@ class OfflineAgent:
                 continue
             if set(param.values()) & set(self.vocab.policies):
                 continue  # policies are read by _policy
-            found: list[tuple[int, str]] = []
+            found: list[tuple[int, int, str]] = []  # (start, -length, value): the longest name at a place wins
             for value, phrases in self.vocab.values.get(param.name, {}).items():
                 m = find_phrase(phrases, words)
                 if m:
-                    found.append((m.start(), value))
+                    found.append((m.start(), -len(m.group(0)), value))
             for value in param.choices:
                 m = re.search(rf"(?<![\w-]){re.escape(value.lower())}(?![\w-])", words)
                 if m:
-                    found.append((m.start(), value))
+                    found.append((m.start(), -len(m.group(0)), value))
             names = "|".join(phrase_pattern(n).pattern for n in param.names)
             named = {p.lower() for phrases in self.vocab.values.get(param.name, {}).values() for p in phrases}
             for value in (v for v in param.hinted if v.lower() not in named):  # the lexicon's value wins
@@ -269,9 +355,9 @@ class OfflineAgent:
                         rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words
                     )
                 if m:
-                    found.append((m.start(), value))
+                    found.append((m.start(), -len(m.group(0)), value))
             if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
-                args[param.name] = max(found)[1] if _CORRECTION.search(words) else min(found)[1]
+                args[param.name] = max(found)[2] if _CORRECTION.search(words) else min(found)[2]
 
     def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
         """A parameter the clause gives two values joined by "and" ("the raw and the augmented

@@ -237,19 +237,42 @@ class TaskIndex:
         """Tasks whose name, tags, robot or objects carry ``term``."""
         return {tid for tid, terms in self.terms.items() if terms.get(term, 0) > WEIGHTS["instruction"]}
 
+    def word_terms(self, text: str) -> list[set[str]]:
+        """The terms of each thing ``text`` names: a multi-word asset name, else one word (its
+        concept and the asset kind it names); "centrifuge" -> {centrifug, kind:centrifuge}."""
+        lowered, groups = f" {text.lower()} ", []
+        for alias in self._aliases:  # longest first; a multi-word alias is used up
+            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
+            if " " in alias and re.search(pattern, lowered):
+                groups.append({f"kind:{self._alias_kind[alias]}"})
+                lowered = re.sub(pattern, " ", lowered)
+        for pattern, word in self._synonyms:  # "take out" -> remove: one thing named
+            if " " in pattern.pattern and pattern.search(lowered):
+                groups.append({stem(word)})
+                lowered = pattern.sub(" ", lowered)
+        for word in re.findall(r"[a-z0-9]+", lowered):
+            terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
+            if terms:
+                groups.append(terms)
+        return groups
+
     def filter(self, text: str) -> tuple[list[str], list[str]]:
-        """Tasks having every term of ``text`` that some task's name, tags, robot or objects
-        carry (instruction words do not filter; several actions mean any of them), and those terms."""
-        wanted = {t: self._strong(t) for t in self.request_terms(text)}
-        wanted = {t: tids for t, tids in wanted.items() if tids}
-        hits = set(self.terms)
-        for t, tids in wanted.items():
-            if t not in self._actions:
+        """Tasks that carry, for every thing ``text`` names that some task's name, tags, robot or
+        objects carry, one of its terms (instruction words do not filter; several actions mean
+        any of them), and those terms."""
+        hits, actions, used = set(self.terms), [], []
+        for group in self.word_terms(text):
+            tids = set().union(*(self._strong(t) for t in group))
+            if not tids:
+                continue
+            used += sorted(t.removeprefix("kind:") for t in group if self._strong(t))
+            if group <= self._actions:
+                actions.append(tids)
+            else:
                 hits &= tids
-        actions = [tids for t, tids in wanted.items() if t in self._actions]
         if actions:
             hits &= set().union(*actions)
-        return sorted(hits), sorted(t.removeprefix("kind:") for t in wanted)
+        return sorted(hits), sorted(set(used))
 
     def filter_words(self, text: str) -> list[str]:
         """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words)."""

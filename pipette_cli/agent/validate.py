@@ -67,6 +67,7 @@ class Validator:
             notes: list[str] = []
             self._link(info, args, steps, context, notes)
             task = self._carry(info, args, carried, steps, notes)
+            self._templates(args, task)
             self._defaults(info, args, task, notes)
             missing = self.catalog.missing(info.name, args)
             product, kind = product_of(info, args, task, self.vocab)
@@ -193,7 +194,14 @@ class Validator:
         context: Context | None,
         notes: list[str],
     ) -> None:
-        """Empty inputs take the latest earlier output of the kind they read."""
+        """Empty inputs take the latest earlier output of the kind they read; an input that is an
+        earlier step's output takes the values that output sets (an augmented file is
+        ``dataset_version: augmented``)."""
+        for value in list(args.values()):
+            for ref in value if isinstance(value, list) else [value]:
+                if isinstance(ref, StepRef) and steps[ref.from_step - 1].command in self.vocab.products:
+                    sets = self.vocab.products[steps[ref.from_step - 1].command].sets
+                    args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
         choice = self.catalog.one_of.get(info.name, ())
         chosen = any(not is_empty(args.get(c)) for c in choice)
         wanted = {
@@ -293,6 +301,18 @@ class Validator:
                 if named:
                     return named
         return None
+
+    def _templates(self, args: dict[str, Any], task: str | None) -> None:
+        """``{Task}`` and ``{policy}`` in a value (a workflow's output folders) filled in; a value
+        whose name is still unknown is left out (a default or the missing list takes over)."""
+        policy = args.get("policy") if isinstance(args.get("policy"), str) else args.get("policy_type")
+        names = {"Task": short_name(task) if task else None, "policy": policy}
+        for key, value in list(args.items()):
+            if isinstance(value, str) and re.search(r"\{(?:Task|policy)\}", value):
+                if any(f"{{{k}}}" in value and not v for k, v in names.items()):
+                    del args[key]
+                else:
+                    args[key] = value.format(**names)
 
     def _defaults(self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str]) -> None:
         for key, template in self.vocab.defaults.items():

@@ -8,15 +8,20 @@ addresses already taken out).
 
 from __future__ import annotations
 
+import itertools
 import re
 from functools import cache
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from pydantic import Field, ValidationError
 
-from pipette_cli.errors import SpecError
+from pipette_cli.errors import PipetteError, SpecError
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
+
+if TYPE_CHECKING:
+    from pipette_cli.registry import Registry
 
 VOCABULARY_FILE = Path(__file__).with_name("vocabulary.yaml")
 WEIGHTS = {"phrases": 3, "verbs": 2, "nouns": 1}
@@ -64,6 +69,22 @@ class ProductSpec(Spec):
     sets: dict[str, str] = Field(default_factory=dict)
 
 
+class RecipeStepSpec(Spec):
+    command: str
+    args: dict[str, Any] = Field(default_factory=dict)
+
+
+class RecipeSpec(Spec):
+    """A request for a whole workflow ("compare raw and augmented ACT on X"): the cues that ask
+    for it and its steps; the request's own words fill every step that takes them."""
+
+    cues: list[str]
+    explains: list[str] = Field(default_factory=list)
+    """Words the workflow explains without asking for it ("compare")."""
+    defaults: dict[str, Any] = Field(default_factory=dict)
+    steps: list[RecipeStepSpec] = Field(min_length=1)
+
+
 class VocabularySpec(Spec):
     intents: dict[str, IntentCuesSpec]
     questions: list[str]
@@ -86,11 +107,14 @@ class VocabularySpec(Spec):
     """A kind of thing (``demos``, ``policy``, ``task``...) -> words that refer to it."""
     explains: dict[str, list[str]] = Field(default_factory=dict)
     """Command -> words its plan explains without asking for the command."""
+    each: list[str] = Field(default_factory=list)
+    """Words that mean every earlier output of a kind ("convert both")."""
     opening: list[str] = Field(default_factory=list)
     """Words that only open a request ("first, ...")."""
     corrections: list[str] = Field(default_factory=list)
     """Words that take back what came before ("actually", "no -")."""
     filler: list[str] = Field(default_factory=list)
+    recipes: dict[str, RecipeSpec] = Field(default_factory=dict)
     """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""
 
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
@@ -118,6 +142,7 @@ def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
         raise SpecError(validation_problems(exc, VocabularySpec, raw, doc, str(path))) from None
 
 
+@cache
 def robot_words() -> dict[str, list[str]]:
     """Robot id -> the words that name it: its id, aliases and words (``registry/robots/``)."""
     from pipette_cli.specs.robot import load_robot_specs  # deferred: robot facts only when a lexicon is built
@@ -128,16 +153,58 @@ def robot_words() -> dict[str, list[str]]:
     }
 
 
-@cache
-def load_lexicon(path: Path = VOCABULARY_FILE) -> VocabularySpec:
-    """The vocabulary with the registries' words added: every robot's names as values of ``robot``."""
-    vocab = load_vocabulary(path)
-    return vocab.model_copy(update={"values": {**vocab.values, "robot": robot_words()}})
+def suite_words(registry: Registry) -> dict[str, list[str]]:
+    """Suite id -> the words that name it: its id and the words of its name ("paper benchmark"),
+    and any part of them followed by "suite" that names no other suite ("the nominal suite")."""
+    from pipette_cli.evaluation.suites import load_suites  # deferred: suites only when a lexicon is built
+
+    try:
+        ids = load_suites(registry).ids()
+    except PipetteError:
+        return {}  # a broken suite file: `pipette eval --suite` says what is wrong with it
+    words = {
+        sid: [w.lower() for w in re.findall(r"[A-Z][a-z]*|[0-9]+", sid.split("/")[-1].rsplit("-v", 1)[0])]
+        for sid in ids
+    }
+    parts: dict[str, list[str]] = {}
+    for sid, name in words.items():
+        for size in range(1, min(len(name), 4) + 1):  # any of its words, in any order ("the paraphrased paper suite")
+            for chosen in itertools.permutations(name, size):
+                parts.setdefault(f"{' '.join(chosen)} suite", []).append(sid)
+
+    def owner(suites: list[str]) -> str | None:  # a part several suites share names the one with the fewest words
+        fewest = min(len(words[s]) for s in suites)
+        basic = [s for s in suites if len(words[s]) == fewest]
+        return basic[0] if len(basic) == 1 else None
+
+    return {
+        sid: sorted(
+            {
+                sid.lower(),
+                sid.split("/")[-1].lower(),
+                " ".join(name),
+                *(p for p, owners in parts.items() if owner(owners) == sid),
+            },
+            key=len,
+            reverse=True,
+        )
+        for sid, name in words.items()
+    }
+
+
+def lexicon(registry: Registry) -> VocabularySpec:
+    """The vocabulary with the registries' words added as values: every robot's names (``robot``)
+    and every suite's (``suite_id``)."""
+    vocab = load_vocabulary()
+    return vocab.model_copy(
+        update={"values": {**vocab.values, "robot": robot_words(), "suite_id": suite_words(registry)}}
+    )
 
 
 def _item(token: str) -> str:
     if token.startswith("(") and token.endswith(")"):
-        return "(?:" + "|".join(_words(alt) for alt in token[1:-1].split("|")) + ")"
+        alternatives = sorted(token[1:-1].split("|"), key=len, reverse=True)  # "camera poses" before "camera"
+        return "(?:" + "|".join(_words(alt) for alt in alternatives) + ")"
     if token.endswith("*"):
         return re.escape(token[:-1]) + r"[\w'-]*"
     return re.escape(token)

@@ -4,6 +4,7 @@ whoever wrote it, and such a plan never runs under --yes; robots by any register
 from __future__ import annotations
 
 import json
+import os
 
 import httpx
 import pytest
@@ -89,3 +90,70 @@ def test_cli_never_runs_a_plan_with_words_it_did_not_understand(run_cli, tmp_pat
     assert data["not_understood"] == ["twice", "fast"] and list(tmp_path.iterdir()) == []
     shown = run_cli("agent", request, "--dry-run")
     assert "not understood: 'twice', 'fast'" in " ".join(shown.stderr.split())
+
+
+def test_data_questions_count_tags_assets_and_instruments_alike() -> None:
+    from pipette_cli.agent.answers import answer
+
+    found = answer("answer tasks", AGENT.plan("how many tasks use the centrifuge?").steps[0].args, REGISTRY)
+    tasks = set(found.data["tasks"])
+    tagged = {t for t in REGISTRY.ids() if "centrifuge" in REGISTRY.get(t).tags}
+    with_asset = {t for t in REGISTRY.ids() if any("centrifuge" in o.asset for o in REGISTRY.get(t).scene.objects)}
+    assert tagged and with_asset - tagged and tasks == tagged | with_asset  # the microcentrifuge is a centrifuge
+
+
+def test_the_last_score_is_the_newest_evaluation_anywhere_under_the_folder(tmp_path, monkeypatch) -> None:
+    from pipette_cli.agent.answers import answer
+
+    monkeypatch.chdir(tmp_path)
+    for folder, successes, stamp in (("evals/old", 1, 1), ("demo_run/eval", 3, 2)):  # `pipette demo` writes the second
+        path = tmp_path / folder
+        path.mkdir(parents=True)
+        logs = [{"task": "pipette/PickUpTestTube-v1", "success": i < successes, "seed": i} for i in range(4)]
+        for i, log in enumerate(logs):
+            (path / f"episode_{i:04d}.json").write_text(json.dumps(log))
+        summary = {"task": logs[0]["task"], "episodes": 4, "successes": successes, "success_rate": successes / 4}
+        (path / "summary.json").write_text(json.dumps(summary))
+        for p in path.iterdir():
+            os.utime(p, (stamp, stamp))
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "summary.json").write_text('{"not": "an evaluation"}')  # another tool's: skipped
+    last = answer("answer score", AGENT.plan("what did the last eval score").steps[0].args)
+    assert last.data["last"]["folder"] == "demo_run/eval" and last.data["last"]["successes"] == 3
+
+
+@pytest.mark.parametrize(
+    "request_text",
+    [
+        "compare raw vs augmented ACT on PickUpTestTube",
+        "does augmentation help on the test tube task?",
+        "is the augmentation worth it for the test tube task",
+        "train act with and without augmented data on PickUpTestTube, 1500 steps each",
+        "what does augmentation buy on the test tube task? use 1500 training steps",
+    ],
+)
+def test_a_comparison_becomes_the_whole_experiment(request_text: str) -> None:
+    plan = AGENT.plan(request_text)
+    assert [s.command for s in plan.steps] == ["train", "train", "eval", "eval", "eval report"]
+    assert [s.args.get("dataset_version", "raw") for s in plan.steps[:4]] == ["raw", "augmented"] * 2
+    raw, augmented = plan.steps[2], plan.steps[3]
+    assert raw.args["policy"].from_step == 1 and augmented.args["policy"].from_step == 2  # each its own policy
+    assert raw.args["out"] != augmented.args["out"] and raw.args.get("seed") == augmented.args.get("seed")
+    assert [r.from_step for r in plan.steps[4].args["folders"]] == [3, 4]
+    assert plan.unused == [] and plan.runnable
+    steps = {s.args.get("steps") for s in plan.steps[:2]}
+    assert steps == ({1500} if "1500" in request_text else {None})  # the same budget for both, eval untouched
+    assert all("episodes" not in s.args for s in plan.steps[2:4]) or "episodes" in request_text
+
+
+def test_suites_by_name_and_both_outputs_of_a_chain() -> None:
+    assert AGENT.plan("evaluate ckpt/a on the paper benchmark suite").steps[0].args["suite_id"] == (
+        "pipette/PaperBenchmark-v1"
+    )
+    assert AGENT.plan("evaluate ckpt/a on the paraphrased paper suite").steps[0].args["suite_id"] == (
+        "pipette/PaperBenchmarkParaphrased-v1"
+    )
+    plan = AGENT.plan("collect 4 demos of the test tube task, augment them, then convert both")
+    converts = [s for s in plan.steps if s.command == "convert"]
+    assert [c.args["inputs"][0].from_step for c in converts] == [1, 2]
+    assert [c.args.get("dataset_version", "raw") for c in converts] == ["raw", "augmented"]
