@@ -4,8 +4,8 @@ and an instrument's run: its start button, as the protocols do (``protocols/Spin
 
 from __future__ import annotations
 
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo, holds_open, measure_asset
-from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, release_angle, shut_bound
+from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset
+from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
 from pipette_cli.authoring.scene import HANDLES, PART_JOINTS, hatch_joint, r
 from pipette_cli.authoring.stage_base import Stage, StageBase
@@ -90,13 +90,6 @@ class HatchStages(StageBase):
         None when the lid holds open nowhere (a ``button_release`` press, never closed again)."""
         name = step.object
         angle = self.scene.release(name, geom, joint)
-        far = r(0.98 * joint.open_limit)
-        if (
-            angle is None
-            and release_angle(geom, joint) is not None
-            and holds_open(self.placed[name].asset, joint.name, far)
-        ):
-            angle = far
         if angle is None:
             return None
         goal = r(0.75 * angle)

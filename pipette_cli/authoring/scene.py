@@ -48,8 +48,12 @@ SURFACE_SITES = (
     "opening",
 )
 RELATION_START = {"left_of": (0.0, -0.5), "right_of": (0.0, 0.5), "behind": (-0.12, 0.0), "in_front_of": (0.2, 0.0)}
-"""Where the reference of a relation starts (x from the workspace's middle in metres, y in lanes),
-leaving room within reach on the side the object goes to; "next to" takes the workspace's middle."""
+"""Where a relation's reference starts (x from the workspace's middle, m; y in lanes): room beside it."""
+BESIDE_CLEAR = 0.2
+"""Metres past a relation reference's half-diagonal the other objects start (outside its region)."""
+RELEASE_FAR = 0.98
+"""Share of its limit a latched lid is popped open to when its friction does not hold it at the
+asset's release angle (protocols/SpinMicrotube-v1 opens the microcentrifuge to -98 of -100 deg)."""
 OPEN_FRACTION = 0.95
 """An opened lid or door starts at this fraction of its open limit."""
 
@@ -128,6 +132,7 @@ class SceneBuilder:
         self.ws = self.layout.workspace
         self.out = SceneLayout()
         self.geoms: dict[str, AssetGeometry] = {}
+        self.clear_of: tuple[tuple[float, float], float] | None = None
         self.added: dict[str, str] = {}
         """Objects the layout adds to the plan's (a rack for a tube that cannot stand): name -> asset."""
 
@@ -250,6 +255,9 @@ class SceneBuilder:
                 "try another side or fewer objects"
             )
         self.out.beside[item] = found
+        ref_boxes = self.geoms.get(ref, self.geom(ref)).boxes
+        reach = float(np.hypot(*(0.5 * (ref_boxes[:, 3:5].max(axis=0) - ref_boxes[:, :2].min(axis=0)))))
+        self.clear_of = ((placed.pos[0], placed.pos[1]), reach + BESIDE_CLEAR)
 
     def _relation_start(self, name: str) -> tuple[float, float] | None:
         """Where the reference of a relation ("left of the beaker") starts: room on that side within reach."""
@@ -303,12 +311,15 @@ class SceneBuilder:
 
     def release(self, name: str, geom: AssetGeometry, joint: JointInfo) -> float | None:
         """The angle a latched lid pops open to when its release button is pressed
-        (:func:`~.motors.release_angle`), if its friction then holds it open there; else ``None``
-        (the lid is worked by hand)."""
+        (:func:`~.motors.release_angle`), or near its limit (:data:`RELEASE_FAR`), where its friction
+        holds it open; else ``None`` (the lid is worked by hand)."""
         angle = release_angle(geom, joint)
-        if angle is None or not holds_open(self.checked.asset(name), joint.name, angle):
+        if angle is None:
             return None
-        return angle
+        for candidate in (angle, r(RELEASE_FAR * joint.open_limit)):  # near its limit, as protocols do
+            if holds_open(self.checked.asset(name), joint.name, candidate):
+                return candidate
+        return None
 
     def _released(self, name: str) -> bool:
         """Whether ``name`` has a latched lid its release button opens (:meth:`release`)."""
@@ -416,7 +427,8 @@ class SceneBuilder:
         round_ = geom.semantics.get("upright", True) and abs(hx - hy) < 0.2 * max(hx, hy)
         randomize: dict[str, Any] = {"xy": (amp, amp), "yaw_deg": 180 if round_ else 15}
         key = [geom.sites["grasp"][:2]] if "grasp" in geom.sites else [(0.0, 0.0)]
-        spot = self.layout.place(Footprint(geom.boxes, key, preferred, margin=amp), self.ws.bench_z)
+        clear = {"away": self.clear_of} if self.clear_of else {}  # off a relation's region
+        spot = self.layout.place(Footprint(geom.boxes, key, preferred, margin=amp), self.ws.bench_z, **clear)
         if spot is None:
             raise self._no_room(name)
         z = r(self.ws.bench_z + geom.origin_height + 0.001, 4)
