@@ -92,14 +92,12 @@ class ClauseReader:
         self.implied = dict(words.implied_targets)
         self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
         self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
-        self.preps = sorted(
-            ((p, role) for role, ps in words.prepositions.model_dump().items() for p in ps),
-            key=lambda pr: -len(pr[0].split()),
-        )
+        self.preps = words.preposition_roles()
         self.prep_words = {w for p, _ in self.preps for w in p.split()}
         self.articles = set(words.articles)
         self.fillers = set(words.fillers)
         self.pronouns = sorted(words.pronouns, key=lambda p: -len(p.split()))
+        self.runs = sorted(words.runs, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
 
     # ------------------------------------------------------------------ verbs
@@ -175,16 +173,24 @@ class ClauseReader:
                 i += 1
                 continue
             alias = first_match(tokens, i, self.aliases)
+            head = alias[0] if alias else ""
+            compound = self._compound(tokens, i, alias[1], verbs) if alias else None
+            if compound is not None:  # "pipette tip box": one mention of the tip box (see _compound)
+                head, n = compound
+                alias = (" ".join(t.text for t in tokens[i : i + n]), n)
             bench = first_match(tokens, i, self.bench)
             pronoun = first_match(tokens, i, self.pronouns)
             part = first_match(tokens, i, list(self.part_words))
             found: tuple[str, str, int] | None = None
             if alias and (not part or alias[1] > part[1] or not self._part_has_owner(clause, i, part[1])):
-                found = (self.vocab.alias_to_kind[alias[0]], alias[0], alias[1])
+                found = (self.vocab.alias_to_kind[head], alias[0], alias[1])
             if bench and (found is None or bench[1] > found[2]):
                 found = ("bench", bench[0], bench[1])
             if found is None and pronoun and not part:
                 found = ("pronoun", pronoun[0], pronoun[1])
+            run = first_match(tokens, i, self.runs) if found is None and clause.action == "run" else None
+            if run is not None:  # "start the spin": the instrument whose run it is
+                found = ("pronoun", run[0], run[1])
             if found is None:
                 i += 1
                 continue
@@ -193,6 +199,22 @@ class ClauseReader:
             for k in range(i, i + n):
                 tokens[k].used = True
             i += n
+
+    def _compound(self, tokens: list[Token], i: int, n: int, verbs: set[int]) -> tuple[str, int] | None:
+        """``(head name, words)`` where names overlap from ``i`` on, the last ending after the first
+        (``n`` words): a compound's head is its last name, so "pipette tip box" is one mention of a
+        tip box, not a pipette tip followed by an unknown "box". None when no name overlaps."""
+        head: tuple[str, int] | None = None
+        end = i + n
+        j = i + 1
+        while j < end:
+            if j in verbs:
+                break
+            later = first_match(tokens, j, self.aliases)
+            if later is not None and j + later[1] > end:
+                head, end = (later[0], j + later[1] - i), j + later[1]
+            j += 1
+        return head
 
     def _part_has_owner(self, clause: Clause, i: int, n: int) -> bool:
         """A part word directly after a mention ("incubator shelf") or before "of the X"."""
@@ -226,7 +248,7 @@ class ClauseReader:
                     two = f"{tokens[k].text} {tokens[k + 1].text}" if k + 1 < m.start else ""
                     modifier = self.modifiers.get(two) or self.modifiers.get(tokens[k].text)
                     m.modifiers.append(modifier or tokens[k].text)
-                    if modifier or tokens[k].text in self.vocab.assets_words():
+                    if modifier or self.vocab.describes(tokens[k].text, m.kind):
                         tokens[k].used = True
                 k -= 1
             m.window_start = k + 1

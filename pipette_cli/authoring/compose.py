@@ -15,13 +15,15 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.authoring.layout import PlacedObject
-from pipette_cli.authoring.plan import PlanError, PlanStepSpec
+from pipette_cli.authoring.naming import stage_instruction, step_name
+from pipette_cli.authoring.naming import task_id as derive_id
+from pipette_cli.authoring.plan import PlanError
 from pipette_cli.authoring.scene import SceneBuilder, r
 from pipette_cli.authoring.stages import Stage, StageBuilder
 from pipette_cli.authoring.validate import CheckedPlan
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs.expert import StepSpec
-from pipette_cli.specs.mechanisms import MechanismSpec
+from pipette_cli.specs.mechanisms import InstrumentSpec, MechanismSpec
 from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 
 CATEGORY = {
@@ -32,6 +34,7 @@ CATEGORY = {
     "open": "hatch_control",
     "close": "hatch_control",
     "press": "hatch_control",
+    "run": "other",
 }
 
 
@@ -57,6 +60,8 @@ class ComposedTask:
     notes: list[tuple[str, str]]
     cameras: dict[str, dict[str, Any]]
     checked: CheckedPlan = field(repr=False)
+    starts: dict[str, str] = field(default_factory=dict)
+    """Object -> the object it starts in or on (a source, or a rack the layout added)."""
 
     @property
     def stage_names(self) -> list[str]:
@@ -69,45 +74,26 @@ class ComposedTask:
         return re.sub(r"(?<!^)(?=[A-Z])", "_", short).lower()
 
 
-def _camel(text: str) -> str:
-    text = re.sub(r"(\d)_(\d)", r"\1p\2", text)
-    return "".join(part[:1].upper() + part[1:] for part in text.split("_"))
-
-
-def step_id(step: PlanStepSpec, checked: CheckedPlan) -> str:
-    """``PlaceConicalTube15mlInConicalTubeRack15ml`` for one step (asset names keep ids unique)."""
-    c = {n: _camel(o.asset) for n, o in checked.objects.items()}
-    obj = c[step.object]
-    part = (step.part or "").split("_")[0].capitalize() if step.part in ("lid", "door", "drawer", "sash") else ""
-    return {
-        "pick": lambda: f"PickUp{obj}" + (f"From{c[step.source]}" if step.source else ""),
-        "place": lambda: f"Place{obj}On{c[step.required_target()]}",
-        "remove": lambda: f"Remove{obj}From{c[step.source]}" if step.source else f"Remove{obj}",
-        "position": lambda: f"Position{obj}Over{c[step.required_target()]}",
-        "open": lambda: f"Open{obj}{part}",
-        "close": lambda: f"Close{obj}{part}",
-        "press": lambda: f"Press{obj}Button",
-    }[step.action]()
-
-
-def step_name(step: PlanStepSpec, checked: CheckedPlan) -> str:
-    """``place the 15 mL conical tube on the balance`` for one step."""
-    n = {name: o.info.human_name() for name, o in checked.objects.items()}
-    obj = n[step.object]
-    part = step.part if step.part in ("lid", "door", "drawer", "sash") else ""
-    return {
-        "pick": lambda: f"pick up the {obj}",
-        "place": lambda: f"place the {obj} on the {n[step.required_target()]}",
-        "remove": lambda: f"remove the {obj}" + (f" from the {n[step.source]}" if step.source else ""),
-        "position": lambda: f"position the {obj} over the {n[step.required_target()]}",
-        "open": lambda: f"open the {obj} {part}".strip(),
-        "close": lambda: f"close the {obj} {part}".strip(),
-        "press": lambda: f"press the {obj} button",
-    }[step.action]()
+def merge_instruments(instruments: list[InstrumentSpec]) -> list[InstrumentSpec]:
+    """One state machine per instrument: the parts each stage needs (a motor to open it, a closure,
+    a run) joined under its name."""
+    merged: dict[str, InstrumentSpec] = {}
+    for m in instruments:
+        old = merged.get(m.name)
+        if old is None:
+            merged[m.name] = m
+            continue
+        parts = {k: getattr(old, k) or getattr(m, k) for k in ("closure", "motor", "run", "scale")}
+        merged[m.name] = old.model_copy(update={**parts, "contents": [*old.contents, *m.contents]})
+    return list(merged.values())
 
 
 def compose(
-    checked: CheckedPlan, *, namespace: str = "generated", task_id: str | None = None, remarks: tuple[str, ...] = ()
+    checked: CheckedPlan,
+    *,
+    namespace: str = "generated",
+    task_id: str | None = None,
+    remarks: tuple[str, ...] = (),
 ) -> ComposedTask:
     """Lay out and compose ``checked`` (see the module docstring).
 
@@ -126,8 +112,9 @@ def compose(
     if multi:
         total = sum(s.criterion.timeout_s or 10.0 for s in stages)
         timeout = plan.thresholds.timeout_s or r(total, 1)
-        success: ev.EvaluatorSpec = ev.SequenceSpec(of=[s.criterion for s in stages], timeout_s=timeout)
-        comments["success.of"] = "one stage per step, in order"
+        of = [s.criterion.model_copy(update={"instruction": stage_instruction(s.step, checked)}) for s in stages]
+        success: ev.EvaluatorSpec = ev.SequenceSpec(of=of, timeout_s=timeout)
+        comments["success.of"] = "one stage per step, in order, each with its own instruction"
         for k, stage in enumerate(stages):
             comments.update({f"success.of.{k}.{path}": text for path, text in stage.comments.items()})
     else:
@@ -135,7 +122,7 @@ def compose(
         comments.update({f"success.{path}": text for path, text in stages[0].comments.items()})
     program = [skill for stage in stages for skill in stage.program]
     releases = [m for stage in stages for m in stage.mechanisms]
-    instruments = list({m.name: m for stage in stages for m in stage.instruments}.values())  # once each
+    instruments = merge_instruments([m for stage in stages for m in stage.instruments])
     if len({m.joint for m in releases}) < len(releases) or any(
         s.action == "close" and any(m.joint.startswith(f"{s.object}/") for m in releases) for s in steps
     ):
@@ -146,7 +133,7 @@ def compose(
     targets = list(dict.fromkeys(t for stage in stages for t in stage.targets))
     objects = list(layout.placed.values())
     robot = checked.robot.name
-    tid = task_id or f"{namespace}/{'Then'.join(step_id(s, checked) for s in steps)}-v1"
+    tid = task_id or derive_id(checked, namespace)
     name = ", then ".join(step_name(s, checked) for s in steps)
     tags = ["generated", *dict.fromkeys(s.action for s in steps)]
     if any(o.info.category == "instruments" for o in checked.objects.values()):
@@ -194,6 +181,7 @@ def compose(
         notes=notes,
         cameras=_cameras(objects, robot),
         checked=checked,
+        starts={item: holder for item, (holder, _) in layout.start_site.items()},
     )
 
 

@@ -1,18 +1,24 @@
 """Stages that open or close an instrument: a hinge or slide by hand, a latched lid by its release,
-a motorised lid or drawer by its button, a lift-off lid by its handle (table in :mod:`.stages`)."""
+a motorised lid or drawer by its button, a lift-off lid by its handle (table in :mod:`.stages`);
+and an instrument's run: its start button, as the protocols do (``protocols/SpinMicrotube-v1``)."""
 
 from __future__ import annotations
 
-from pipette_cli.authoring.measure import AssetGeometry, measure_asset
+from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset
 from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
-from pipette_cli.authoring.scene import HANDLES, hatch_joint, r
+from pipette_cli.authoring.scene import HANDLES, PART_JOINTS, hatch_joint, r
 from pipette_cli.authoring.stage_base import Stage, StageBase
 from pipette_cli.authoring.validate import separate_lid
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
-from pipette_cli.specs.mechanisms import InstrumentSpec
+from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, RunSpec
+
+RUN_SECONDS = 10.0
+"""Length of a drafted instrument's run (its start button's)."""
+RAN_S = 2.0
+"""Seconds a run must have gone on for its stage to count (protocols/SpinMicrotube-v1)."""
 
 
 class HatchStages(StageBase):
@@ -76,6 +82,48 @@ class HatchStages(StageBase):
         else:
             skill = sk.CloseHingeSpec(joint=ref, hold_s=hold + 0.3)
         return Stage(step, criterion, [skill], {"bound": note}, [name])
+
+    def _press_open(self, step: PlanStepSpec, geom: AssetGeometry, joint: JointInfo) -> Stage | None:
+        """A release button pressed before its lid is closed or its instrument run: the instrument's
+        state machine pops the lid open (to where its friction holds it: the asset's release angle,
+        else near its limit, as ``protocols/SpinMicrotube-v1`` does), and a later stage may close it.
+        None when the lid holds open nowhere (a ``button_release`` press, never closed again)."""
+        name = step.object
+        angle = self.scene.release(name, geom, joint)
+        if angle is None:
+            return None
+        goal = r(0.75 * angle)
+        criterion = ev.JointThresholdSpec(
+            joint=f"{name}/{joint.name}",
+            bound=BoundSpec(min=goal) if angle > 0 else BoundSpec(max=goal),
+            hold_s=self.hold(0.3),
+            timeout_s=self.timeout(10),
+        )
+        comments = {"bound": f"VERIFY: open past 75 % of the {angle:g} deg its release opens it to"}
+        return _by_button(step, criterion, motorised(name, joint, "button", angle), "button", comments, self.hold(0.3))
+
+    def _run(self, step: PlanStepSpec) -> Stage:
+        """Press the start button of a closed instrument; it must run ``RAN_S`` with its lid, door
+        or drawer shut (an open one refuses the run, and opening it aborts one)."""
+        name = step.object
+        geom = measure_asset(self.placed[name].asset)
+        if "start_button" not in geom.sites:
+            raise PlanError(f"the {self.human(name)} has no start button: running it is not simulated")
+        joint = next((geom.joints[j] for js in PART_JOINTS.values() for j in js if j in geom.joints), None)
+        values = {"run_time_s": BoundSpec(min=RAN_S)}
+        closure = None
+        if joint is not None:
+            closure = ClosureSpec(joint=f"{name}/{joint.name}", closed=shut_bound(joint))
+            values["closed"] = BoundSpec(min=1.0)
+        instrument = InstrumentSpec(
+            name=name, closure=closure, run=RunSpec(button=f"{name}/start_button", seconds=RUN_SECONDS)
+        )
+        criterion = ev.InstrumentStateSpec(mechanism=name, values=values, timeout_s=self.timeout(10))
+        comments = {
+            "values": f"ran at least {RAN_S:g} s with its {joint.name.split('_')[0] if joint else 'parts'} shut"
+        }
+        program: list[sk.StepSpec] = [sk.PressSpec(button=f"{name}/start_button"), sk.WaitSpec(seconds=RAN_S + 1.0)]
+        return Stage(step, criterion, program, comments, [name], instruments=[instrument])
 
     def _lift_off_lid(self, step: PlanStepSpec, geom: AssetGeometry, opening: bool) -> Stage:
         name = step.object

@@ -33,6 +33,19 @@ TIGHT_CLEARANCE = 0.005
 INNER_MARGIN = 0.05
 OUTER_MARGIN = 0.08
 """Metres kept inside the robot's ``min_reach`` / ``reach`` for the sites it works at."""
+RELATIONS: dict[str, tuple[float, float]] = {
+    "left_of": (0.0, 1.0),
+    "right_of": (0.0, -1.0),
+    "behind": (1.0, 0.0),
+    "in_front_of": (-1.0, 0.0),
+}
+"""Unit directions (x, y) of the relations in the bench frame, as seen from the robot (its left is
++y, behind is farther from its base); ``next_to`` tries each in turn."""
+BESIDE_GAP = 0.03
+"""Metres between a reference's side and an object set down beside it."""
+BESIDE_TOLERANCE = 0.07
+"""Metres a free spot may lie from the ideal one beside a reference (the layout keeps clearances and
+the reference's randomisation margin around it)."""
 ORIGIN_MARGIN = 0.02
 PRESS_FRONT = 0.45
 """Metres (on a Panda-sized arm, scaled by reach) between the base and an instrument whose button is pressed."""
@@ -169,6 +182,25 @@ class Layout:
         if commit:
             self.add_obstacle(fp.boxes, (x, y, z), fp.margin)
         return x, y
+
+    def beside(
+        self, boxes: np.ndarray, reference: np.ndarray, relation: str, z: float
+    ) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """A free spot (x, y) for an object of ``boxes`` beside the ``reference`` boxes (placed, world
+        frame) in ``relation``, kept clear from now on, and its direction; None when there is none."""
+        center = 0.5 * (reference[:, :2].min(axis=0) + reference[:, 3:5].max(axis=0))
+        r_half = 0.5 * (reference[:, 3:5].max(axis=0) - reference[:, :2].min(axis=0))
+        i_low, i_high = boxes[:, :2].min(axis=0), boxes[:, 3:5].max(axis=0)
+        i_half, middle = 0.5 * (i_high - i_low), 0.5 * (i_low + i_high)
+        for direction in list(RELATIONS.values()) if relation == "next_to" else [RELATIONS[relation]]:
+            d = np.asarray(direction)
+            ideal = center + d * (np.abs(d) @ r_half + np.abs(d) @ i_half + BESIDE_GAP) - middle
+            fp = Footprint(boxes, [(0.0, 0.0)], (float(ideal[0]), float(ideal[1])), margin=0.01)
+            spot = self.place(fp, z, commit=False)
+            if spot is not None and np.hypot(*(np.asarray(spot) - ideal)) <= BESIDE_TOLERANCE:
+                self.place(fp, z)
+                return spot, direction
+        return None
 
     def add_obstacle(self, boxes: np.ndarray, pos: tuple[float, float, float], margin: float = 0.0) -> None:
         shifted = boxes.copy()

@@ -5,7 +5,8 @@ step read against the vocabulary (:mod:`.clause`), and the steps assembled into 
 named again ("the tube", "it") are the same object; an object of the same kind named with other
 sizes or "other" is a new one ("put the 50 mL beaker in the 250 mL beaker"). A pick followed by a
 placement of the same object is one step. What the simulator cannot do (liquids, screwing caps,
-running instruments) and words that name nothing known are refused with the reason.
+running instruments without a start button) and words that name nothing known are refused with
+the reason (:mod:`.refusals`).
 """
 
 from __future__ import annotations
@@ -14,7 +15,16 @@ import re
 from dataclasses import dataclass, field
 
 from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
-from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, PlanThresholdsSpec, TaskPlanSpec
+from pipette_cli.authoring.plan import (
+    INSTRUMENT_ACTIONS,
+    PlanError,
+    PlanObjectSpec,
+    PlanStepSpec,
+    PlanThresholdsSpec,
+    Relation,
+    TaskPlanSpec,
+)
+from pipette_cli.authoring.refusals import ACTION_WORDS, refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
 from pipette_cli.authoring.text import (
     extract_robots,
@@ -30,7 +40,6 @@ HATCH_PARTS = ("lid", "door", "drawer", "sash")
 REMOVING = ("out of", "off", "off of", "out from", "from inside")
 """Source prepositions that make "take X ..." a removal rather than a lift."""
 NEW_OBJECT = ("other", "another", "second", "new", "different")
-ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over"
 
 
 @dataclass
@@ -58,6 +67,7 @@ class RawStep:
     target: Obj | None = None
     source: Obj | None = None
     part: str | None = None
+    relation: Relation | None = None
 
 
 @dataclass
@@ -85,7 +95,7 @@ class Builder:
         out = []
         for s in self.steps:
             out += [o for o in (s.target, s.source) if o is not None]
-            if s.action in ("open", "close", "press") and s.object is not None:
+            if s.action in INSTRUMENT_ACTIONS and s.object is not None:
                 out.append(s.object)
         return out
 
@@ -129,6 +139,13 @@ class Builder:
             if not self.steps or not direct:
                 raise PlanError(f"no action in '{clause.text}': start with a verb such as {ACTION_WORDS}")
             action = self.steps[-1].action  # "put the tube in the rack, the vial in the box"
+        if action == "run":
+            self._run(clause, direct)
+            return
+        lid = self._loose_lid(action, clause, direct)
+        if lid is not None:  # "open the water bath lid", "take the bath lid off": its instrument's lid
+            self._hatch(lid[0], clause, [lid[1]], None, part_name="lid")
+            return
         hatch = next((p for p in clause.parts if p.name in HATCH_PARTS), None)
         words = {t.text for t in clause.tokens}
         if hatch is not None and (not direct or all(m is hatch.owner for m in direct)):
@@ -148,7 +165,43 @@ class Builder:
         else:
             self._movement(action, clause, direct)
 
-    def _hatch(self, action: str, clause: Clause, direct: list[Mention], hatch: Part | None) -> None:
+    def _loose_lid(self, action: str, clause: Clause, direct: list[Mention]) -> tuple[str, Mention] | None:
+        """``(open or close, the instrument)`` when the step moves a lift-off lid: lifting or taking it
+        off opens its instrument, putting it on (back) closes it."""
+        if len(direct) != 1 or direct[0].is_pronoun or action not in ("open", "close", "pick", "remove", "place"):
+            return None
+        owners = {self.vocab.lid_owner(a) for a in self.vocab.members(direct[0].kind)}
+        if len(owners) != 1 or None in owners:
+            return None
+        owner = str(owners.pop())
+        kind = self.vocab.assets[owner].kinds[0]
+        dests = [m for m in clause.with_prep("dest") if not m.is_bench]
+        if action == "place" and any(owner not in self.vocab.members(m.kind) for m in dests):
+            return None  # the lid goes somewhere else: a movement
+        m = direct[0]
+        mention = Mention(m.start, m.end, kind, m.phrase, window_start=m.window_start, part="lid")
+        return ("close" if action in ("place", "close") else "open"), mention
+
+    def _run(self, clause: Clause, direct: list[Mention]) -> None:
+        """An instrument's run ("start the spin", "run the centrifuge", "spin the tube in it"): the
+        instrument named, or whose run is named, or the one the item went into."""
+        places = [m for m in clause.mentions if not m.is_bench and m.prep in ("dest", "of")]
+        named = [self.obj(m, clause, "instrument", []) for m in [*direct, *places]]
+        instruments = [o for o in named if self._static(o)]
+        items = [o for o in named if not self._static(o)]
+        instrument = instruments[0] if instruments else None
+        if instrument is None and items:
+            instrument = self._last_place_of(items[0])
+        if instrument is None:
+            instrument = self.pronoun("instrument", clause)
+        for item in items:
+            if self._last_place_of(item) is not instrument:
+                self.steps.append(RawStep("place", item, instrument))  # "spin the tube in the centrifuge"
+        self.steps.append(RawStep("run", instrument))
+
+    def _hatch(
+        self, action: str, clause: Clause, direct: list[Mention], hatch: Part | None, part_name: str | None = None
+    ) -> None:
         button = next((p for p in clause.parts if p.name == "button"), None)
         part = button if action == "press" else hatch
         owner = part.owner if part is not None and part.owner is not None else None
@@ -159,9 +212,8 @@ class Builder:
         obj = self.obj(owner, clause, "instrument", []) if owner is not None else None
         if action == "press" and part is None and obj is not None and hatch is None:
             part = None
-        self.steps.append(
-            RawStep(action, obj, part=part.name if part is not None else ("button" if action == "press" else None))
-        )
+        name = part.name if part is not None else ("button" if action == "press" else part_name)
+        self.steps.append(RawStep(action, obj, part=name))
 
     def _movement(self, action: str, clause: Clause, direct: list[Mention]) -> None:
         taken: list[Obj] = []
@@ -179,10 +231,15 @@ class Builder:
         sources = [m for m in clause.with_prep("source") if not m.is_bench]
         on_bench = any(m.is_bench and m.prep == "dest" for m in clause.mentions)
         source = self.obj(sources[0], clause, "holder", taken) if sources else None
-        for m in clause.with_prep("near"):
-            if not m.is_bench and not m.is_pronoun:
-                taken.append(self.obj(m, clause, "distractor", taken))  # "next to the beaker": on the bench, unused
+        nears = [m for m in clause.with_prep("near") if not m.is_bench and not m.is_pronoun]
+        relation = None
+        if nears and action == "place" and not dests and not overs and not clause.implied_target:
+            relation = self.vocab.words.relation_of(nears[0].prep_phrase)  # "put the tube next to the beaker"
+        for m in nears[1:] if relation else nears:
+            taken.append(self.obj(m, clause, "distractor", taken))  # "the rack next to the beaker": unused
         targets: list[tuple[Obj, str | None]] = []
+        if relation is not None:
+            targets.append((self.obj(nears[0], clause, "holder", taken), None))
         for m in dests or overs:
             o = self.obj(m, clause, "holder", taken)
             taken.append(o)
@@ -206,7 +263,7 @@ class Builder:
             what = " and ".join(o.wanted.words() if not o.mention.is_pronoun else "it" for o in items)
             raise PlanError(f"say where to put the {what} (e.g. 'on the balance', 'into the tube rack')")
         if action == "remove" and source is None:
-            source = self._last_place_of(items[0])
+            source = self._last_place_of(items[0]) or self._taken_from(items[0])
             if source is None:
                 if on_bench:
                     raise PlanError(
@@ -218,7 +275,7 @@ class Builder:
                 )
         for k, item in enumerate(items):
             target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
-            self.steps.append(RawStep(action, item, target, source, part))
+            self.steps.append(RawStep(action, item, target, source, part, relation))
 
     def _opened(self) -> list[Obj]:
         """Instruments an earlier step opened (or pressed open): where a bare "insert X" goes."""
@@ -228,6 +285,10 @@ class Builder:
         """A destination word with no object after it: "put the tube in"."""
         preps = {"in", "inside", "into", "on", "onto", "back", "there"}
         return any(t.kind == "word" and not t.used and t.text in preps for t in clause.tokens[1:])
+
+    def _taken_from(self, item: Obj) -> Obj | None:
+        """Where an earlier step took ``item`` from ("take the flask off the shaker and put it down")."""
+        return next((s.source for s in reversed(self.steps) if s.object is item and s.source is not None), None)
 
     def _last_place_of(self, item: Obj) -> Obj | None:
         for step in reversed(self.steps):
@@ -268,7 +329,7 @@ class Builder:
             near = [
                 s.object
                 for s in self.steps[i + 1 :] + self.steps[:i][::-1]
-                if s.action in ("open", "close", "press") and s.object
+                if s.action in INSTRUMENT_ACTIONS and s.object
             ]
             near += [o for o in self.objects if self._static(o)]
             if not near:
@@ -292,7 +353,8 @@ class Builder:
                 last is not None
                 and last.object is step.object
                 and last.action == "remove"
-                and step.action in ("place", "position")
+                and step.action in ("place", "position", "remove")
+                and step.source in (None, last.source)
             ):
                 step.source = step.source or last.source
                 out[-1] = step  # "take the tube out of the rack and put it on the balance"
@@ -301,7 +363,7 @@ class Builder:
                 last is not None
                 and (last.action, last.object, last.part, last.target)
                 == (step.action, step.object, step.part, step.target)
-                and step.action in ("open", "close", "press", "position", "place")
+                and step.action in (*INSTRUMENT_ACTIONS, "position", "place")
             ):
                 continue  # "hold it over the beaker and keep it there": said twice, done once
             out.append(step)
@@ -346,6 +408,7 @@ def _plan_step(step: RawStep) -> PlanStepSpec:
         action=step.action,
         object=step.object.name,
         target=step.target.name if step.target else None,
+        relation=step.relation,
         source=step.source.name if step.source else None,
         part=step.part,
     )
@@ -354,47 +417,15 @@ def _plan_step(step: RawStep) -> PlanStepSpec:
 def _roles(steps: list[RawStep]) -> dict[int, str]:
     roles: dict[int, str] = {}
     for s in steps:
-        if s.action in ("open", "close", "press"):
+        if s.action in INSTRUMENT_ACTIONS:
             roles.setdefault(id(s.object), "instrument")
             continue
         roles.setdefault(id(s.object), "item")
         if s.target is not None:
-            roles.setdefault(id(s.target), "target" if s.action == "position" else "destination")
+            roles.setdefault(id(s.target), "target" if s.action == "position" or s.relation else "destination")
         if s.source is not None:
             roles.setdefault(id(s.source), "source")
     return roles
-
-
-def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
-    """Refuse (finally) what the simulator cannot do, with the vocabulary's reason."""
-    groups = vocab.words.unsupported
-    for clause in clauses:
-        for group, phrase in clause.unsupported:
-            if clause.action is None or clause.verb == phrase:
-                raise PlanError(f"cannot '{phrase}': {groups[group].reason}", final=True)
-        leftover = " ".join(clause.unknown)  # "the buffer bottle" names a bottle: moving it is fine
-        for spec in groups.values():
-            for word in spec.words:
-                if re.search(rf"\b{re.escape(word)}\b", leftover):
-                    raise PlanError(f"'{word}': {spec.reason}", final=True)
-
-
-def refuse_unknown(clauses: list[Clause], vocab: Vocabulary) -> list[str]:
-    """``unknown object 'X'; nearest: ...`` for words that name nothing; adjectives of a known
-    object ("the blue tube") are only remarked on."""
-    remarks = []
-    for clause in clauses:
-        modifiers = {w for m in clause.mentions for w in m.modifiers}
-        for phrase in clause.unknown:
-            if set(phrase.split()) <= modifiers:
-                remarks.append(f"ignored '{phrase}': no asset variant is described by it")
-                continue
-            if clause.action is None and clause.tokens and phrase.split()[0] == clause.tokens[0].text:
-                raise PlanError(f"unknown action '{phrase}'; actions: {ACTION_WORDS}")
-            nearest = vocab.nearest(phrase)
-            hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
-            raise PlanError(f"unknown object '{phrase}'; nearest: {hint}")
-    return remarks
 
 
 def instruction_from(description: str) -> str:

@@ -21,7 +21,11 @@ from pipette_cli.llm import strict_json_schema
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.robot import robot_names
 
-Action = Literal["pick", "place", "remove", "open", "close", "press", "position"]
+Action = Literal["pick", "place", "remove", "open", "close", "press", "position", "run"]
+INSTRUMENT_ACTIONS = ("open", "close", "press", "run")
+"""Actions on an instrument (its lid, door, drawer, buttons); the others move an object."""
+Relation = Literal["next_to", "left_of", "right_of", "behind", "in_front_of"]
+"""Where a placement goes relative to its target, as seen from the robot (left is its left)."""
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
 Part = Literal[
     "lid",
@@ -77,8 +81,11 @@ class PlanStepSpec(Spec):
     """One action: what the robot does, to which object, where."""
 
     action: Action
-    object: ObjectName = Field(description="the object moved, or the instrument opened/closed/pressed")
+    object: ObjectName = Field(description="the object moved, or the instrument opened/closed/pressed/run")
     target: ObjectName | None = Field(None, description="place: where it goes; position: what it is held over")
+    relation: Relation | None = Field(
+        None, description="place: set down on the bench in this relation to the target instead of on or in it"
+    )
     source: ObjectName | None = Field(None, description="where the object starts (it is taken off or out of it)")
     part: Part | None = Field(
         None,

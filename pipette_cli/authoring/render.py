@@ -76,6 +76,8 @@ def plain(spec: BaseModel) -> dict[str, Any]:
         key = info.alias or name
         if isinstance(value, BaseModel):
             out[key] = plain(value)
+        elif isinstance(value, dict):
+            out[key] = {k: plain(v) if isinstance(v, BaseModel) else v for k, v in value.items()}
         elif isinstance(value, list | tuple):
             out[key] = [plain(v) if isinstance(v, BaseModel) else v for v in value]
         else:

@@ -23,7 +23,7 @@ import numpy as np
 from pipette_cli.authoring.layout import Footprint, Layout, PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, JointInfo, holds_open, measure_asset, stands_alone
 from pipette_cli.authoring.motors import release_angle
-from pipette_cli.authoring.plan import PlanError, PlanStepSpec
+from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.authoring.resolve import choose_pair, holders_that_fit
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid
 from pipette_cli.authoring.vocabulary import load_vocabulary
@@ -47,6 +47,13 @@ SURFACE_SITES = (
     "center",
     "opening",
 )
+RELATION_START = {"left_of": (0.0, -0.5), "right_of": (0.0, 0.5), "behind": (-0.12, 0.0), "in_front_of": (0.2, 0.0)}
+"""Where a relation's reference starts (x from the workspace's middle, m; y in lanes): room beside it."""
+BESIDE_CLEAR = 0.2
+"""Metres past a relation reference's half-diagonal the other objects start (outside its region)."""
+RELEASE_FAR = 0.98
+"""Share of its limit a latched lid is popped open to when its friction does not hold it at the
+asset's release angle (protocols/SpinMicrotube-v1 opens the microcentrifuge to -98 of -100 deg)."""
 OPEN_FRACTION = 0.95
 """An opened lid or door starts at this fraction of its open limit."""
 
@@ -111,6 +118,8 @@ class SceneLayout:
     start_site: dict[str, tuple[str, str]] = field(default_factory=dict)  # item -> (holder, site) it starts at
     slots_used: dict[str, list[str]] = field(default_factory=dict)
     lids: dict[str, str] = field(default_factory=dict)  # instrument -> object name of its lift-off lid
+    beside: dict[str, tuple[tuple[float, float], tuple[float, float]]] = field(default_factory=dict)
+    """item -> (free spot, direction) beside the reference of its relation ("next to the beaker")."""
 
 
 class SceneBuilder:
@@ -123,6 +132,7 @@ class SceneBuilder:
         self.ws = self.layout.workspace
         self.out = SceneLayout()
         self.geoms: dict[str, AssetGeometry] = {}
+        self.clear_of: tuple[tuple[float, float], float] | None = None
         self.added: dict[str, str] = {}
         """Objects the layout adds to the plan's (a rack for a tube that cannot stand): name -> asset."""
 
@@ -158,8 +168,15 @@ class SceneBuilder:
                 joint = hatch_joint(geom, "lid", self.human(step.object))
                 start.setdefault((step.object, joint.name), 0.0)
                 state[(step.object, joint.name)] = "released"
+            elif step.action == "run":
+                opened = [j for (o, j), now in state.items() if o == step.object and now != "closed"]
+                if opened:
+                    raise PlanError(
+                        f"step {i + 1} (run the {self.human(step.object)}) needs it shut, but its "
+                        f"{opened[0].split('_')[0]} is open then; close it first ('..., close the lid and start it')"
+                    )
             for holder in (step.target, step.source):
-                if holder is None or step.action in ("open", "close", "press"):
+                if holder is None or step.action in INSTRUMENT_ACTIONS:
                     continue
                 geom = self.geom(holder)
                 site = receiving_site(
@@ -190,13 +207,16 @@ class SceneBuilder:
         statics = [n for n in order if not self.geom(n).free]
         for k, name in enumerate(statics):
             self._place_static(name, joints, lanes[k % len(lanes)], alone=len(statics) == 1 and len(order) == 1)
+        for step in self.checked.steps:
+            if step.relation is not None:
+                self._reserve_beside(step.object, step.required_target(), step.relation)
         for name in order:
             if name in self.out.placed or not self.geom(name).free:
                 continue
             first = next((s for s in self._steps_on(name) if s.object == name), None)
             if first is not None and first.source is not None:
                 self._place_on_source(name, first.source, joints)
-            elif first is not None and first.action not in ("open", "close", "press"):
+            elif first is not None and first.action not in INSTRUMENT_ACTIONS:
                 rack = self._rack_for(name)
                 if rack is not None:
                     self._place_on_source(name, rack, joints)
@@ -207,6 +227,7 @@ class SceneBuilder:
             x = self.ws.center_x - 0.06 if role != "distractor" else self.ws.center_x + 0.12
             if role in ("destination", "target", "source"):
                 x, y = self.ws.center_x + 0.05, self.ws.lane_y
+            x, y = self._relation_start(name) or (x, y)
             self._place_free(name, (x, y - 0.1 * k * (1 if y <= 0 else -1)))
         for (name, joint), value in joints.items():
             comment = (
@@ -218,6 +239,33 @@ class SceneBuilder:
             )
             self.out.joint_states.append((f"{name}/{joint}", r(value, 3), comment))
         return self.out
+
+    def _reserve_beside(self, item: str, ref: str, relation: str) -> None:
+        """Place the reference of a relation (if not yet) and keep a free spot beside it for ``item``."""
+        if ref not in self.out.placed:
+            self._place_free(ref, self._relation_start(ref) or (self.ws.center_x, 0.0))
+        placed = self.out.placed[ref]
+        placed.randomize = None  # the region beside it is fixed in the bench frame
+        boxes = self.geoms.get(ref, self.geom(ref)).boxes + np.array([*placed.pos, *placed.pos])
+        found = self.layout.beside(measure_asset(self.checked.asset(item)).boxes, boxes, relation, self.ws.bench_z)
+        if found is None:
+            raise PlanError(
+                f"impossible layout: no free spot on the bench within reach {relation.replace('_', ' ')} the "
+                f"{self.human(ref)}; "
+                "try another side or fewer objects"
+            )
+        self.out.beside[item] = found
+        ref_boxes = self.geoms.get(ref, self.geom(ref)).boxes
+        reach = float(np.hypot(*(0.5 * (ref_boxes[:, 3:5].max(axis=0) - ref_boxes[:, :2].min(axis=0)))))
+        self.clear_of = ((placed.pos[0], placed.pos[1]), reach + BESIDE_CLEAR)
+
+    def _relation_start(self, name: str) -> tuple[float, float] | None:
+        """Where the reference of a relation ("left of the beaker") starts: room on that side within reach."""
+        side = next((s.relation for s in self.checked.steps if s.target == name and s.relation), None)
+        if side is None:
+            return None
+        x, y = RELATION_START.get(side, (0.0, 0.0))
+        return self.ws.center_x + x, y * self.ws.lane_y
 
     def _order(self) -> list[str]:
         """Instruments and holders first (the most constrained), then items, then distractors."""
@@ -242,6 +290,9 @@ class SceneBuilder:
             elif step.action == "press":
                 keys.append(geom.sites["button"][:2])
                 pressed = True
+            elif step.action == "run":
+                keys.append(geom.sites["start_button"][:2])
+                pressed = True
             else:
                 site = receiving_site(geom, step.part if name == step.target else None, self.checked.asset(step.object))
                 if site == "slot_grid":
@@ -260,12 +311,15 @@ class SceneBuilder:
 
     def release(self, name: str, geom: AssetGeometry, joint: JointInfo) -> float | None:
         """The angle a latched lid pops open to when its release button is pressed
-        (:func:`~.motors.release_angle`), if its friction then holds it open there; else ``None``
-        (the lid is worked by hand)."""
+        (:func:`~.motors.release_angle`), or near its limit (:data:`RELEASE_FAR`), where its friction
+        holds it open; else ``None`` (the lid is worked by hand)."""
         angle = release_angle(geom, joint)
-        if angle is None or not holds_open(self.checked.asset(name), joint.name, angle):
+        if angle is None:
             return None
-        return angle
+        for candidate in (angle, r(RELEASE_FAR * joint.open_limit)):  # near its limit, as protocols do
+            if holds_open(self.checked.asset(name), joint.name, candidate):
+                return candidate
+        return None
 
     def _released(self, name: str) -> bool:
         """Whether ``name`` has a latched lid its release button opens (:meth:`release`)."""
@@ -281,7 +335,10 @@ class SceneBuilder:
             if any(j == joint.name for j, _ in states):
                 boxes.append(measure_asset(asset, ((joint.name, open_value(joint)),)).boxes)
         keys, pressed = self._keys(name, geom)
-        preferred = (self.ws.center_x - (0.08 if alone else -0.05), 0.0 if alone else lane)
+        preferred = self._relation_start(name) or (
+            self.ws.center_x - (0.08 if alone else -0.05),
+            0.0 if alone else lane,
+        )
         lid = separate_lid(geom) if not geom.joints else None
         if lid and any(s.object == name and s.action in ("open", "close") for s in self.checked.steps):
             lid_geom = measure_asset(lid)
@@ -370,7 +427,8 @@ class SceneBuilder:
         round_ = geom.semantics.get("upright", True) and abs(hx - hy) < 0.2 * max(hx, hy)
         randomize: dict[str, Any] = {"xy": (amp, amp), "yaw_deg": 180 if round_ else 15}
         key = [geom.sites["grasp"][:2]] if "grasp" in geom.sites else [(0.0, 0.0)]
-        spot = self.layout.place(Footprint(geom.boxes, key, preferred, margin=amp), self.ws.bench_z)
+        clear = {"away": self.clear_of} if self.clear_of else {}  # off a relation's region
+        spot = self.layout.place(Footprint(geom.boxes, key, preferred, margin=amp), self.ws.bench_z, **clear)
         if spot is None:
             raise self._no_room(name)
         z = r(self.ws.bench_z + geom.origin_height + 0.001, 4)

@@ -28,6 +28,14 @@ class Stage:
     """Motorised lids and drawers the stage works with their button (one per instrument and task)."""
 
 
+def reference_point(name: str, geom: AssetGeometry) -> tuple[str, float]:
+    """The point whose position is tested and its height above the surface at rest: an upright
+    object's origin; a lying one's ``grasp`` site (its middle)."""
+    if not geom.semantics.get("upright", True) and "grasp" in geom.sites:
+        return f"{name}/grasp", geom.origin_height + float(geom.sites["grasp"][2])
+    return name, geom.origin_height
+
+
 class StageBase:
     """The scene, thresholds and geometry lookups the stage builders share."""
 
@@ -64,4 +72,4 @@ class StageBase:
         return self.th.timeout_s or default + (self.th.hold_s or 0.0)
 
 
-__all__ = ["Stage", "StageBase"]
+__all__ = ["Stage", "StageBase", "reference_point"]

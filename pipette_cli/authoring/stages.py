@@ -15,6 +15,8 @@ saying where every derived number comes from.
 | open / close a lift-off lid | lid lifted 10 cm and drawn back / seated on ``lid_seat`` | ``pick`` + ``move`` / ``place_on`` |
 | press | ``mechanism_triggered`` (a ``button_release`` mechanism) | ``press`` + ``wait`` |
 | position | ``near_target`` above the target | ``pick`` + ``position_over`` |
+| place next to, left of, behind... | ``region_hold`` on the bench beside the other object (:mod:`.relation_stages`) | ``pick`` + ``place_on`` a free spot there |
+| run | ``instrument_state``: ran 2 s, shut | ``press`` its start button + ``wait`` |
 
 A placement's criterion is ``released``: it counts once the hand has let go, not while the object is
 carried through its region or held where it goes.
@@ -29,6 +31,7 @@ from pipette_cli.authoring.hatch_stages import HatchStages
 from pipette_cli.authoring.layout import Footprint
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
+from pipette_cli.authoring.relation_stages import RelationStages
 from pipette_cli.authoring.scene import (
     covered,
     hatch_joint,
@@ -36,7 +39,7 @@ from pipette_cli.authoring.scene import (
     r,
     receiving_site,
 )
-from pipette_cli.authoring.stage_base import Stage
+from pipette_cli.authoring.stage_base import Stage, reference_point
 from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
@@ -49,15 +52,7 @@ DEEP = 0.05
 """Metres a container's walls rise above its floor site for objects to be dropped in rather than set down."""
 
 
-def _reference(name: str, geom: AssetGeometry) -> tuple[str, float]:
-    """The point whose position is tested and its height above the surface at rest: an upright
-    object's origin; a lying one's ``grasp`` site (its middle)."""
-    if not geom.semantics.get("upright", True) and "grasp" in geom.sites:
-        return f"{name}/grasp", geom.origin_height + float(geom.sites["grasp"][2])
-    return name, geom.origin_height
-
-
-class StageBuilder(HatchStages):
+class StageBuilder(HatchStages, RelationStages):
     """Turns the steps of a laid-out plan into stages (see the module docstring)."""
 
     def build(self, step: PlanStepSpec) -> Stage:
@@ -109,6 +104,8 @@ class StageBuilder(HatchStages):
 
     # ------------------------------------------------------------------ place
     def _place(self, step: PlanStepSpec) -> Stage:
+        if step.relation is not None:
+            return self._beside(step)
         item, dest = step.object, step.required_target()
         igeom, dgeom = self.geom(item), self.scene.geoms.get(dest) or self.geom(dest)
         site = receiving_site(dgeom, step.part, self.placed[item].asset)
@@ -144,7 +141,7 @@ class StageBuilder(HatchStages):
             if not dgeom.free
             else self.placed[dest].pos[2] + float(dgeom.sites[site][2])
         )
-        ref, lift = _reference(item, igeom)
+        ref, lift = reference_point(item, igeom)
         upright = bool(igeom.semantics.get("upright", True))
         tilt = self.th.max_tilt_deg or (15.0 if upright else None)
         criterion = ev.RegionHoldSpec(
@@ -288,6 +285,11 @@ class StageBuilder(HatchStages):
         name = step.object
         geom = measure_asset(self.placed[name].asset)
         joint = hatch_joint(geom, "lid", self.human(name))
+        later = self.checked.steps[self.checked.steps.index(step) + 1 :]
+        if any(s.object == name and s.action in ("close", "run") for s in later):
+            stage = self._press_open(step, geom, joint)  # closed or run later: the instrument's release
+            if stage is not None:
+                return stage
         target = float(geom.semantics.get("lid_open_angle_deg", 0.4 * joint.open_limit))
         mechanism = ButtonReleaseSpec(
             name=f"{name}_release",

@@ -193,7 +193,7 @@ def split_steps(
     Words that only mark the first step ("first") are dropped."""
     words = vocab.words
     skip = set(words.fillers) - set(words.articles)
-    prepositions = [p for group in words.prepositions.model_dump().values() for p in group if len(p.split()) > 1]
+    prepositions = [p for p, _ in words.preposition_roles() if len(p.split()) > 1]
     steps: list[list[Token]] = [[]]
     i = 0
     while i < len(tokens):

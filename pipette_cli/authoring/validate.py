@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from pipette_cli.authoring.clause import ClauseReader
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.plan import PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
+from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
 from pipette_cli.authoring.resolve import Wanted, candidates
 from pipette_cli.authoring.text import normalise, tokenise
 from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
@@ -142,6 +142,13 @@ def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], r
             problems.append(f"{where}: impossible request: the {human} has no {part} to {step.action}")
     if step.action == "press" and "button" not in info.semantics.get("sites", []):
         problems.append(f"{where}: impossible request: the {human} has no button to press")
+    if step.action == "run" and "start_button" not in info.semantics.get("sites", []):
+        problems.append(
+            f"{where}: the {human} has no start button: running instruments (heating, shaking, timed "
+            "programs, knobs) is not simulated beyond a start button's run"
+        )
+    if step.relation is not None and step.action != "place":
+        problems.append(f"{where}: a relation ({step.relation}) only says where a placement goes")
     return problems
 
 
@@ -163,12 +170,12 @@ def separate_lid(geom: AssetGeometry) -> str | None:
 def _roles(plan: TaskPlanSpec) -> dict[str, str]:
     roles: dict[str, str] = {}
     for s in plan.steps:
-        if s.action in ("open", "close", "press"):
+        if s.action in INSTRUMENT_ACTIONS:
             roles.setdefault(s.object, "instrument")
             continue
         roles.setdefault(s.object, "item")
         if s.target:
-            roles.setdefault(s.target, "target" if s.action == "position" else "destination")
+            roles.setdefault(s.target, "target" if s.action == "position" or s.relation else "destination")
         if s.source:
             roles.setdefault(s.source, "source")
     return roles

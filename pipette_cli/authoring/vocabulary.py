@@ -21,6 +21,7 @@ from typing import Any, TypeVar
 from pydantic import Field, ValidationError
 
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
+from pipette_cli.authoring.plan import Relation
 from pipette_cli.errors import SpecError
 from pipette_cli.resources import data_dir, env_paths
 from pipette_cli.specs.base import Spec
@@ -29,7 +30,7 @@ from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
 S = TypeVar("S", bound=Spec)
 
 VOCABULARY_FILE = "vocabulary.yaml"
-ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position")
+ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position", "run")
 Phrase = str
 
 
@@ -55,7 +56,6 @@ class PluralsSpec(Spec):
 
 
 class PrepositionsSpec(Spec):
-    near: list[Phrase]
     source: list[Phrase]
     over: list[Phrase]
     dest: list[Phrase]
@@ -69,7 +69,9 @@ class VocabularySpec(Spec):
     bench: list[Phrase]
     actions: dict[str, list[Phrase]]
     implied_targets: dict[Phrase, str] = {}
+    runs: list[Phrase] = []
     parts: dict[str, list[Phrase]]
+    relations: dict[Relation, list[Phrase]]
     prepositions: PrepositionsSpec
     sequence: list[Phrase]
     first: list[Phrase]
@@ -82,6 +84,16 @@ class VocabularySpec(Spec):
     numbers: dict[Phrase, float]
     unsupported: dict[str, UnsupportedSpec]
     robots: dict[str, list[Phrase]]
+
+    def preposition_roles(self) -> list[tuple[Phrase, str]]:
+        """Every preposition phrase with its role (``near`` for the relations' phrases), longest first."""
+        pairs = [(p, role) for role, ps in self.prepositions.model_dump().items() for p in ps]
+        pairs += [(p, "near") for ps in self.relations.values() for p in ps]
+        return sorted(pairs, key=lambda pr: -len(pr[0].split()))
+
+    def relation_of(self, phrase: str | None) -> Relation | None:
+        """The relation (``left_of``...) a preposition phrase names, or None."""
+        return next((name for name, ps in self.relations.items() if phrase in ps), None)
 
 
 class ExtraKindsSpec(Spec):
@@ -223,11 +235,17 @@ class Vocabulary:
     words: VocabularySpec
     alias_to_kind: dict[str, str] = field(default_factory=dict)
 
-    def assets_words(self) -> frozenset[str]:
-        """Every word of every asset id (``quartz``, ``skirted``, ``nocap``...): words that choose a variant."""
-        if not hasattr(self, "_id_words"):
-            self._id_words = frozenset(w for a in self.assets for w in a.split("_") if w.isalpha())
-        return self._id_words
+    def lid_owner(self, asset: str) -> str | None:
+        """The instrument whose lift-off lid ``asset`` is (its description names the lid a separate asset)."""
+        for owner, info in self.assets.items():
+            m = re.search(r"separate asset (\w+)", info.description)
+            if m and m.group(1) == asset:
+                return owner
+        return None
+
+    def describes(self, word: str, kind: str) -> bool:
+        """Whether ``word`` describes a member of ``kind`` (a word of its id or its description)."""
+        return any(word in self.assets[a].words for a in self.members(kind))
 
     def members(self, kind: str) -> list[str]:
         return [a for a, info in self.assets.items() if kind in info.kinds]

@@ -21,8 +21,8 @@ from pipette_cli.authoring.check import check_task
 from pipette_cli.authoring.clause import ClauseReader
 from pipette_cli.authoring.compose import ComposedTask, compose
 from pipette_cli.authoring.measure import measure_asset
-from pipette_cli.authoring.parser import refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.plan import PlanError, TaskPlanSpec, plan_json_schema
+from pipette_cli.authoring.refusals import refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.render import environment, render_task
 from pipette_cli.authoring.text import normalise, split_steps, tokenise
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_plan
@@ -240,11 +240,12 @@ def check_gate(episodes: int, *, enforce: bool = True) -> Gate:
 
 
 def plan_summary(checked: CheckedPlan) -> list[str]:
-    """The plan in one line per step: ``action object-asset [target-or-source-asset]``."""
+    """The plan in one line per step: ``action object-asset [relation] [target-or-source-asset]``."""
     lines = []
     for step in checked.steps:
         other = step.target or (step.source if step.action == "remove" else None)
-        words = [step.action, checked.asset(step.object), *([checked.asset(other)] if other else [])]
+        words = [step.action, checked.asset(step.object), *([step.relation] if step.relation else [])]
+        words += [checked.asset(other)] if other else []
         lines.append(" ".join(words))
     return lines
 

@@ -47,8 +47,8 @@ def test_lids_start_open_and_close_to_within_five_degrees_with_the_right_sign() 
     centrifuge = drafted("Close the centrifuge lid").spec  # latched: open where its release leaves it
     assert centrifuge.scene.joint_states[0].value == pytest.approx(-40.0)
     assert centrifuge.success.bound.min == -5.0
-    micro = drafted("Close the lid of the microcentrifuge").spec  # its light lid falls shut from -40
-    assert micro.scene.joint_states[0].value == pytest.approx(-0.95 * 100)
+    micro = drafted("Close the lid of the microcentrifuge").spec  # its light lid falls shut from -40:
+    assert micro.scene.joint_states[0].value == pytest.approx(-0.98 * 100)  # popped near its limit, as protocols do
     opening = drafted("Open the plate reader drawer").spec
     assert opening.success.unit == "m" and opening.success.bound.min == pytest.approx(0.75 * 0.16)
 

@@ -122,7 +122,7 @@ def test_malformed_json_is_reasked_with_the_parse_error(server) -> None:
         (200, chat_reply("```json\n" + json.dumps(GOOD_DRAFT) + "\n```"), 0.0),
     ]
     drafted = draft_task("Put the tube on the balance", openai(server))
-    assert drafted.spec.id.endswith("OnElectronicBalance-v1")
+    assert drafted.spec.id == "generated/PlaceConicalTubeOnBalance-v1"  # ids stay within 48 characters
     second = server.requests[1]["body"]["messages"]
     assert second[-2]["role"] == "assistant" and "oops" in second[-2]["content"]
     assert "not valid JSON" in second[-1]["content"]
