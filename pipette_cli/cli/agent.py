@@ -14,17 +14,19 @@ from pipette_cli.agent.answers import Answer, answer
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, cli_catalog, render_args, say_missing
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepRef, StepSpec, plain
 from pipette_cli.agent.run import PlanRunner
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 
 
 def make_agent(catalog: CommandCatalog, backend: str, model: str | None = None, base_url: str | None = None):
-    """The offline parser, or an LLM agent on an ``openai`` / ``ollama`` server."""
+    """The offline parser, or an LLM agent on a server of the one backend registry
+    (:func:`pipette_cli.llm.backend_names`, shared with ``new-task``)."""
     from pipette_cli.agent.offline import OfflineAgent  # deferred: the offline parser (~35 ms, 6 modules)
+    from pipette_cli.llm import OFFLINE, check_backend
 
     registry = load_registry(STATE.registry_dirs)
-    if backend == "offline":
+    if check_backend(backend) == OFFLINE:
         return OfflineAgent(catalog, registry)
     from pipette_cli.agent.llm import LLMAgent  # deferred: httpx (~50 ms; only an LLM backend needs it)
 
@@ -187,7 +189,7 @@ def _handle(
 def agent(
     ctx: typer.Context,
     request: Annotated[str | None, typer.Argument(help="What you want done, in words.")] = None,
-    backend: Annotated[str, typer.Option("--backend", "-b", help="offline, openai or ollama.")] = "offline",
+    backend: Annotated[str, typer.Option("--backend", "-b", help=BACKEND_HELP)] = "offline",
     yes: Annotated[bool, typer.Option("--yes", "-y", help="Run the plan without asking.")] = False,
     as_json: Annotated[
         bool, typer.Option("--json", help="Print the plan (and answers) as JSON; run it only with --yes.")

@@ -10,11 +10,9 @@ import typer
 from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json
 from pipette_cli.errors import plural
 from pipette_cli.registry import load_registry
-
-BACKEND_HELP = "offline (default: a deterministic parser), openai (OpenAI-compatible server) or ollama."
 
 
 def _confirm(question: str, yes: bool) -> bool:

@@ -76,6 +76,11 @@ def spec_help(model: type, field: str, text: str = "") -> str:
     return said if not said or said.endswith(".") else f"{said}."
 
 
+BACKEND_HELP = (
+    "offline (default: a deterministic parser), openai (any OpenAI-compatible server) or ollama; "
+    "the same backends for `agent`, `new-task` and `assets new`."
+)
+
 RobotOption = Annotated[
     str | None,
     typer.Option(

@@ -12,25 +12,35 @@ from __future__ import annotations
 
 from pipette_cli.llm.client import (
     FORMS,
+    OFFLINE,
+    SERVER_KINDS,
     ChatClient,
     FormatRejected,
     Retryable,
     ServerSpec,
+    backend_names,
+    check_backend,
     forget_formats,
     make_client,
+    server_kind,
 )
 from pipette_cli.llm.structured import ask_structured, backend_error, extract_json, strict_json_schema
 
 __all__ = [
     "FORMS",
+    "OFFLINE",
+    "SERVER_KINDS",
     "ChatClient",
     "FormatRejected",
     "Retryable",
     "ServerSpec",
     "ask_structured",
     "backend_error",
+    "backend_names",
+    "check_backend",
     "extract_json",
     "forget_formats",
     "make_client",
+    "server_kind",
     "strict_json_schema",
 ]

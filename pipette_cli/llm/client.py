@@ -22,12 +22,14 @@ from __future__ import annotations
 import json
 import logging
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any, Literal, cast
 
 import httpx
 
 from pipette_cli.errors import BackendError
+from pipette_cli.plugins import Plugins
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +72,54 @@ class ServerSpec:
     """Force one form of :data:`FORMS` instead of negotiating."""
 
 
+ServerAddress = Callable[[str | None, str | None, str | None], tuple[str, str, str | None]]
+"""(base URL, model, API key as given) -> (base URL, model, API key), the environment filling gaps."""
+SERVER_KINDS: Plugins[ServerAddress] = Plugins("LLM backend", BackendError)
+"""The one registry of LLM server kinds; every language front-end (`pipette agent`, `new-task`,
+`assets new`) offers ``offline`` and these (:func:`backend_names`)."""
+
+
+def server_kind(name: str) -> Callable[[ServerAddress], ServerAddress]:
+    """Register how a server kind finds its address, model and key (its chat protocol and
+    structured-output forms are :data:`FORMS` and :class:`ChatClient`)."""
+    return SERVER_KINDS.register(name)
+
+
+@server_kind("openai")
+def _openai(base_url: str | None, model: str | None, api_key: str | None) -> tuple[str, str, str | None]:
+    env = os.environ.get
+    url = base_url or env("PIPETTE_LLM_BASE_URL") or env("OPENAI_BASE_URL") or "https://api.openai.com/v1"
+    name = model or env("PIPETTE_LLM_MODEL") or env("OPENAI_MODEL") or "gpt-4o-mini"
+    return url, name, api_key or env("PIPETTE_LLM_API_KEY") or env("OPENAI_API_KEY")
+
+
+@server_kind("ollama")
+def _ollama(base_url: str | None, model: str | None, api_key: str | None) -> tuple[str, str, str | None]:
+    host = base_url or os.environ.get("OLLAMA_HOST") or "http://127.0.0.1:11434"
+    url = host if host.startswith("http") else f"http://{host}"
+    return url, model or os.environ.get("PIPETTE_OLLAMA_MODEL") or "qwen2.5:7b-instruct", api_key
+
+
+OFFLINE = "offline"
+"""The backend every language front-end has without a server: its own deterministic parser."""
+
+
+def backend_names() -> list[str]:
+    """Every backend a language front-end accepts: ``offline``, then the LLM server kinds."""
+    return [OFFLINE, *SERVER_KINDS.names()]
+
+
+def check_backend(name: str) -> str:
+    """``name`` if a front-end can use it.
+
+    Raises:
+        BackendError: an unknown backend, with every known one.
+    """
+    if name not in backend_names():
+        raise BackendError(f"unknown backend {name!r}; use {', '.join(backend_names())}")
+    return name
+
+
 def _env_number(name: str, default: float) -> float:
     raw = os.environ.get(name)
     try:
@@ -101,16 +151,7 @@ def make_client(
         BackendError: an unknown kind or form, or a bad timeout/attempt count.
     """
     env = os.environ.get
-    if kind == "openai":
-        url = base_url or env("PIPETTE_LLM_BASE_URL") or env("OPENAI_BASE_URL") or "https://api.openai.com/v1"
-        name = model or env("PIPETTE_LLM_MODEL") or env("OPENAI_MODEL") or "gpt-4o-mini"
-        key = api_key or env("PIPETTE_LLM_API_KEY") or env("OPENAI_API_KEY")
-    elif kind == "ollama":
-        host = base_url or env("OLLAMA_HOST") or "http://127.0.0.1:11434"
-        url = host if host.startswith("http") else f"http://{host}"
-        name, key = model or env("PIPETTE_OLLAMA_MODEL") or "qwen2.5:7b-instruct", api_key
-    else:
-        raise BackendError(f"unknown LLM server kind {kind!r}; use openai or ollama")
+    url, name, key = SERVER_KINDS.get(kind)(base_url, model, api_key)
     form = response_format or env(FORMAT_ENV) or None
     if form is not None and form not in FORMS[kind]:
         raise BackendError(f"response format {form!r} is not one of {', '.join(FORMS[kind])} ({kind} servers)")

@@ -157,3 +157,14 @@ def test_suites_by_name_and_both_outputs_of_a_chain() -> None:
     converts = [s for s in plan.steps if s.command == "convert"]
     assert [c.args["inputs"][0].from_step for c in converts] == [1, 2]
     assert [c.args.get("dataset_version", "raw") for c in converts] == ["raw", "augmented"]
+
+
+def test_one_backend_registry_for_every_language_front_end(run_cli) -> None:
+    from pipette_cli.authoring.backends import make_backend
+    from pipette_cli.llm import SERVER_KINDS, backend_names
+
+    assert backend_names() == ["offline", *SERVER_KINDS.names()] and {"openai", "ollama"} <= set(SERVER_KINDS.names())
+    for command in (["agent", "collect 2 demos of the test tube task"], ["new-task", "Pick up the test tube"]):
+        refused = run_cli(*command, "--backend", "gemini-web", "--dry-run")
+        assert refused.exit_code == 1 and "unknown backend 'gemini-web'; use offline, ollama, openai" in refused.stderr
+    assert make_backend("offline").name == "offline" and make_backend("ollama", model="m").name == "ollama"

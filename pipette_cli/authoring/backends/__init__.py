@@ -1,38 +1,16 @@
-"""Authoring backends behind one protocol, registered by name.
+"""Authoring backends: the offline parser, or an LLM server of the one registry
+(:data:`pipette_cli.llm.SERVER_KINDS`, shared with ``pipette agent``).
 
-``offline`` (default) parses descriptions deterministically; ``openai`` talks to any
-OpenAI-compatible chat-completions server; ``ollama`` to an Ollama server. Adding a backend
-is a module in this package that calls :func:`register_backend`; no central list is edited.
+``offline`` (default) parses descriptions deterministically; every LLM server kind (``openai``:
+any OpenAI-compatible chat-completions server; ``ollama``) goes through :class:`ChatBackend`.
+A new server kind is registered once, in :mod:`pipette_cli.llm.client`, and every front-end
+offers it.
 """
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-from collections.abc import Callable
-
-from pipette_cli.authoring.backends.base import AuthoringBackend
-from pipette_cli.errors import BackendError
-from pipette_cli.plugins import Plugins
-
-BackendFactory = Callable[..., AuthoringBackend]
-BACKENDS: Plugins[BackendFactory] = Plugins("backend", BackendError)
-
-
-def register_backend(name: str) -> Callable[[BackendFactory], BackendFactory]:
-    """Register a factory ``(**options) -> AuthoringBackend`` under ``name``."""
-    return BACKENDS.register(name)
-
-
-def _load() -> None:
-    for module in pkgutil.iter_modules(__path__):
-        if module.name != "base":
-            importlib.import_module(f"{__name__}.{module.name}")
-
-
-def backend_names() -> list[str]:
-    _load()
-    return BACKENDS.names()
+from pipette_cli.authoring.backends.base import AuthoringBackend, ChatBackend
+from pipette_cli.llm import OFFLINE, backend_names, check_backend
 
 
 def make_backend(name: str, **options: object) -> AuthoringBackend:
@@ -41,8 +19,11 @@ def make_backend(name: str, **options: object) -> AuthoringBackend:
     Raises:
         BackendError: unknown backend, with the known ones.
     """
-    _load()
-    return BACKENDS.get(name)(**{k: v for k, v in options.items() if v is not None})
+    if check_backend(name) == OFFLINE:
+        from pipette_cli.authoring.backends.offline import OfflineBackend  # deferred: the parser and vocabulary
+
+        return OfflineBackend()
+    return ChatBackend(name, **{k: v for k, v in options.items() if v is not None})  # type: ignore[arg-type]
 
 
-__all__ = ["AuthoringBackend", "backend_names", "make_backend", "register_backend"]
+__all__ = ["AuthoringBackend", "backend_names", "make_backend"]

@@ -7,7 +7,6 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel
 
-from pipette_cli.authoring.backends import register_backend
 from pipette_cli.authoring.parser import ParseResult, parse_description
 from pipette_cli.authoring.vocabulary import load_vocabulary
 
@@ -33,8 +32,3 @@ class OfflineBackend:
         json_schema: dict[str, Any] | None = None,
     ) -> T:
         raise NotImplementedError("the offline backend parses (parse_task / parse_asset); it does not chat")
-
-
-@register_backend("offline")
-def make_offline(**_: Any) -> OfflineBackend:
-    return OfflineBackend()
