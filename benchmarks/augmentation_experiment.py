@@ -26,6 +26,7 @@ import argparse
 import json
 import multiprocessing
 import os
+import re
 import sys
 import time
 from collections import Counter
@@ -49,7 +50,13 @@ from pipette_cli.demos.store import scan  # noqa: E402
 from pipette_cli.evaluation.results import read_logs  # noqa: E402
 from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
 from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
-from pipette_cli.evaluation.significance import ALPHA, compare, holm, wilson_interval  # noqa: E402
+from pipette_cli.evaluation.significance import (  # noqa: E402
+    ALPHA,
+    compare,
+    holm,
+    smallest_significant,
+    wilson_interval,
+)
 from pipette_cli.evaluation.suites import EpisodePlan, RegisteredSuite, adhoc_plan, episode_plan, load_suites  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
@@ -336,6 +343,32 @@ def failure_modes(folder: Path) -> dict[str, Any]:
     }
 
 
+LOG_FREQ = 20
+"""lerobot-train's --log_freq in SMALL_ACT: a loss line every 20 steps."""
+
+
+def training_loss(ex: Experiment, task: TaskSpec, setting: str, marks: list[int]) -> dict[str, float | None]:
+    """lerobot-train's logged loss near each of ``marks`` (mean of the five lines up to it) for the
+    run ``setting`` used; None where the log does not reach it or the run was resumed (its lines
+    then no longer say their step)."""
+    logs = sorted(ex.folder(task, setting).glob("train*/act/*.log"))
+    text = logs[-1].read_text(errors="replace") if logs else ""
+    if "--resume=true" in text:
+        return {str(m): None for m in marks}
+    losses = [float(v) for v in re.findall(r"step:\S+ smpl:\S+ ep:\S+ epch:\S+ loss:([0-9.]+)", text)]
+    out: dict[str, float | None] = {}
+    for mark in marks:
+        upto = mark // LOG_FREQ
+        near = losses[max(0, upto - 5) : upto]
+        out[str(mark)] = round(sum(near) / len(near), 4) if near and upto <= len(losses) else None
+    return out
+
+
+def points(share: float | None) -> str:
+    """A share as percentage points ("-" when there is none)."""
+    return "-" if share is None else f"{100 * share:.0f} pt"
+
+
 def cell_text(o: dict[tuple[str, int], bool]) -> str:
     k, n = sum(o.values()), len(o)
     if not n:
@@ -356,8 +389,10 @@ def comparisons(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
                 left = {k: v for t in group for k, v in cells.get((t, a), {}).items()}
                 right = {k: v for t in group for k, v in cells.get((t, b), {}).items()}
                 if left and set(left) == set(right):
+                    row = compare(left, right).as_dict()
+                    detectable = smallest_significant(row["n_a"], row["only_a"] + row["only_b"])
                     found.append(
-                        {"family": family, "comparison": f"{b} vs {a}", "task": task, **compare(left, right).as_dict()}
+                        {"family": family, "comparison": f"{b} vs {a}", "task": task, **row, "detectable": detectable}
                     )
         groups = [[r for r in found if r["task"] != "pooled"], [r for r in found if r["task"] == "pooled"]]
         for group in groups if family == "primary" else [groups[0] + groups[1]]:
@@ -376,12 +411,13 @@ def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str
     lines += [f"| {t} | " + " | ".join(cell_text(cells.get((t, s), {})) for s in SETTINGS) + " |" for t in tasks]
     lines += [
         "",
-        "| comparison | task | difference | discordant (b only / a only) | p | p (Holm) |",
-        "|---|---|---:|---:|---:|---:|",
+        "| comparison | task | difference | discordant (b only / a only) | p | p (Holm) | significant from |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     lines += [
         f"| {r['comparison']} ({r['family']}) | {r['task']} | {100 * r['difference']:+.0f} pt | {r['only_b']} / {r['only_a']} "
-        f"| {r['p_value']:.3g} | {r['p_holm']:.3g}{' *' if r['significant'] else ''} |"
+        f"| {r['p_value']:.3g} | {r['p_holm']:.3g}{' *' if r['significant'] else ''} "
+        f"| {points(r['detectable'])} |"
         for r in rows
     ]
     return [*lines, ""]
@@ -410,14 +446,21 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
         for t in tasks
         for s in ("raw", "aug_all")
     }
+    loss = {f"{t.id} {s}": training_loss(ex, t, s, [*marks, steps]) for t in tasks for s in SETTINGS}
     lines += [
-        "### Learning curves (nominal suite)",
+        "### Learning curves (nominal suite; lerobot-train's loss beside each)",
         "",
         "| task, setting | " + " | ".join(f"{m} steps" for m in [*marks, steps]) + " |",
         "|---" * 4 + "|",
     ]
-    lines += [f"| {key} | " + " | ".join(row.values()) + " |" for key, row in curve.items()]
+    lines += [
+        f"| {key} | "
+        + " | ".join(v + ("" if loss[key][m] is None else f", loss {loss[key][m]:.3f}") for m, v in row.items())
+        + " |"
+        for key, row in curve.items()
+    ]
     results["learning_curves"] = curve
+    results["training_loss"] = loss
     results["yield"] = {
         t.id: json.loads(ex.folder(t, "yield.json").read_text()) if ex.folder(t, "yield.json").is_file() else {}
         for t in tasks

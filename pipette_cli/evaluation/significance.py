@@ -38,6 +38,19 @@ def mcnemar_exact(b: int, c: int) -> float:
     return float(stats.binomtest(b, b + c, 0.5).pvalue)
 
 
+def smallest_significant(n: int, discordant: int, alpha: float = ALPHA) -> float | None:
+    """The smallest difference in success rate (of ``n`` paired episodes) that McNemar's exact
+    test would have called significant at ``alpha`` with ``discordant`` discordant pairs, all
+    else as observed; None when even all of them on one side would not be (too few)."""
+    if n == 0:
+        return None
+    for lead in range(discordant % 2, discordant + 1, 2):  # b - c, with b + c = discordant
+        b = (discordant + lead) // 2
+        if mcnemar_exact(b, discordant - b) < alpha:
+            return lead / n
+    return None
+
+
 def fisher_exact(successes_a: int, n_a: int, successes_b: int, n_b: int) -> float:
     """Two-sided Fisher exact p-value of two independent success counts."""
     table = [[successes_a, n_a - successes_a], [successes_b, n_b - successes_b]]

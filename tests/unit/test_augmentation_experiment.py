@@ -69,6 +69,10 @@ def test_paired_tests_per_task_and_pooled_with_holm() -> None:
     ]
     text = "\n".join(experiment.suite_section("nominal", cells, [PICK, HINGE], rows))
     assert "| pipette/PickUpTestTube-v1 | 10/20 (30-70) | 18/20 (70-97) |" in text and "+40 pt" in text
+    assert primary[PICK]["detectable"] == pytest.approx(
+        8 / 20
+    )  # of 8 discordant pairs only 8-0 is significant (7-1: p=0.07)
+    assert primary[HINGE]["detectable"] is None  # one discordant pair can never be significant
 
 
 class Task:
@@ -112,3 +116,18 @@ def test_tasks_above_the_band_are_piloted_again_with_half_the_demonstrations(tmp
     met = experiment.pilot(ex, [Task(t) for t in full], tmp_path / "docs")
     assert met["rule_met"] and met["steps"] == 500 and len(seen) == 5  # the rule met: nothing again
     assert "first_pass" not in met and set(met["demos_per_task"].values()) == {30}
+
+
+def test_training_loss_is_read_from_the_lerobot_log_near_each_mark(tmp_path) -> None:
+    ex = experiment.Experiment(tmp_path, 1, 64, "fast")
+    task = Task(PICK)
+    log = ex.folder(task, "raw", "train", "act")
+    log.mkdir(parents=True)
+    lines = [f"INFO step:{20 * i} smpl:{160 * i} ep:1 epch:0.1 loss:{1 / i:.4f} grdn:1.0" for i in range(1, 101)]
+    (log / "run.log").write_text("\n".join(lines))
+    loss = experiment.training_loss(ex, task, "raw", [100, 2000, 4000])
+    assert loss["100"] == pytest.approx(sum(1 / i for i in range(1, 6)) / 5, abs=1e-4)
+    assert loss["2000"] == pytest.approx(sum(1 / i for i in range(96, 101)) / 5, abs=1e-4)
+    assert loss["4000"] is None  # the log stops at 2000
+    (log / "run.log").write_text("\n".join([*lines, "--resume=true"]))
+    assert set(experiment.training_loss(ex, task, "raw", [100]).values()) == {None}
