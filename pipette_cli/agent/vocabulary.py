@@ -142,17 +142,6 @@ def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
         raise SpecError(validation_problems(exc, VocabularySpec, raw, doc, str(path))) from None
 
 
-@cache
-def robot_words() -> dict[str, list[str]]:
-    """Robot id -> the words that name it: its id, aliases and words (``registry/robots/``)."""
-    from pipette_cli.specs.robot import load_robot_specs  # deferred: robot facts only when a lexicon is built
-
-    return {
-        name: sorted({name, *spec.aliases, *spec.words, name.replace("_", " ")}, key=len, reverse=True)
-        for name, spec in load_robot_specs().items()
-    }
-
-
 def suite_words(registry: Registry) -> dict[str, list[str]]:
     """Suite id -> the words that name it: its id and the words of its name ("paper benchmark"),
     and any part of them followed by "suite" that names no other suite ("the nominal suite")."""
@@ -195,6 +184,8 @@ def suite_words(registry: Registry) -> dict[str, list[str]]:
 def lexicon(registry: Registry) -> VocabularySpec:
     """The vocabulary with the registries' words added as values: every robot's names (``robot``)
     and every suite's (``suite_id``)."""
+    from pipette_cli.specs.robot import robot_words  # deferred: robot facts only when a lexicon is built
+
     vocab = load_vocabulary()
     return vocab.model_copy(
         update={"values": {**vocab.values, "robot": robot_words(), "suite_id": suite_words(registry)}}

@@ -454,7 +454,7 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
             "negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'"
         )
     text, thresholds = extract_thresholds(text)
-    text, robots = extract_robots(text, words)
+    text, robots = extract_robots(text)
     if len(robots) > 1:
         raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
     reader = ClauseReader(vocab)

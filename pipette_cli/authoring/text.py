@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from functools import cache
 
 from pipette_cli.authoring.vocabulary import Vocabulary, VocabularySpec
-from pipette_cli.specs.robot import robot_names, robot_spec
+from pipette_cli.specs.robot import robot_words
 
 SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
     (r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+)\s*(?:mm)?\b", lambda m: [f"{m[1]}x{m[2]}", f"{m[1]}mm"]),
@@ -111,13 +111,12 @@ def extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
     return text, found
 
 
-def extract_robots(text: str, words: VocabularySpec) -> tuple[str, list[str]]:
-    """Robots the description names (``with the Piper arm``), and the text without them."""
+def extract_robots(text: str) -> tuple[str, list[str]]:
+    """Robots the description names (``with the Piper arm``; their names: the robot registry's,
+    :func:`~pipette_cli.specs.robot.robot_words`), and the text without them."""
     robots: list[str] = []
-    for robot in robot_names():
-        spec = robot_spec(robot)
-        names = {*words.robots.get(robot, []), robot.replace("_", " "), *(a.replace("_", " ") for a in spec.aliases)}
-        for name in sorted(names, key=len, reverse=True):
+    for robot, names in robot_words().items():
+        for name in names:
             if re.search(rf"\b{re.escape(name)}\b", text):
                 if robot not in robots:
                     robots.append(robot)

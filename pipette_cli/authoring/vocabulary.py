@@ -83,7 +83,6 @@ class VocabularySpec(Spec):
     modifiers: dict[Phrase, str]
     numbers: dict[Phrase, float]
     unsupported: dict[str, UnsupportedSpec]
-    robots: dict[str, list[Phrase]]
 
     def preposition_roles(self) -> list[tuple[Phrase, str]]:
         """Every preposition phrase with its role (``near`` for the relations' phrases), longest first."""

@@ -252,6 +252,20 @@ def robot_names() -> list[str]:
     return sorted(load_robot_specs())
 
 
+def robot_words() -> dict[str, list[str]]:
+    """Robot id -> every way people name it, longest first: its id (also with spaces), its
+    ``aliases`` and its ``words`` ("the UR5e", "universal robots"). The one home of robot names
+    for every language front-end (`pipette agent`, `pipette new-task`)."""
+    return {
+        name: sorted(
+            {name, name.replace("_", " "), *spec.aliases, *(a.replace("_", " ") for a in spec.aliases), *spec.words},
+            key=len,
+            reverse=True,
+        )
+        for name, spec in load_robot_specs().items()
+    }
+
+
 def robot_spec(name: str) -> RobotSpec:
     """The robot called ``name`` (or one of its aliases).
 

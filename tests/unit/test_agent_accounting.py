@@ -11,10 +11,10 @@ import pytest
 
 from pipette_cli.agent.llm import LLMAgent
 from pipette_cli.agent.offline import OfflineAgent
-from pipette_cli.agent.vocabulary import robot_words
 from pipette_cli.cli.main import load_catalog
 from pipette_cli.llm import forget_formats
 from pipette_cli.registry import load_registry
+from pipette_cli.specs.robot import robot_words
 
 CATALOG = load_catalog()
 REGISTRY = load_registry()
