@@ -17,11 +17,14 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.augment import formulas
+from pipette_cli.augment.clutter import Clutter, place_distractors
 from pipette_cli.augment.simulate import ObjectOffset, Placement, wrap_deg
 from pipette_cli.augment.specs import VariantSpec
+from pipette_cli.sim.distractors import Distractor
 from pipette_cli.sim.scene import CAMERA_NAMES
 from pipette_cli.specs.perturbations import (
     CameraPoseSpec,
+    DistractorSpec,
     JointNoiseSpec,
     LightingSpec,
     ObjectPoseSpec,
@@ -46,6 +49,8 @@ class VariantPlan:
     """Per surface (``bench``, ``floor``), the colour mixed into its own."""
     surface_blend: float = 0.0
     """The weight of that colour."""
+    distractors: list[Distractor] = field(default_factory=list)
+    """Objects put on the bench (the scene is rebuilt with them, :mod:`.clutter`)."""
     params: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -94,6 +99,7 @@ def plan_variant(
     demo_seed: int,
     default_object: str | None = None,
     placement: Placement | None = None,
+    clutter: Clutter | None = None,
 ) -> VariantPlan:
     """Sample the perturbations of ``variant`` for a demo with ``actions`` (T, D).
 
@@ -102,6 +108,7 @@ def plan_variant(
 
     Args:
         placement: Where the moved object starts (needed by ``object_pose`` with ``task_range``).
+        clutter: Where the demonstration leaves room on the bench (needed by ``distractors``).
     """
     rng = variant_rng(seed, demo_seed, variant.name)
     plan = VariantPlan(variant.name, variant.magnitude(), None)
@@ -129,6 +136,12 @@ def plan_variant(
         plan.offset = _object_offset(obj, name, rng, placement)
         plan.object_ramp = obj.ramp_steps
         params["object_pose"] = {**obj.model_dump(), **plan.offset.as_dict()}
+    if (extra := variant.get(DistractorSpec)) is not None:
+        assert isinstance(extra, DistractorSpec)
+        if clutter is None:
+            raise ValueError(f"{variant.name}: distractors need where the demonstration leaves room (its clutter)")
+        plan.distractors = place_distractors(extra, clutter, rng)
+        params["distractors"] = {**extra.model_dump(), "placed": [d.as_dict() for d in plan.distractors]}
     if variant.physics and actions is not None:
         plan.actions = physics_actions
     if (light := variant.get(LightingSpec)) is not None:

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.augment.batch import can_batch, screen
+from pipette_cli.augment.clutter import Clutter, clutter_of, transfer_state
 from pipette_cli.augment.objectcentric import adapt_actions
 from pipette_cli.augment.perturb import VariantPlan, placed_object, plan_variant
 from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
@@ -34,9 +35,12 @@ from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter, compress_frame
 from pipette_cli.demos.store import EpisodeRef, read_episode
 from pipette_cli.evaluators.base import Verdict
+from pipette_cli.sim.distractors import ATTR as DISTRACTORS_ATTR
+from pipette_cli.sim.distractors import with_distractors
 from pipette_cli.sim.env import Observation
 from pipette_cli.sim.render import CameraRig, Profile, find_profile
 from pipette_cli.sim.world import World
+from pipette_cli.specs.perturbations import DistractorSpec
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -184,11 +188,15 @@ class DemoAugmenter:
         t0 = time.perf_counter()
         plans = []
         starts: dict[str, Placement] = {}
+        rooms: dict[float, Clutter] = {}
         for variant in self.spec.variants:
             name = placed_object(variant, target)
             if name is not None and name not in starts:
                 restore(self.world, s.seed, original.states[0])
                 starts[name] = placement(self.world, name)
+            extra = variant.get(DistractorSpec)
+            if isinstance(extra, DistractorSpec) and extra.path_height not in rooms:
+                rooms[extra.path_height] = clutter_of(self.world, original.states, extra.path_height)
             plan = plan_variant(
                 variant,
                 original.actions,
@@ -196,11 +204,8 @@ class DemoAugmenter:
                 demo_seed=s.seed,
                 default_object=target,
                 placement=starts.get(name) if name is not None else None,
+                clutter=rooms.get(extra.path_height) if isinstance(extra, DistractorSpec) else None,
             )
-            if plan.offset is not None and plan.actions is not None:
-                plan.actions = adapt_actions(
-                    self.world, s.seed, original.states[0], plan.actions, plan.offset, plan.object_ramp
-                )
             plans.append(plan)
         screened = self._screen(s.seed, original.states[0], plans)
         seen: dict[tuple[str, Any], list[np.ndarray]] = {}  # frames of the original physics, by camera and view
@@ -224,11 +229,12 @@ class DemoAugmenter:
                     )
                 )
                 continue
+            world, state0 = self._scene(plan, s.seed, original.states[0])
+            if plan.offset is not None and plan.actions is not None:
+                plan.actions = adapt_actions(world, s.seed, state0, plan.actions, plan.offset, plan.object_ramp)
             if plan.physics:
                 assert plan.actions is not None
-                rollout = simulate(
-                    self.world, s.seed, original.states[0], plan.actions, settle_steps=self.settle, offset=plan.offset
-                )
+                rollout = simulate(world, s.seed, state0, plan.actions, settle_steps=self.settle, offset=plan.offset)
             else:
                 rollout = original  # lights and cameras do not change the physics: verified above
             result.seconds["physics"] += time.perf_counter() - t0
@@ -250,9 +256,19 @@ class DemoAugmenter:
             if folder is None:
                 continue
             path = folder / f"aug_{s.uid}_{v:03d}.h5"
-            tmp = self._write(path, rollout, plan, s.seed, job, record.attrs, result, None if plan.physics else seen)
+            tmp = self._write(
+                path, rollout, plan, s.seed, job, record.attrs, result, None if plan.physics else seen, world
+            )
             (result.kept if kept else result.rejected).append(tmp)
         return result
+
+    def _scene(self, plan: VariantPlan, seed: int, state0: np.ndarray) -> tuple[World, np.ndarray]:
+        """The world a variant runs in and its start state: the task's own, or the task with the
+        plan's distractors (built for it; the recorded start carried over by name)."""
+        if not plan.distractors:
+            return self.world, state0
+        world = World(with_distractors(self.task, plan.distractors), meshes=self.world.meshes)
+        return world, transfer_state(self.world, state0, world, seed)
 
     def _screen(self, seed: int, state0: np.ndarray, plans: list[VariantPlan]) -> dict[int, Verdict]:
         """Verdicts from one multithreaded ``mujoco.rollout`` for the physics variants without an
@@ -260,7 +276,9 @@ class DemoAugmenter:
         if not self.spec.batch or not can_batch(self.world):
             return {}
         chosen = [
-            (v, p.actions) for v, p in enumerate(plans) if p.physics and p.offset is None and p.actions is not None
+            (v, p.actions)
+            for v, p in enumerate(plans)
+            if p.physics and p.offset is None and not p.distractors and p.actions is not None
         ]
         if len(chosen) < 2:
             return {}
@@ -278,17 +296,25 @@ class DemoAugmenter:
         source: dict[str, object],
         result: DemoResult,
         seen: dict[tuple[str, Any], list[np.ndarray]] | None,
+        world: World | None = None,
     ) -> Path:
-        """Render (reusing in ``seen`` the views of the same physics, lights and camera pose), write."""
+        """Render (reusing in ``seen`` the views of the same physics, lights and camera pose), write.
+        ``world``: the scene the rollout ran in (default: the task's own)."""
         t0 = time.perf_counter()
         pending: dict[int, Future[dict[str, bytes]]] = {}
         frames: list[dict[str, np.ndarray]] = []
+        world = world or self.world
+        own_rig = world is not self.world and self.render
         if self.render:
-            rig = self._rig()
+            rig = (
+                self._rig()
+                if not own_rig
+                else CameraRig(world.model, self.info.image_width, self.info.image_height, self.profile)
+            )
             keys = {camera: (camera, view_key(plan, camera)) for camera in rig.ids}
             known = {camera: seen[key] for camera, key in keys.items() if seen is not None and key in seen}
             frames = render_rollout(
-                self.world,
+                world,
                 rig,
                 seed,
                 rollout,
@@ -301,6 +327,8 @@ class DemoAugmenter:
                 fresh = fresh_steps(rollout.num_steps, self.task.timing.vision_every)
                 for camera, key in keys.items():
                     seen.setdefault(key, [frames[t][camera] for t in np.flatnonzero(fresh)])
+            if own_rig:
+                rig.close()
         t1 = time.perf_counter()
         attrs = {
             **self.attrs,
@@ -315,6 +343,7 @@ class DemoAugmenter:
             "augment_source_expert": str(source.get("expert", "")),
             "augment_source_kind": str(source.get("source", "")),
             "augment_object_offset": json.dumps(plan.offset.as_dict() if plan.offset else {}),
+            DISTRACTORS_ATTR: json.dumps([d.as_dict() for d in plan.distractors]),
         }
         if "expert" in source:
             attrs["expert"] = str(source["expert"])

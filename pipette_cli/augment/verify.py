@@ -9,6 +9,7 @@ from pathlib import Path
 from pipette_cli.augment.simulate import Rollout, offset_from_attrs, replay_check
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import DatasetError
+from pipette_cli.sim.distractors import distractors_from_attrs, with_distractors
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec
 
@@ -30,6 +31,8 @@ def verify_file(task: TaskSpec, path: Path, world: World | None = None) -> list[
     checks = []
     for ref in status.episodes:
         record = read_episode(ref)
-        why = replay_check(world, ref.summary.seed, Rollout.from_record(record), offset_from_attrs(record.attrs))
+        extra = distractors_from_attrs(record.attrs)  # the scene it ran in: the task's, plus its distractors
+        scene = World(with_distractors(task, extra), meshes=world.meshes) if extra else world
+        why = replay_check(scene, ref.summary.seed, Rollout.from_record(record), offset_from_attrs(record.attrs))
         checks.append(Check(ref.index, str(record.attrs.get("augment_variant", "")), why is None, why or ""))
     return checks

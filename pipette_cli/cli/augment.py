@@ -25,6 +25,7 @@ from pipette_cli.demos.embodiment import resolve_robot
 from pipette_cli.errors import PipetteError, SpecError, plural
 from pipette_cli.specs.perturbations import (
     CameraPoseSpec,
+    DistractorSpec,
     JointNoiseSpec,
     LightingSpec,
     ObjectPoseSpec,
@@ -55,7 +56,7 @@ def augment(
         str,
         typer.Option(
             "--variants",
-            help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object, table; NAME*N: N variants of NAME, each its own draw.",
+            help="Comma list: paper (light, speed, light+speed, each +cam), original, or atoms joined by + from light, speed, noise, cam, object, table, clutter; NAME*N: N variants of NAME, each its own draw.",
         ),
     ] = "paper",
     light_scale: Annotated[float, typer.Option("--light-scale", help=spec_help(LightingSpec, "scale"))] = spec_default(
@@ -109,6 +110,9 @@ def augment(
     table_blend: Annotated[
         float, typer.Option("--table-blend", help=spec_help(SurfaceColorSpec, "blend"))
     ] = spec_default(SurfaceColorSpec, "blend"),
+    distractors: Annotated[
+        int | None, typer.Option("--distractors", min=1, max=6, help=spec_help(DistractorSpec, "count", "atom clutter"))
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", help=spec_help(AugmentSpec, "seed", "Base seed"))] = spec_default(
         AugmentSpec, "seed"
     ),
@@ -155,6 +159,7 @@ def augment(
         cam={"camera": camera, "radius": camera_radius, "wrist_radius": wrist_radius},
         object={"xy": object_xy, "yaw_deg": object_yaw, "task_range": object_range},
         table={"blend": table_blend},
+        clutter={"count": distractors},
     )
     names = [n.strip() for n in variants.split(",") if n.strip()]
     if not names:

@@ -20,6 +20,7 @@ from pipette_cli.demos.recorder import SIM_STATE, STOPPED, TRUNCATED, sim_state
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import DatasetError
 from pipette_cli.evaluators.base import Verdict
+from pipette_cli.sim.distractors import distractors_from_attrs, with_distractors
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.specs.task import TaskSpec
 
@@ -105,7 +106,7 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
     reason = ref.summary.reason
     report.recorded = {"success": ref.summary.success, "reason": reason, "metrics": ref.summary.metrics}
     undecided = reason if reason in (TRUNCATED, STOPPED) else TRUNCATED
-    env = PipetteEnv(task, render=False)
+    env = PipetteEnv(with_distractors(task, distractors_from_attrs(record.attrs)), render=False)  # its own scene
     try:
         world = env.world
         size = mujoco.mj_stateSize(world.model, SIM_STATE)

@@ -43,6 +43,7 @@ class World:
 
     def __init__(self, task: TaskSpec, *, meshes: MeshDetail = "full", check: bool = True) -> None:
         self.task = task
+        self.meshes = meshes
         spec, self.robot, self.objects = make_scene_spec(task)
         self.spec = spec
         self._memory: dict[str, tuple[int, int]] = {}

@@ -27,6 +27,8 @@ class PerturbationSpec(TypedSpec):
 
     physics: ClassVar[bool] = False
     on_actions: ClassVar[bool] = False
+    needs_demo: ClassVar[bool] = False
+    """It is drawn around a demonstration (its actions, or where its hand went): augmentation only."""
     atom: ClassVar[str] = ""
     """Short name used in variant names (``light``, ``speed``, ...)."""
 
@@ -77,6 +79,7 @@ class SpeedSpec(PerturbationSpec):
     atom: ClassVar[str] = "speed"
     physics: ClassVar[bool] = True
     on_actions: ClassVar[bool] = True
+    needs_demo: ClassVar[bool] = True
     factor: float = Field(1.2, gt=0, description="s_v, speed factor of the resampling; paper A.7")
     rho: float = Field(0.10, ge=0, description="rho, strength of the local speed noise; paper A.7")
     window: int = Field(11, ge=1, description="moving-average length smoothing the noise")
@@ -97,6 +100,7 @@ class JointNoiseSpec(PerturbationSpec):
     atom: ClassVar[str] = "noise"
     physics: ClassVar[bool] = True
     on_actions: ClassVar[bool] = True
+    needs_demo: ClassVar[bool] = True
     sigma: float = Field(0.005, ge=0, description="rad, std of the joint-target noise; paper A.7")
     bound: float = Field(0.02, ge=0, description="rad, bound of the joint-target noise; paper A.7")
 
@@ -177,3 +181,40 @@ class SurfaceColorSpec(PerturbationSpec):
 
     def magnitude(self) -> str:
         return f"blend={self.blend:.3g}"
+
+
+DISTRACTOR_ASSETS = (
+    "beaker_100ml",
+    "lab_tape_roll",
+    "petri_dish_60mm",
+    "media_bottle_100ml",
+    "reagent_reservoir_25ml",
+    "erlenmeyer_flask_125ml",
+)
+"""Everyday bench objects, each under 9 cm across, none a target of a benchmark task."""
+
+
+@PERTURBATIONS.register
+class DistractorSpec(PerturbationSpec):
+    """Put ``count`` objects of ``assets`` on the bench where the demonstration's hand never
+    passes: each at least ``clearance`` from the task's objects and from the hand's path below
+    ``path_height`` above the bench, uniformly within ``reach`` of the task's objects. The scene
+    is rebuilt with them and the demonstration re-simulated (a touched distractor can fail it)."""
+
+    type: Literal["distractors"] = "distractors"
+    atom: ClassVar[str] = "clutter"
+    physics: ClassVar[bool] = True
+    needs_demo: ClassVar[bool] = True
+    count: int = Field(2, ge=1, le=6, description="objects put on the bench")
+    assets: tuple[str, ...] = Field(DISTRACTOR_ASSETS, min_length=1, description="asset ids drawn from")
+    clearance: float = Field(0.06, ge=0, description="m, free space kept around the task's objects and the hand's path")
+    reach: float = Field(0.3, gt=0, description="m, how far from the task's objects they may stand")
+    path_height: float = Field(
+        0.25, gt=0, description="m above the bench: lower parts of the hand's path are kept clear"
+    )
+
+    def scaled(self, factor: float) -> DistractorSpec:
+        return self.model_copy(update={"count": max(1, round(self.count * factor))})
+
+    def magnitude(self) -> str:
+        return f"n={self.count},clear={self.clearance:.3g}"

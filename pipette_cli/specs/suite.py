@@ -90,11 +90,11 @@ class SuiteSpec(Spec):
         kinds = [p.type for p in self.perturbations]
         if len(kinds) != len(set(kinds)):
             raise ValueError(f"perturbations list a type twice: {kinds}")
-        on_actions = [p.type for p in self.perturbations if p.on_actions]
-        if on_actions:
+        on_demo = [p.type for p in self.perturbations if p.needs_demo]
+        if on_demo:
             raise ValueError(
-                f"{', '.join(on_actions)} perturb a demonstration's actions; an evaluation has none "
-                "(use lighting, camera_pose, object_pose, surface_color)"
+                f"{', '.join(on_demo)} are drawn around a demonstration (its actions or its hand's path); "
+                "an evaluation has none (use lighting, camera_pose, object_pose, surface_color)"
             )
         return self
 

@@ -259,3 +259,63 @@ def test_placement_over_the_task_range_and_surface_colour_are_verified_determini
     assert table.arrays["sim_state"].tobytes() == original.arrays["sim_state"].tobytes()  # rendering only
     assert not np.array_equal(table.images["main"], original.images["main"])
     assert json.loads(table.attrs["augment_params"])["surface_color"]["tint"]["floor"]
+
+
+def test_distractors_stand_clear_of_the_demo_and_are_verified_deterministic_and_recorded(
+    task, tmp_path_factory
+) -> None:
+    import math
+
+    import mujoco
+
+    from pipette_cli.augment.clutter import DISTRACTOR_RADIUS, clutter_of, transfer_state
+    from pipette_cli.augment.specs import default_atoms, make_variants
+    from pipette_cli.demos.replay import replay_episode
+    from pipette_cli.sim.distractors import distractors_from_attrs, with_distractors
+    from pipette_cli.sim.world import World
+    from pipette_cli.specs.suite import SuiteSpec
+
+    raw = raw_demo(tmp_path_factory)
+    spec = AugmentSpec(variants=make_variants(["original", "clutter*2"], default_atoms(clutter={"count": 3})))
+    outs = []
+    for name in ("a", "b"):  # the same spec twice: the same distractors and episodes, bit for bit
+        folder = tmp_path_factory.mktemp(f"clutter_{name}")
+        result = augment(task, raw, folder / "aug.h5", spec, rejected=folder / "rejected.h5", workers=1)
+        outs.append((folder / "aug.h5", result))
+    (out, result), (out_b, _) = outs
+    assert {r["variant"] for r in result.report["variants"]} == {"original", "clutter@1", "clutter@2"}
+    kept = [read_episode(ref, images=True) for ref in scan(out).episodes]
+    again = [read_episode(ref, images=True) for ref in scan(out_b).episodes]
+    assert [e.attrs.get("augment_distractors") for e in kept] == [e.attrs.get("augment_distractors") for e in again]
+    cluttered = [e for e in kept if distractors_from_attrs(e.attrs)]
+    assert cluttered, "no cluttered episode was kept"
+    source = read_episode(scan(raw).episodes[0])
+    world = World(task)
+    room = clutter_of(world, source.arrays["sim_state"])
+    original = next(e for e in kept if e.attrs["augment_variant"] == "original")
+    for episode in cluttered:
+        placed = distractors_from_attrs(episode.attrs)
+        assert len(placed) == 3 and json.loads(episode.attrs["augment_params"])["distractors"]["count"] == 3
+        for d in placed:  # clear of the hand's path and of the task's objects
+            gaps = [math.hypot(d.x - x, d.y - y) - r for x, y, r in [*room.keep_out, *room.objects]]
+            assert min(gaps) >= 0.06 + DISTRACTOR_RADIUS - 1e-6
+        assert episode.arrays["sim_state"].shape[1] > source.arrays["sim_state"].shape[1]  # a larger scene
+        assert not np.array_equal(episode.images["top"][0], original.images["top"][0])  # and they are seen
+    index = next(i for i, ref in enumerate(scan(out).episodes) if distractors_from_attrs(read_episode(ref).attrs))
+    report = replay_episode(out, index, task)  # data replay rebuilds the scene the episode ran in
+    assert report.states_equal and report.outcome_equal
+    assert all(c.ok for c in verify_file(task, out))
+    scene = World(with_distractors(task, distractors_from_attrs(cluttered[0].attrs)))
+    transfer_state(world, source.arrays["sim_state"][0], scene, source.summary.seed)  # leaves world at that state
+    mujoco.mj_forward(world.model, world.data)
+    assert np.array_equal(scene.position("tube"), world.position("tube"))  # the robot and the tube where recorded
+    assert np.array_equal(scene.arm_qpos(), world.arm_qpos())
+    with pytest.raises(ValueError, match="drawn around a demonstration"):
+        SuiteSpec.model_validate(
+            {
+                "id": "test/Clutter-v1",
+                "name": "x",
+                "tasks": [{"task": task.id, "instructions": ["Pick up the tube."]}],
+                "perturbations": [{"type": "distractors"}],
+            }
+        )
