@@ -81,7 +81,7 @@ class _Words:
     def of(cls, text: str, names: list[str], units: set[str]) -> _Words:
         """The words the parser reads; quotes and a final full stop taken off, one of ``units``
         glued to its number set apart ("48px" -> "48 px"; "15k", "5e" stay)."""
-        tokens = []
+        tokens: list[str] = []
         for token in words_of(find_mentions(text, names).words).split():
             token = token.strip("'\"").rstrip(".")
             glued = _GLUED.match(token)

@@ -13,6 +13,7 @@ to the CLI is understood by the words of its own name. The plan then goes throug
 from __future__ import annotations
 
 import re
+from collections.abc import Set as AbstractSet
 from typing import Any
 
 from pipette_cli.agent.catalog import (
@@ -179,7 +180,7 @@ class OfflineAgent:
     # -- filling one step ---------------------------------------------------------------------
 
     def fill(
-        self, info: CommandInfo, text: str, problems: list[str] | None = None, bound: set[float] = frozenset()
+        self, info: CommandInfo, text: str, problems: list[str] | None = None, bound: AbstractSet[float] = frozenset()
     ) -> dict[str, Any]:
         """Arguments of ``info`` that ``text`` gives; a task that is unknown or ambiguous is
         added to ``problems`` (raised at once without it). Numbers in ``bound`` belong to an
@@ -281,7 +282,9 @@ class OfflineAgent:
                 return key
         return None
 
-    def _numbers(self, info: CommandInfo, words: str, args: dict[str, Any], bound: set[float] = frozenset()) -> None:
+    def _numbers(
+        self, info: CommandInfo, words: str, args: dict[str, Any], bound: AbstractSet[float] = frozenset()
+    ) -> None:
         """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
         before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
         numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]

@@ -246,10 +246,10 @@ class TaskIndex:
             if " " in alias and re.search(pattern, lowered):
                 groups.append({f"kind:{self._alias_kind[alias]}"})
                 lowered = re.sub(pattern, " ", lowered)
-        for pattern, word in self._synonyms:  # "take out" -> remove: one thing named
-            if " " in pattern.pattern and pattern.search(lowered):
+        for synonym, word in self._synonyms:  # "take out" -> remove: one thing named
+            if " " in synonym.pattern and synonym.search(lowered):
                 groups.append({stem(word)})
-                lowered = pattern.sub(" ", lowered)
+                lowered = synonym.sub(" ", lowered)
         for word in re.findall(r"[a-z0-9]+", lowered):
             terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
             if terms:

@@ -427,8 +427,8 @@ class SceneBuilder:
         round_ = geom.semantics.get("upright", True) and abs(hx - hy) < 0.2 * max(hx, hy)
         randomize: dict[str, Any] = {"xy": (amp, amp), "yaw_deg": 180 if round_ else 15}
         key = [geom.sites["grasp"][:2]] if "grasp" in geom.sites else [(0.0, 0.0)]
-        clear = {"away": self.clear_of} if self.clear_of else {}  # off a relation's region
-        spot = self.layout.place(Footprint(geom.boxes, key, preferred, margin=amp), self.ws.bench_z, **clear)
+        footprint = Footprint(geom.boxes, key, preferred, margin=amp)
+        spot = self.layout.place(footprint, self.ws.bench_z, away=self.clear_of)  # off a relation's region
         if spot is None:
             raise self._no_room(name)
         z = r(self.ws.bench_z + geom.origin_height + 0.001, 4)

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from pipette_cli.authoring.layout import PlacedObject
 from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import PlanStepSpec, PlanThresholdsSpec
-from pipette_cli.authoring.scene import SceneBuilder
+from pipette_cli.authoring.scene import SceneBuilder, covered
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.mechanisms import ButtonReleaseSpec, InstrumentSpec
@@ -70,6 +70,20 @@ class StageBase:
         if self.multi:
             return default
         return self.th.timeout_s or default + (self.th.hold_s or 0.0)
+
+    def _take(self, name: str, lift: float | None = None, hold_s: float = 0.0) -> list[sk.StepSpec]:
+        """Grasp ``name`` where it is: out of an enclosure with ``remove_from``, else ``pick``."""
+        where = self.held_at.get(name)
+        if (
+            where is not None
+            and where[1] != "slot_grid"
+            and where[1] in self.geom(where[0]).sites
+            and covered(self.geom(where[0]), where[1])
+        ):
+            return [sk.RemoveFromSpec(object=name, source=where[0], to="hold", hold_s=0.3)]
+        if lift is None:
+            return [sk.PickSpec(object=name)]
+        return [sk.PickSpec(object=name, lift=lift, hold_s=hold_s)]
 
 
 __all__ = ["Stage", "StageBase", "reference_point"]

@@ -33,7 +33,6 @@ from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import PlanError, PlanStepSpec
 from pipette_cli.authoring.relation_stages import RelationStages
 from pipette_cli.authoring.scene import (
-    covered,
     hatch_joint,
     open_value,
     r,
@@ -58,21 +57,6 @@ class StageBuilder(HatchStages, RelationStages):
     def build(self, step: PlanStepSpec) -> Stage:
         stage: Stage = getattr(self, f"_{step.action}")(step)
         return stage
-
-    # ------------------------------------------------------------------ taking hold
-    def _take(self, name: str, lift: float | None = None, hold_s: float = 0.0) -> list[sk.StepSpec]:
-        """Grasp ``name`` where it is: out of an enclosure with ``remove_from``, else ``pick``."""
-        where = self.held_at.get(name)
-        if (
-            where is not None
-            and where[1] != "slot_grid"
-            and where[1] in self.geom(where[0]).sites
-            and covered(self.geom(where[0]), where[1])
-        ):
-            return [sk.RemoveFromSpec(object=name, source=where[0], to="hold", hold_s=0.3)]
-        if lift is None:
-            return [sk.PickSpec(object=name)]
-        return [sk.PickSpec(object=name, lift=lift, hold_s=hold_s)]
 
     # ------------------------------------------------------------------ pick
     def _pick(self, step: PlanStepSpec) -> Stage:
