@@ -200,7 +200,7 @@ def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) 
     from pipette_cli.authoring.layout import Layout
     from pipette_cli.authoring.plan import PlanError
 
-    monkeypatch.setattr(Layout, "place", lambda self, footprint, z: None)
+    monkeypatch.setattr(Layout, "place", lambda self, footprint, z, **_: None)
     with pytest.raises(PlanError, match="no place for the 15 mL conical tube rack"):
         drafted("Pick up the 15 mL falcon tube")
 
