@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from pipette_cli.augment.simulate import ObjectOffset, apply_offset
 from pipette_cli.demos.recorder import SIM_STATE, sim_state
 from pipette_cli.sim.distractors import Distractor
 from pipette_cli.sim.scene import BENCH, collision_boxes
@@ -79,6 +80,26 @@ def clutter_of(world: World, states: np.ndarray, path_height: float = 0.25, ever
         np.asarray(points, dtype=np.float64).reshape(-1, 3),
         (float(base[0]), float(base[1])),
     )
+
+
+def expert_path(world: World, seed: int, offset: ObjectOffset | None = None, limit: int = 3000) -> np.ndarray:
+    """The simulator states of the task's scripted expert solving episode ``seed`` (the target
+    moved by ``offset`` first): where a policy's hand would go, for an evaluation, which has no
+    demonstration. Its success does not matter; its path does."""
+    from pipette_cli.demos.experts.base import find_expert  # deferred: the skills, only for this
+
+    world.reset(seed)
+    if offset is not None:
+        apply_offset(world, offset)
+        mujoco.mj_forward(world.model, world.data)
+        world.restart()
+    expert = find_expert(world.task)[1]
+    expert.reset(world, np.random.default_rng([seed, 1]))
+    states = [sim_state(world.model, world.data)]
+    while not world.verdict.done and world.step_count < limit:
+        world.step(expert.act(world))
+        states.append(sim_state(world.model, world.data))
+    return np.stack(states)
 
 
 def place_distractors(spec: DistractorSpec, clutter: Clutter, rng: np.random.Generator) -> list[Distractor]:

@@ -168,7 +168,7 @@ def run_episode(
     """
     task = env.task
     instruction = instruction or task.instruction
-    with episode_conditions(env, seed, conditions) as (obs, drawn):
+    with episode_conditions(env, seed, conditions) as (env, obs, drawn):  # the episode's own scene
         world = env.world
         d_pi = max(1, round(task.timing.control_hz / task.timing.vision_hz))
         gripper = Gripper(config)

@@ -55,6 +55,7 @@ class PipetteEnv:
         self, task: TaskSpec, *, image_size: int | None = None, render_profile: Profile = "fast", render: bool = True
     ) -> None:
         self.task = task
+        self.image_size, self.render_profile = image_size, render_profile
         meshes = find_profile(render_profile).meshes if render else "full"
         self.world = World(task, meshes=meshes)
         width = image_size or task.cameras.width

@@ -199,12 +199,13 @@ class DistractorSpec(PerturbationSpec):
     """Put ``count`` objects of ``assets`` on the bench where the demonstration's hand never
     passes: each at least ``clearance`` from the task's objects and from the hand's path below
     ``path_height`` above the bench, uniformly within ``reach`` of the task's objects. The scene
-    is rebuilt with them and the demonstration re-simulated (a touched distractor can fail it)."""
+    is rebuilt with them and the demonstration re-simulated (a touched distractor can fail it).
+    An evaluation episode, which has no demonstration, keeps them clear of the path of the task's
+    scripted expert on that episode."""
 
     type: Literal["distractors"] = "distractors"
     atom: ClassVar[str] = "clutter"
     physics: ClassVar[bool] = True
-    needs_demo: ClassVar[bool] = True
     count: int = Field(2, ge=1, le=6, description="objects put on the bench")
     assets: tuple[str, ...] = Field(DISTRACTOR_ASSETS, min_length=1, description="asset ids drawn from")
     clearance: float = Field(0.06, ge=0, description="m, free space kept around the task's objects and the hand's path")

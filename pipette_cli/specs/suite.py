@@ -93,8 +93,8 @@ class SuiteSpec(Spec):
         on_demo = [p.type for p in self.perturbations if p.needs_demo]
         if on_demo:
             raise ValueError(
-                f"{', '.join(on_demo)} are drawn around a demonstration (its actions or its hand's path); "
-                "an evaluation has none (use lighting, camera_pose, object_pose, surface_color)"
+                f"{', '.join(on_demo)} are drawn around a demonstration (they rewrite its actions); "
+                "an evaluation has none (use lighting, camera_pose, object_pose, surface_color, distractors)"
             )
         return self
 

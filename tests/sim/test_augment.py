@@ -310,12 +310,9 @@ def test_distractors_stand_clear_of_the_demo_and_are_verified_deterministic_and_
     mujoco.mj_forward(world.model, world.data)
     assert np.array_equal(scene.position("tube"), world.position("tube"))  # the robot and the tube where recorded
     assert np.array_equal(scene.arm_qpos(), world.arm_qpos())
+    suite = {"id": "test/Clutter-v1", "name": "x", "tasks": [{"task": task.id, "instructions": ["Pick up the tube."]}]}
+    assert SuiteSpec.model_validate(
+        {**suite, "perturbations": [{"type": "distractors"}]}
+    )  # the expert's path stands in
     with pytest.raises(ValueError, match="drawn around a demonstration"):
-        SuiteSpec.model_validate(
-            {
-                "id": "test/Clutter-v1",
-                "name": "x",
-                "tasks": [{"task": task.id, "instructions": ["Pick up the tube."]}],
-                "perturbations": [{"type": "distractors"}],
-            }
-        )
+        SuiteSpec.model_validate({**suite, "perturbations": [{"type": "speed"}]})

@@ -305,3 +305,31 @@ def test_a_shifted_suite_draws_each_episodes_conditions_from_its_seed(tmp_path) 
     manifest = json.loads((tmp_path / "one" / folder / "run.json").read_text())
     assert [c["type"] for c in manifest["conditions"]] == ["lighting", "camera_pose", "object_pose", "surface_color"]
     assert manifest["suite"]["sha256"] == shifted.sha256 != SUITE.sha256
+
+
+def test_a_suite_with_distractors_puts_them_clear_of_the_experts_path_each_episode(tmp_path) -> None:
+    from pipette_cli.specs.perturbations import DistractorSpec, ObjectPoseSpec
+    from pipette_cli.specs.suite import SuiteSpec
+
+    base = load_suites(REGISTRY, DIRS).get("testlab/TinyShifted-v1").spec
+    spec = SuiteSpec.model_validate(
+        {
+            **base.model_dump(),
+            "id": "testlab/TinyClutter-v1",
+            "tasks": [t.model_dump() for t in base.tasks[:1]],
+            "perturbations": [ObjectPoseSpec(task_range=1.0), DistractorSpec(count=2)],
+        }
+    )
+    settings = EvalSettings(ACT, spec.image_size, spec.render_profile, "raw", None)
+    plans = episode_plan(spec)
+    for name, workers in (("one", 1), ("two", 2)):
+        runs = [TaskRun(REGISTRY.get(t), tmp_path / name / t.replace("/", "_"), tuple(e)) for t, e in plans.items()]
+        evaluate_runs(runs, FeedbackSource(), settings, workers=workers)
+    one, two = (logs(tmp_path / name / "testlab_HoldTube-v1") for name in ("one", "two"))
+    assert [x["conditions"] for x in one] == [x["conditions"] for x in two]  # drawn from the seed alone
+    placed = [x["conditions"]["distractors"]["placed"] for x in one]
+    assert all(len(p) == 2 for p in placed) and len({json.dumps(p) for p in placed}) == len(placed)
+    for x, items in zip(one, placed, strict=True):  # never on the tube, wherever it was put
+        start = x["conditions"]["object_pose"]
+        for d in items:
+            assert abs(d["x"] - (0.5 + start["dx"])) + abs(d["y"] - start["dy"]) > 0.1
