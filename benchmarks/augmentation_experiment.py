@@ -64,20 +64,31 @@ from pipette_cli.registry import load_registry  # noqa: E402
 from pipette_cli.specs.task import TaskSpec  # noqa: E402
 
 NOMINAL, SHIFTED = "pipette/AugmentationNominal-v1", "pipette/AugmentationShifted-v1"
+CLUTTER = "pipette/AugmentationClutter-v1"
+"""Amendment 1 (plan.md): the nominal episodes with two distractors on the bench."""
 DEMOS = 30
 ATOMS = {  # the shifted suite's parameters: the augmentation covers what that evaluation varies
     "object": {"task_range": 1.5},
     "light": {"scale": 0.9, "jitter": 0.4},
     "cam": {"camera": "all", "radius": 0.05, "wrist_radius": 0.002},
     "table": {"blend": 0.5},
+    "clutter": {"count": 2},
 }
 VARIANTS = {
     "aug_all": "original,object+light+cam+table*5",
     "aug_object": "original,object*5",
     "aug_visual": "original,light+cam+table*5",
+    "aug_clutter": "original,clutter*5",
 }
-SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos")
+SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
+SUITE_SETTINGS = {
+    "nominal": SETTINGS[:5],
+    "shifted": SETTINGS[:5],
+    "clutter": ("raw", "aug_all", "aug_clutter"),
+}
+"""The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1)."""
 PRIMARY = [("raw", "aug_all")]
+AMENDMENT_1 = [("raw", "aug_clutter"), ("raw", "aug_all"), ("aug_all", "aug_clutter")]
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -310,6 +321,8 @@ def run_task(
             run = trained(ex, task, setting, sources[setting], total, quarter, folder)
         final = checkpoint(run, steps, total)
         for name, suite in suites.items():
+            if setting not in SUITE_SETTINGS[name]:
+                continue
             plan = episode_plan(suite.spec, [task.id])[task.id]
             evaluated(ex, task, final, setting, ex.folder(task, "eval", name, setting), plan, suite)
         if setting in ("raw", "aug_all"):
@@ -377,11 +390,19 @@ def cell_text(o: dict[tuple[str, int], bool]) -> str:
     return f"{k}/{n} ({100 * lo:.0f}-{100 * hi:.0f})"
 
 
-def comparisons(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
+def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
+    """The comparisons of a suite by family (amendment 1's on the clutter suite)."""
+    if suite == "clutter":
+        return [("amendment 1", AMENDMENT_1)]
+    return [("primary", PRIMARY), ("secondary", SECONDARY)]
+
+
+def comparisons(cells: Cells, tasks: list[str], suite: str = "nominal") -> list[dict[str, Any]]:
     """The plan's tests on one suite: McNemar exact per task and pooled over tasks, Holm-adjusted
-    (primary: per task over the tasks, the pooled test alone; secondary: over all its tests)."""
+    (primary: per task over the tasks, the pooled test alone; every other family: over all its
+    tests)."""
     rows: list[dict[str, Any]] = []
-    for family, pairs in (("primary", PRIMARY), ("secondary", SECONDARY)):
+    for family, pairs in families(suite):
         found = []
         for a, b in pairs:
             for task in [*tasks, "pooled"]:
@@ -402,13 +423,14 @@ def comparisons(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
 
 
 def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str, Any]]) -> list[str]:
+    settings = SUITE_SETTINGS[name]
     lines = [
         f"### {name.capitalize()} suite",
         "",
-        "| task | " + " | ".join(SETTINGS) + " |",
-        "|---" * (len(SETTINGS) + 1) + "|",
+        "| task | " + " | ".join(settings) + " |",
+        "|---" * (len(settings) + 1) + "|",
     ]
-    lines += [f"| {t} | " + " | ".join(cell_text(cells.get((t, s), {})) for s in SETTINGS) + " |" for t in tasks]
+    lines += [f"| {t} | " + " | ".join(cell_text(cells.get((t, s), {})) for s in settings) + " |" for t in tasks]
     lines += [
         "",
         "| comparison | task | difference | discordant (b only / a only) | p | p (Holm) | significant from |",
@@ -428,15 +450,15 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
     ids = [t.id for t in tasks]
     results: dict[str, Any] = {"steps": steps, "tasks": ids, "suites": {}}
     lines: list[str] = []
-    for name in ("nominal", "shifted"):
-        cells = {(t.id, s): outcomes(ex.folder(t, "eval", name, s)) for t in tasks for s in SETTINGS}
-        rows = comparisons(cells, ids)
+    for name, settings in SUITE_SETTINGS.items():
+        cells = {(t.id, s): outcomes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings}
+        rows = comparisons(cells, ids, name)
         lines += suite_section(name, cells, ids, rows)
         results["suites"][name] = {
             "cells": {f"{t} {s}": {"successes": sum(o.values()), "episodes": len(o)} for (t, s), o in cells.items()},
             "comparisons": rows,
             "failure_modes": {
-                f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in SETTINGS
+                f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings
             },
         }
     marks = [steps // 4, steps // 2]
@@ -492,7 +514,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str
         "act_flags": list(SMALL_ACT),
         "train_threads": SMALL_ACT_THREADS,
         "batch_size": BATCH,
-        "suites": {"nominal": NOMINAL, "shifted": SHIFTED},
+        "suites": {"nominal": NOMINAL, "shifted": SHIFTED, "clutter": CLUTTER},
     }
     docs.mkdir(parents=True, exist_ok=True)
     (docs / "results.json").write_text(json.dumps(results, indent=2) + "\n")
@@ -521,7 +543,7 @@ def main() -> None:
     args = parser.parse_args()
     registry = load_registry()
     found = load_suites(registry)
-    suites = {"nominal": found.get(NOMINAL), "shifted": found.get(SHIFTED)}
+    suites = {"nominal": found.get(NOMINAL), "shifted": found.get(SHIFTED), "clutter": found.get(CLUTTER)}
     nominal = suites["nominal"].spec
     ex = Experiment(
         args.work,

@@ -235,7 +235,7 @@ def test_bench_robots_shows_a_limit_every_seed_ran_into_as_a_refusal() -> None:
 @pytest.mark.slow
 @pytest.mark.render
 def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp_path) -> None:
-    """About 6 minutes: a pilot, five data settings trained and evaluated on both suites, the report."""
+    """About 8 minutes: a pilot, six data settings trained and evaluated on the three suites, the report."""
     work, docs = tmp_path / "work", tmp_path / "docs"
     tiny = ("--work", str(work), "--docs", str(docs), "--tasks", "pipette/PickUpTestTube-v1", "--demos", "2")
     bench("augmentation_experiment.py", "pilot", *tiny, "--pilot-steps", "1,4", "--pilot-episodes", "2")
@@ -249,11 +249,14 @@ def test_augmentation_experiment_runs_every_stage_at_a_tiny_size_and_resumes(tmp
         assert {k.split()[1] for k in cells} == {"raw", "aug_all", "aug_object", "aug_visual", "more_demos"}
         assert all(c["episodes"] == 2 for c in cells.values())
         assert {r["family"] for r in data["suites"][suite]["comparisons"]} == {"primary", "secondary"}
+    clutter = data["suites"]["clutter"]  # amendment 1: raw, aug_all and aug_clutter among distractors
+    assert {k.split()[1] for k in clutter["cells"]} == {"raw", "aug_all", "aug_clutter"}
+    assert {r["family"] for r in clutter["comparisons"]} == {"amendment 1"}
     kept = data["yield"]["pipette/PickUpTestTube-v1"]["aug_all"]["kept"]
     logs = list((work / "pipette_PickUpTestTube-v1" / "eval" / "shifted" / "raw").glob("episode_*.json"))
     assert logs and all(json.loads(p.read_text())["conditions"]["object_pose"]["task_range"] == 1.5 for p in logs)
     checkpoints = sorted(work.rglob("checkpoints/last/pretrained_model/config.json"))
-    assert len(checkpoints) == 5 and kept >= 2  # raw is the pilot's run (its checkpoints at 1, 2 and 4 steps)
+    assert len(checkpoints) == 6 and kept >= 2  # raw is the pilot's run (its checkpoints at 1, 2 and 4 steps)
     assert (work / "pipette_PickUpTestTube-v1" / "eval" / "curve" / "raw@1").is_dir()
     stamp = [p.stat().st_mtime for p in checkpoints]
     again = bench("augmentation_experiment.py", "run", *run, timeout=600)  # every stage reused

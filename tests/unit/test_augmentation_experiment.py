@@ -131,3 +131,27 @@ def test_training_loss_is_read_from_the_lerobot_log_near_each_mark(tmp_path) -> 
     assert loss["4000"] is None  # the log stops at 2000
     (log / "run.log").write_text("\n".join([*lines, "--resume=true"]))
     assert set(experiment.training_loss(ex, task, "raw", [100]).values()) == {None}
+
+
+def test_amendment_1_compares_clutter_augmentation_on_the_clutter_suite_in_its_own_family() -> None:
+    cells = {
+        (PICK, "raw"): outcomes(PICK, [0] * 10 + [1] * 10),
+        (PICK, "aug_all"): outcomes(PICK, [0] * 12 + [1] * 8),
+        (PICK, "aug_clutter"): outcomes(PICK, [1] * 20),
+    }
+    rows = experiment.comparisons(cells, [PICK], "clutter")
+    assert {r["family"] for r in rows} == {"amendment 1"}
+    assert [(r["comparison"], r["task"]) for r in rows] == [
+        ("aug_clutter vs raw", PICK),
+        ("aug_all vs raw", PICK),
+        ("aug_clutter vs aug_all", PICK),
+        ("aug_clutter vs raw", "pooled"),
+        ("aug_all vs raw", "pooled"),
+        ("aug_clutter vs aug_all", "pooled"),
+    ]
+    holm = experiment.holm([r["p_value"] for r in rows])  # Holm over the family's six tests together
+    assert [r["p_holm"] for r in rows] == pytest.approx(holm) and rows[0]["p_holm"] == pytest.approx(
+        4 * rows[0]["p_value"]
+    )
+    assert experiment.SUITE_SETTINGS["clutter"] == ("raw", "aug_all", "aug_clutter")
+    assert "aug_clutter" not in experiment.SUITE_SETTINGS["nominal"]  # the pre-registered families stay as they were
