@@ -263,6 +263,9 @@ class TaskIndex:
         hits, actions, used = set(self.terms), [], []
         for group in self.word_terms(text):
             tids = set().union(*(self._strong(t) for t in group))
+            if not tids and group & self._known:  # a robot or an object no task has: none is about it
+                used += sorted(t.removeprefix("kind:") for t in group & self._known)
+                hits = set()
             if not tids:
                 continue
             used += sorted(t.removeprefix("kind:") for t in group if self._strong(t))
@@ -275,18 +278,27 @@ class TaskIndex:
         return sorted(hits), sorted(set(used))
 
     def filter_words(self, text: str) -> list[str]:
-        """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words)."""
+        """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words,
+        and any robot or object of the libraries, which no task may have)."""
         lowered, out = f" {text.lower()} ", []
         for alias in self._aliases:
             pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            if " " in alias and re.search(pattern, lowered) and self._strong(f"kind:{self._alias_kind[alias]}"):
+            if " " in alias and re.search(pattern, lowered):
                 out.append(alias)
                 lowered = re.sub(pattern, " ", lowered)
         for word in re.findall(r"[a-z0-9]+", lowered):
             terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
-            if any(self._strong(t) for t in terms) and word not in out:
+            if (any(self._strong(t) for t in terms) or terms & self._known) and word not in out:
                 out.append(word)
         return out
+
+    @cached_property
+    def _known(self) -> set[str]:
+        """Terms of the robot and asset libraries (``ur5e``, ``kind:beaker``), whether or not a task has them."""
+        from pipette_cli.specs.robot import robot_words  # deferred: the robot facts
+
+        robots = {stem(w) for names in robot_words().values() for name in names for w in re.findall(r"[a-z0-9]+", name)}
+        return {f"kind:{kind}" for kind in self._alias_kind.values()} | (robots - self._stop)
 
     def suggest_name(self, phrase: str) -> str:
         names = [short_name(t) for t in self.registry.ids()]

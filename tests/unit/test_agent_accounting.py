@@ -168,3 +168,14 @@ def test_one_backend_registry_for_every_language_front_end(run_cli) -> None:
         refused = run_cli(*command, "--backend", "gemini-web", "--dry-run")
         assert refused.exit_code == 1 and "unknown backend 'gemini-web'; use offline, ollama, openai" in refused.stderr
     assert make_backend("offline").name == "offline" and make_backend("ollama", model="m").name == "ollama"
+
+
+def test_a_question_about_a_robot_or_object_no_task_has_answers_none_not_all() -> None:
+    from pipette_cli.agent.answers import answer
+
+    for request, word in (("which tasks can the ur5e do", "ur5e"), ("which tasks use the piper arm", "piper")):
+        plan = AGENT.plan(request)
+        found = answer("answer tasks", plan.steps[0].args, REGISTRY)
+        robot = {"ur5e": "ur5e_robotiq", "piper": "agilex_piper"}[word]
+        on_it = sorted(t for t in REGISTRY.ids() if REGISTRY.get(t).embodiment.robot == robot)
+        assert plan.unused == [] and found.data["tasks"] == on_it  # [] for the UR5e: none, not every task
