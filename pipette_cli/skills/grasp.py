@@ -424,7 +424,7 @@ def _first_reachable(
 ) -> Grasp:
     touch = ctx.scene.bodies(name) | support_of(ctx, name)
     if later is not None:
-        margins = [ctx.margin(later(g), touch, collisions=False) for g in candidates]
+        margins = [ctx.plan.margin(later(g), touch, collisions=False) for g in candidates]
         order = sorted((exact and m < COMFORT, i) for i, m in enumerate(margins) if m is not None)
         candidates = [candidates[i] for _, i in order]
 
@@ -432,7 +432,9 @@ def _first_reachable(
         after = then(g) if then is not None else [(g.pos + LIFT_CHECK * UP, g.rot)]
         return [(p, g.rot) for p in (*g.approach, g.pos)] + after
 
-    chosen = ctx.choose(candidates, poses, touch=touch, via=lambda g: (g.approach[0], g.rot, ctx.scene.bodies(name)))
+    chosen = ctx.plan.choose(
+        candidates, poses, touch=touch, via=lambda g: (g.approach[0], g.rot, ctx.scene.bodies(name))
+    )
     if chosen is not None:
         return chosen
     distance = float(np.linalg.norm(ctx.world.position(name)[:2] - ctx.base[:2]))

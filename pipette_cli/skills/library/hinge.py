@@ -23,7 +23,7 @@ import numpy as np
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, pitched_frame
 from pipette_cli.skills.grasp import plan_grasp, semantics
 from pipette_cli.skills.library.pick import grasp
-from pipette_cli.skills.library.place import back_off
+from pipette_cli.skills.motions import back_off, lift_clear, transit
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import CloseHingeSpec, HingeSpec, OpenHingeSpec, SlideSpec
@@ -210,12 +210,12 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         (reach, pitch, False, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)
     ]
     tips = [(reach, pitch, True, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in TIP_PITCHES]
-    chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
+    chosen = ctx.plan.choose(candidates, poses, via=approach_of, touch=moving)
     if chosen is None:
-        chosen = ctx.choose(tips, poses, via=approach_of, touch=moving)
+        chosen = ctx.plan.choose(tips, poses, via=approach_of, touch=moving)
         candidates += tips
     if chosen is None:
-        if not any(ctx.reachable(*poses(c)[1]) for c in candidates):
+        if not any(ctx.plan.reachable(*poses(c)[1]) for c in candidates):
             edge_now = push_point(PUSH_REACHES[0], angle0, 0.0)
             raise SkillFailure(
                 f"reach: the push on {joint!r} starts {edge_now[2] - ctx.base[2]:.2f} m above the "
@@ -227,8 +227,8 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     start = angle0
     for attempt in range(MAX_PASSES):
         points = sweep(chosen, start)
-        yield from ctx.transit(lead_in(points[0], chosen[3]), rot, what=f"the approach to {joint!r}")
-        with ctx.touching(moving):
+        yield from transit(ctx, lead_in(points[0], chosen[3]), rot, what=f"the approach to {joint!r}")
+        with ctx.hand.touching(moving):
             yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {joint!r}")
             for point in points[1:]:
                 yield ctx.move(point, rot, speed=FINE_SPEED * 3, what=f"pushing {joint!r}")
@@ -238,17 +238,17 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         if attempt > 0 and abs(now - start) < 1.0:
             raise SkillFailure(f"{joint!r} does not move (stays at {now:.0f} deg, goal {goal:.0f} deg)")
         start = now
-    end = ctx.pos
-    with ctx.touching(moving):
+    end = ctx.hand.pos
+    with ctx.hand.touching(moving):
         yield ctx.move(end + 0.02 * UP - 0.02 * hinge.motion(end, sign), rot, speed=APPROACH_SPEED, what="backing off")
-        yield from ctx.lift_clear(0.10)
+        yield from lift_clear(ctx, 0.10)
 
 
 @skill(CloseHingeSpec)
 def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before closing {step.joint!r}")
-    if ctx.gripper != CLOSED:
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before closing {step.joint!r}")
+    if ctx.hand.gripper != CLOSED:
         yield ctx.grip(CLOSED, 0.3)
     yield from settle(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
@@ -262,8 +262,8 @@ def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
 @skill(OpenHingeSpec)
 def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
     """Pull the handle along the arc as far as the arm follows it, then push the part the rest of the way."""
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before opening {step.joint!r}")
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before opening {step.joint!r}")
     yield from settle(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
     goal = goal_angle(ctx, hinge, step, opening=True)
@@ -309,9 +309,9 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
                 f"the arc of {step.joint!r}"
             )
         yield from grasp(ctx, obj, at=handle_site, mode=mode, extra_touch=moving, then=arc)
-        ctx.held = None  # the part is articulated, not carried: the hand follows its arc
-        tcp0, rot0 = ctx.pos.copy(), ctx.rot.copy()
-        with ctx.touching(moving):
+        ctx.hand.held = None  # the part is articulated, not carried: the hand follows its arc
+        tcp0, rot0 = ctx.hand.pos.copy(), ctx.hand.rot.copy()
+        with ctx.hand.touching(moving):
             for target in targets:
                 # the hand turns with the handle as far as the arm lets it (less from here on where not)
                 move = None
@@ -335,7 +335,7 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
             yield from back_off(ctx, 0.06)
         yield from settle(ctx, step.joint)
     if abs(ctx.world.joint(step.joint) - goal) > TOLERANCE_DEG and sign * (ctx.world.joint(step.joint) - goal) < 0:
-        if ctx.gripper != CLOSED:
+        if ctx.hand.gripper != CLOSED:
             yield ctx.grip(CLOSED, 0.3)
         yield from push_arc(ctx, step.joint, goal, moving)
     if step.hold_s:
@@ -349,8 +349,8 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
     jid = w.joint_id(step.joint)
     if w.model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_SLIDE:
         raise SkillFailure(f"{step.joint!r} is not a sliding joint; use open_hinge/close_hinge")
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before moving {step.joint!r}")
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before moving {step.joint!r}")
     low, high = (float(v) for v in w.model.jnt_range[jid])
     goal = high if step.to == "open" else low if step.to == "closed" else float(step.to)
     now = w.joint(step.joint)
@@ -366,10 +366,10 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
             f"{step.joint!r}: the sliding part has no handle site to move it by; name one with 'handle:'"
         )
     yield from grasp(ctx, obj, at=handle, mode="side" if abs(direction[2]) < 0.7 else "top")
-    ctx.held = None  # the part slides on its joint; the hand follows
-    with ctx.touching(moving):
+    ctx.hand.held = None  # the part slides on its joint; the hand follows
+    with ctx.hand.touching(moving):
         travel = abs(goal - now)
-        yield ctx.move(ctx.pos + travel * direction, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
+        yield ctx.move(ctx.hand.pos + travel * direction, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
         yield ctx.grip(OPEN, 0.4)
         yield from back_off(ctx, 0.06)
     reached = w.joint(step.joint)

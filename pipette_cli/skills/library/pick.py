@@ -11,9 +11,9 @@ import numpy as np
 from pipette_cli.skills.frames import UP, horizontal
 from pipette_cli.skills.grasp import FollowThrough, Grasp, closed_over, plan_grasp, semantics, support_of
 from pipette_cli.skills.library.place import insertion, put_down, resolve_target, upright_rotations
+from pipette_cli.skills.motions import leave_enclosure, lift_clear, settle_hand, transit
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, OPEN, Held, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import InsertIntoSpec, PickSpec, PositionOverSpec, RemoveFromSpec
 
 SETTLE_S = 0.25
@@ -35,8 +35,8 @@ def grasp(
 ) -> Iterator[Move]:
     """Approach ``name``, close on it and record it as held (the hand ends at the grasp pose).
     The fingers may touch ``name`` and ``extra_touch`` (what it stands in) on the way in."""
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand already holds {ctx.held.name!r}; put it down first")
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand already holds {ctx.hand.held.name!r}; put it down first")
     toward = entry_direction(ctx, name)
     after = tool_follow_through(ctx, name)
     exact = isinstance(ctx.next_step, PositionOverSpec)  # the pose it goes to, not one of its choices
@@ -50,11 +50,11 @@ def grasp(
         # no grasp leaves the next step's pose in reach: the next step turns what it holds as it can
         plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=toward, then=then)
     exclude = ctx.scene.bodies(name)
-    if ctx.gripper != OPEN:
+    if ctx.hand.gripper != OPEN:
         yield ctx.grip(OPEN, 0.3)
-    yield from ctx.transit(plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
+    yield from transit(ctx, plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
 
-    with ctx.touching(exclude | set(extra_touch) | support_of(ctx, name)):
+    with ctx.hand.touching(exclude | set(extra_touch) | support_of(ctx, name)):
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
         yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
@@ -63,9 +63,9 @@ def grasp(
         # took the open fingertips down to what they close over (a rack's top, whose edges would
         # stop them), up to the planned height too, which clears it
         sunk = partial(_fingertips_sunk, ctx, name, plan)
-        yield from settle(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=sunk)
+        yield from settle_hand(ctx, SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=sunk)
         yield ctx.grip(CLOSED, CLOSE_S)
-    ctx.attach(name)
+    ctx.hand.attach(name)
 
 
 def _fingertips_sunk(ctx: SkillContext, name: str, plan: Grasp) -> bool:
@@ -90,7 +90,7 @@ def entry_direction(ctx: SkillContext, name: str) -> np.ndarray | None:
 
     point = resolve_target(ctx, target, surface=False)
     skip = ctx.scene.bodies(name)
-    if not ctx.covered(point, skip):
+    if not ctx.plan.covered(point, skip):
         return None
     direction, _ = ctx.scene.way_out(point + 0.01 * UP, skip, prefer=ctx.base - point)
     return -direction
@@ -135,8 +135,8 @@ def _upright_follow_through(ctx: SkillContext, step: InsertIntoSpec) -> FollowTh
 @skill(PickSpec)
 def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
     yield from grasp(ctx, step.object, at=step.at, mode=step.grasp, height=step.height)
-    yield from ctx.lift_clear(step.lift, required=True)
-    ctx.check_holding(step.object)
+    yield from lift_clear(ctx, step.lift, required=True)
+    ctx.hand.check_holding(step.object)
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
@@ -145,12 +145,12 @@ def pick(ctx: SkillContext, step: PickSpec) -> Iterator[Move]:
 def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
     source = ctx.scene.bodies(step.source)
     yield from grasp(ctx, step.object, at=step.at, extra_touch=source)
-    with ctx.touching(source):
-        yield from ctx.lift_clear(0.03)
-        ctx.check_holding(step.object)
-        if ctx.covered(ctx.pos, ctx.held_bodies()):
-            yield from ctx.leave_enclosure(ctx.held_bodies())
-    ctx.check_holding(step.object)
+    with ctx.hand.touching(source):
+        yield from lift_clear(ctx, 0.03)
+        ctx.hand.check_holding(step.object)
+        if ctx.plan.covered(ctx.hand.pos, ctx.hand.held_bodies()):
+            yield from leave_enclosure(ctx, ctx.hand.held_bodies())
+    ctx.hand.check_holding(step.object)
     if step.to == "hold":
         yield ctx.hold(step.hold_s)
         return
@@ -160,7 +160,7 @@ def remove_from(ctx: SkillContext, step: RemoveFromSpec) -> Iterator[Move]:
         spot = ctx.scene.free_spot(
             ctx.start[step.object],
             float(np.max(shape.world_half()[:2])) + 0.02,
-            ctx.held_bodies(),
+            ctx.hand.held_bodies(),
             (ctx.robot.min_reach, ctx.robot.reach),
             ctx.base,
             ctx.robot.base_height,

@@ -15,6 +15,7 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle, tool_frame, unit
 from pipette_cli.skills.grasp import semantics
+from pipette_cli.skills.motions import back_off, settle_hand, transit
 from pipette_cli.skills.moves import (
     APPROACH_SPEED,
     CLOSED,
@@ -28,7 +29,6 @@ from pipette_cli.skills.moves import (
     fmt,
 )
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.skills.transit import settle
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec, TargetSpec
 
 log = logging.getLogger(__name__)
@@ -61,7 +61,7 @@ def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool
             point = _top_of(ctx, spec.at)
         point = point + np.asarray(spec.offset)
     if surface:
-        skip = ctx.held_bodies()
+        skip = ctx.hand.held_bodies()
         point = point.copy()
         point[2] = ctx.scene.surface_below(point[0], point[1], skip, from_z=point[2] + 0.03)
     return point
@@ -85,24 +85,24 @@ def put_down(
     ctx: SkillContext, name: str, surface_point: np.ndarray, *, release: bool = True, retreat: float = 0.08
 ) -> Iterator[Move]:
     """Carry held ``name`` so its base rests on ``surface_point``, let go and back off."""
-    ctx.holding(name)
+    ctx.hand.holding(name)
     lift = base_offset(ctx, name) + DROP
     support = _support(ctx, surface_point)
     spot = _reachable_spot(ctx, name, surface_point, lift, support)
     if spot is None:
         raise SkillFailure(f"no reachable spot to set {name!r} down at {fmt(surface_point)}")
     tool_pos, tool_rot, above = spot
-    yield from ctx.transit(above, tool_rot, what=f"carrying {name!r} to {fmt(surface_point)}")
-    with ctx.touching(support):
+    yield from transit(ctx, above, tool_rot, what=f"carrying {name!r} to {fmt(surface_point)}")
+    with ctx.hand.touching(support):
         yield ctx.move(tool_pos, tool_rot, speed=FINE_SPEED, what=f"setting {name!r} down")
         if not release:
             return
         # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
         # the air, the fingers springing open throw a light object
-        yield from settle(ctx, SETTLE_S, what=f"setting {name!r} down")
+        yield from settle_hand(ctx, SETTLE_S, what=f"setting {name!r} down")
         yield ctx.grip(OPEN, RELEASE_S)
-        ctx.held = None
-        with ctx.touching(ctx.scene.bodies(name)):
+        ctx.hand.held = None
+        with ctx.hand.touching(ctx.scene.bodies(name)):
             yield from back_off(ctx, retreat)
 
 
@@ -112,9 +112,9 @@ def _reachable_spot(
     """Tool pose (and the point above it) setting ``name`` down at ``surface_point``, or, where the arm
     cannot reach that without touching anything, as near as the same surface allows toward the robot
     (a shelf's front rather than its back): ``(tool position, tool rotation, above)``."""
-    skip = ctx.held_bodies()
+    skip = ctx.hand.held_bodies()
     half = float(np.max(ctx.scene.shape(name).world_half()[:2]))
-    covered = ctx.covered(surface_point + lift * UP, skip)
+    covered = ctx.plan.covered(surface_point + lift * UP, skip)
     if covered:
         toward, _ = ctx.scene.way_out(surface_point + 0.01 * UP, skip, prefer=ctx.base - surface_point)
     else:
@@ -126,14 +126,14 @@ def _reachable_spot(
         if k and not _same_surface(ctx, point, surface_point[2], half, skip):
             break
         for yaw in YAWS:  # turning about the vertical keeps the object level
-            held = ctx.held
+            held = ctx.hand.held
             assert held is not None
-            obj_rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.rot @ held.rot
-            tool_pos, tool_rot = ctx.tool_for(name, point + lift * UP, obj_rot)
+            obj_rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.hand.rot @ held.rot
+            tool_pos, tool_rot = ctx.hand.tool_for(name, point + lift * UP, obj_rot)
             above = tool_pos + (0.012 if covered else 0.05) * UP
-            if ctx.margin([(above, tool_rot), (tool_pos, tool_rot)], touch=support) is not None and ctx.can_reach(
-                above, tool_rot
-            ):
+            if ctx.plan.margin(
+                [(above, tool_rot), (tool_pos, tool_rot)], touch=support
+            ) is not None and ctx.plan.can_reach(above, tool_rot):
                 return tool_pos, tool_rot, above
     return None
 
@@ -150,19 +150,9 @@ def _same_surface(ctx: SkillContext, point: np.ndarray, height: float, half: flo
 
 def _support(ctx: SkillContext, point: np.ndarray) -> set[int]:
     """The bodies of the object whose surface ``point`` lies on (what a placed object rests on)."""
-    _, body = ctx.scene.ray(point + 0.02 * UP, -UP, ctx.held_bodies())
+    _, body = ctx.scene.ray(point + 0.02 * UP, -UP, ctx.hand.held_bodies())
     owner = ctx.scene.owner(body) if body >= 0 else None
     return ctx.scene.bodies(owner) if owner else ({body} if body >= 0 else set())
-
-
-def back_off(ctx: SkillContext, distance: float) -> Iterator[Move]:
-    """Withdraw the empty hand: along its approach axis, out of an enclosure, then up."""
-    if distance <= 0:
-        return
-    yield from ctx.withdraw(0.03)
-    if ctx.covered(ctx.pos, set()):
-        yield from ctx.leave_enclosure(set())
-    yield from ctx.lift_clear(distance)
 
 
 @skill(PlaceOnSpec)
@@ -180,7 +170,7 @@ def mating_point(ctx: SkillContext, name: str) -> np.ndarray:
 
 def upright_tool(ctx: SkillContext, name: str) -> list[np.ndarray]:
     """Tool rotations that hold ``name`` with its own z axis straight up, nearest the current one first."""
-    return upright_rotations(ctx.holding(name), ctx.rot)
+    return upright_rotations(ctx.hand.holding(name), ctx.hand.rot)
 
 
 def upright_rotations(held: Held, reference: np.ndarray) -> list[np.ndarray]:
@@ -236,11 +226,11 @@ def _beyond(ctx: SkillContext, holder: str, site: np.ndarray, direction: np.ndar
 
 @skill(InsertIntoSpec)
 def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
-    held = ctx.holding(step.object)
-    rotations = upright_tool(ctx, step.object) if step.axis == "auto" else [ctx.rot]
+    held = ctx.hand.holding(step.object)
+    rotations = upright_tool(ctx, step.object) if step.axis == "auto" else [ctx.hand.rot]
     holder_name = step.target.split("/", 1)[0]
     holder = ctx.scene.bodies(holder_name)
-    placed, rise = insertion(ctx, step, ctx.held_bodies())
+    placed, rise = insertion(ctx, step, ctx.hand.held_bodies())
     # lowered in from over the holder; where its slots are open at the side, slid in from there first
     # (as a pipette is hung by hand: no lift over the holder, which a short arm may not reach)
     ways: list[tuple[str, np.ndarray]] = [("down", rise * UP)]
@@ -262,7 +252,7 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
 
     def choose() -> tuple[tuple[str, np.ndarray], np.ndarray] | None:
         for way in ways:  # a way in order, the most comfortable rotation for it (not the other way round)
-            chosen = ctx.choose(
+            chosen = ctx.plan.choose(
                 [(way, r) for r in rotations],
                 lambda c: [(p, c[1]) for p in path(*c)],
                 touch=holder,
@@ -283,34 +273,34 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
             f"no reachable way to hold {step.object!r} upright over {step.target!r} without touching anything"
         )
     way, tool_rot = chosen
-    yield from ctx.transit(path(way, tool_rot)[0], tool_rot, what=f"carrying {step.object!r} to {step.target!r}")
+    yield from transit(ctx, path(way, tool_rot)[0], tool_rot, what=f"carrying {step.object!r} to {step.target!r}")
     yield ctx.hold(0.3)  # let it stop swinging in the fingers
     # closed loop: the object may have turned or slipped in the grasp. Measure it again, hold it truly
     # upright (when the axis is auto) with its mating point lined up with the site, and only then go in
     for _ in range(3):
-        held = ctx.holding(step.object)
+        held = ctx.hand.holding(step.object)
         if step.axis == "auto":
             tool_rot = upright_tool(ctx, step.object)[0]
         entry = path(way, tool_rot, held)[0]
-        if np.linalg.norm(entry - ctx.pos) < 0.0015 and rotation_angle(ctx.rot, tool_rot) < np.deg2rad(0.5):
+        if np.linalg.norm(entry - ctx.hand.pos) < 0.0015 and rotation_angle(ctx.hand.rot, tool_rot) < np.deg2rad(0.5):
             break
         log.debug(
             "insert %s at t=%.2f: correcting by %s, %.1f deg",
             step.object,
             ctx.world.time,
-            fmt(entry - ctx.pos),
-            float(np.rad2deg(rotation_angle(ctx.rot, tool_rot))),
+            fmt(entry - ctx.hand.pos),
+            float(np.rad2deg(rotation_angle(ctx.hand.rot, tool_rot))),
         )
         yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up with {step.target!r}")
         yield ctx.hold(0.2)
-    with ctx.touching(holder):
+    with ctx.hand.touching(holder):
         for point in path(way, tool_rot, held)[1:]:
             yield ctx.move(point, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
         if not step.release:
             return
         yield ctx.grip(OPEN, RELEASE_S)
-        ctx.held = None
-        with ctx.touching(ctx.scene.bodies(step.object)):
+        ctx.hand.held = None
+        with ctx.hand.touching(ctx.scene.bodies(step.object)):
             yield from back_off(ctx, step.retreat)
 
 
@@ -325,13 +315,13 @@ def _stand_up(ctx: SkillContext, name: str) -> Generator[Move, None, bool]:
     """Turn held ``name`` upright where the hand is, its lower end :data:`STAND_CLEAR` over the
     surface below, through joint space (checked against swinging it round and touching anything);
     returns whether some upright hold was reachable that way."""
-    held = ctx.holding(name)
+    held = ctx.hand.holding(name)
     lowest = _lowest_along_axis(ctx, name)
-    floor = ctx.scene.surface_below(ctx.pos[0], ctx.pos[1], ctx.held_bodies(), from_z=ctx.pos[2])
+    floor = ctx.scene.surface_below(ctx.hand.pos[0], ctx.hand.pos[1], ctx.hand.held_bodies(), from_z=ctx.hand.pos[2])
     for tool_rot in upright_tool(ctx, name):
-        pos = ctx.pos.copy()
+        pos = ctx.hand.pos.copy()
         pos[2] = floor + STAND_CLEAR - lowest - (tool_rot @ held.pos)[2]
-        seconds = rotation_angle(ctx.rot, tool_rot) / STAND_TURN_SPEED
+        seconds = rotation_angle(ctx.hand.rot, tool_rot) / STAND_TURN_SPEED
         try:
             move = ctx.move(pos, tool_rot, seconds=seconds, what=f"standing {name!r} up")
         except SkillFailure:
@@ -361,16 +351,16 @@ def _lowest_along_axis(ctx: SkillContext, name: str) -> float:
 @skill(MoveSpec)
 def move(ctx: SkillContext, step: MoveSpec) -> Iterator[Move]:
     if step.by is not None:
-        yield ctx.move(ctx.pos + np.asarray(step.by, dtype=float), speed=APPROACH_SPEED, what="the move")
+        yield ctx.move(ctx.hand.pos + np.asarray(step.by, dtype=float), speed=APPROACH_SPEED, what="the move")
     else:
         assert step.to is not None
         point = resolve_target(ctx, step.to, surface=False)
         if step.object is not None:
-            ctx.holding(step.object)
-            tool_pos, tool_rot = ctx.tool_for(step.object, point)
+            ctx.hand.holding(step.object)
+            tool_pos, tool_rot = ctx.hand.tool_for(step.object, point)
         else:
-            tool_pos, tool_rot = point, ctx.rot
-        yield from ctx.transit(tool_pos, tool_rot, what="the move")
+            tool_pos, tool_rot = point, ctx.hand.rot
+        yield from transit(ctx, tool_pos, tool_rot, what="the move")
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
