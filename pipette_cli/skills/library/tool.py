@@ -14,10 +14,11 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation
 from pipette_cli.skills.grasp import semantics
-from pipette_cli.skills.library.place import YAWS, resolve_target
+from pipette_cli.skills.handling import YAWS
 from pipette_cli.skills.motions import follow, transit
 from pipette_cli.skills.moves import APPROACH_SPEED, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
+from pipette_cli.skills.targets import resolve_target
 from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
 
 
