@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from mink.utils import get_subtree_body_ids
 
 from pipette_cli.skills.frames import axis_rotation
 from pipette_cli.skills.grasp import semantics
@@ -55,14 +56,7 @@ def moving_bodies(ctx: SkillContext, joint: str) -> set[int]:
     """The bodies a joint moves (the lid or door and what hangs from it)."""
     m = ctx.world.model
     child = int(m.jnt_bodyid[ctx.world.joint_id(joint)])
-    out = {child}
-    for b in range(m.nbody):
-        parent = b
-        while parent > 0 and parent not in out:
-            parent = int(m.body_parentid[parent])
-        if parent in out:
-            out.add(b)
-    return out
+    return set(get_subtree_body_ids(m, child))
 
 
 def wait_until_still(ctx: SkillContext, joint: str, limit_s: float = 1.5) -> Iterator[Move]:
@@ -100,13 +94,12 @@ def plate_edge(ctx: SkillContext, joint: str) -> tuple[np.ndarray, float]:
     m, d = w.model, w.data
     hinge = read_hinge(ctx, joint)
     best = None
-    for body in moving_bodies(ctx, joint):
-        for g in np.flatnonzero(m.geom_bodyid == body):
-            if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
-                continue
-            volume = float(np.prod(m.geom_aabb[g, 3:]))
-            if best is None or volume > best[0]:
-                best = (volume, g)
+    for g in np.flatnonzero(np.isin(m.geom_bodyid, list(moving_bodies(ctx, joint)))):  # the first of equals
+        if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
+            continue
+        volume = float(np.prod(m.geom_aabb[g, 3:]))
+        if best is None or volume > best[0]:
+            best = (volume, g)
     if best is None:
         raise SkillFailure(f"{joint!r}: the moving part has no collision geometry to push")
     g = best[1]
