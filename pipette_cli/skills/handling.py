@@ -15,7 +15,8 @@ from functools import partial
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, horizontal
-from pipette_cli.skills.grasp import FollowThrough, Grasp, closed_over, plan_grasp, semantics, support_of
+from pipette_cli.skills.grasp import FollowThrough, plan_grasp, support_of
+from pipette_cli.skills.grasp_candidates import Grasp, closed_over
 from pipette_cli.skills.motions import back_off, settle_hand, transit
 from pipette_cli.skills.moves import (
     APPROACH_SPEED,
@@ -129,7 +130,7 @@ def tool_follow_through(ctx: SkillContext, name: str) -> FollowThrough | None:
         return _upright_follow_through(ctx, step)
     if not isinstance(step, PositionOverSpec) or step.object != name:
         return None
-    site = step.point or (f"{name}/tip" if "tip" in semantics(ctx, name).get("sites", []) else None)
+    site = step.point or (f"{name}/tip" if "tip" in ctx.scene.semantics(name).get("sites", []) else None)
     point = ctx.world.position(site) if site else ctx.world.position(name)
     goal = resolve_target(ctx, step.target, surface=False) + step.height * UP
 

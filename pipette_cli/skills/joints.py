@@ -13,7 +13,6 @@ import numpy as np
 from mink.utils import get_subtree_body_ids
 
 from pipette_cli.skills.frames import axis_rotation
-from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.moves import Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.specs.expert import HingeSpec
@@ -75,7 +74,7 @@ def goal_angle(ctx: SkillContext, hinge: Hinge, step: HingeSpec, opening: bool) 
     if step.to_deg is not None:
         return step.to_deg
 
-    sem = semantics(ctx, hinge.joint.split("/", 1)[0])
+    sem = ctx.scene.semantics(hinge.joint.split("/", 1)[0])
     key = "lid_open_angle_deg" if opening else "lid_closed_angle_deg"
     if key in sem:
         return float(sem[key])
@@ -118,7 +117,7 @@ def part_handle(ctx: SkillContext, joint: str) -> str | None:
     """A ``*handle`` site on the body ``joint`` moves."""
     obj = joint.split("/", 1)[0]
     body = ctx.world.model.jnt_bodyid[ctx.world.joint_id(joint)]
-    for name in semantics(ctx, obj).get("sites", []):
+    for name in ctx.scene.semantics(obj).get("sites", []):
         if "handle" in str(name) and ctx.world.model.site_bodyid[ctx.world.site_id(f"{obj}/{name}")] == body:
             return f"{obj}/{name}"
     return None

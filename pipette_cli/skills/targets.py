@@ -12,7 +12,6 @@ from collections.abc import Callable
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle
-from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.moves import Held
 from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.specs.expert import InsertIntoSpec, TargetSpec
@@ -45,7 +44,7 @@ def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool
 
 def top_of(ctx: SkillContext, name: str) -> np.ndarray:
     """The middle of an object's top: its ``*center`` site if its asset names one, else its box."""
-    centers = [s for s in semantics(ctx, name).get("sites", []) if str(s).endswith("center")]
+    centers = [s for s in ctx.scene.semantics(name).get("sites", []) if str(s).endswith("center")]
     if centers:
         return ctx.world.position(f"{name}/{centers[0]}")
     shape = ctx.scene.shape(name)
@@ -60,7 +59,7 @@ def base_offset(ctx: SkillContext, name: str) -> float:
 def mating_point(ctx: SkillContext, name: str) -> np.ndarray:
     """Where ``name`` meets a holder, in its own frame: where it hangs from (``hang_height`` above its
     origin, a pipette's collar) or its base (a tube)."""
-    hang = semantics(ctx, name).get("hang_height")
+    hang = ctx.scene.semantics(name).get("hang_height")
     return np.array([0.0, 0.0, float(hang) if hang else 0.0])
 
 

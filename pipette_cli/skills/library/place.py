@@ -14,7 +14,6 @@ from collections.abc import Generator, Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, rotation_angle, unit
-from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.handling import RELEASE_S, put_down
 from pipette_cli.skills.motions import back_off, transit
 from pipette_cli.skills.moves import (
@@ -55,7 +54,7 @@ def slot_opening(ctx: SkillContext, target: str) -> np.ndarray | None:
     its asset says they are open at the side (``slot_opening``: a pipette stand's slots open to the
     front), else ``None``."""
     holder = target.split("/", 1)[0]
-    opening = semantics(ctx, holder).get("slot_opening")
+    opening = ctx.scene.semantics(holder).get("slot_opening")
     if opening is None:
         return None
     direction = ctx.world.rotation(holder) @ np.asarray(opening, dtype=float)

@@ -13,7 +13,6 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation
-from pipette_cli.skills.grasp import semantics
 from pipette_cli.skills.handling import YAWS
 from pipette_cli.skills.motions import follow, transit
 from pipette_cli.skills.moves import APPROACH_SPEED, Move, SkillFailure
@@ -25,7 +24,7 @@ from pipette_cli.specs.expert import PositionOverSpec, TiltSpec
 def tool_point(ctx: SkillContext, name: str, point: str | None) -> np.ndarray:
     """The held tool's working point in the tcp frame: ``point``, else its ``tip`` site, else its origin."""
     held = ctx.hand.holding(name)
-    if point is None and "tip" in semantics(ctx, name).get("sites", []):
+    if point is None and "tip" in ctx.scene.semantics(name).get("sites", []):
         point = f"{name}/tip"
     if point is None:
         return held.pos
