@@ -374,3 +374,37 @@ def test_a_dry_run_can_ask_for_room_around_the_arm() -> None:
     assert not any(other in bench for _, other in ctx.plan.hits(solution.qpos))
     assert any(other in bench for _, other in ctx.plan.hits(solution.qpos, room=TRANSIT_ROOM))
     assert world.model.geom_margin.max() == 0.0  # the world's own physics is untouched
+
+
+def test_the_planner_reads_the_hand_and_only_the_context_moves_it() -> None:
+    """Planning is a dry run: a path over the scene and a choice among candidates leave the hand's
+    planned pose, joints and what it may touch as they were; the context's moves along the path
+    then bring the hand to its end, and a shared motion continues from there."""
+    from pipette_cli.skills.frames import down_frame
+    from pipette_cli.skills.motions import follow, lift_clear
+    from pipette_cli.skills.runtime import SkillContext
+
+    world = World(REGISTRY.get("PickUpTestTube"))
+    world.reset(0)
+    ctx = SkillContext(world, np.random.default_rng(0))
+    hand = ctx.hand
+    before = (hand.pos.copy(), hand.rot.copy(), hand.q.copy(), set(hand.allowed))
+    goal = world.position("tube") + np.array([0.0, 0.0, 0.25])
+    rot = down_frame(np.array([0.0, 1.0, 0.0]))
+    legs = ctx.plan.path(goal, rot)
+    far = goal + np.array([5.0, 0.0, 0.0])  # out of every arm's reach
+    chosen = ctx.plan.choose([far, goal], lambda p: [(p, rot)])
+    assert legs and chosen is goal
+    assert ctx.plan.path(far, rot) is None and not ctx.plan.can_reach(far, rot)
+    np.testing.assert_array_equal(hand.pos, before[0])
+    np.testing.assert_array_equal(hand.rot, before[1])
+    np.testing.assert_array_equal(hand.q, before[2])
+    assert hand.allowed == before[3]
+
+    moves = list(follow(ctx, legs))
+    assert len(moves) == len(legs) and np.linalg.norm(hand.pos - goal) < 0.015
+    np.testing.assert_array_equal(hand.q, legs[-1].q)
+    assert moves[-1].q is hand.q
+    height = float(hand.pos[2])
+    lifted = list(lift_clear(ctx, 0.05))
+    assert lifted and hand.pos[2] == pytest.approx(height + 0.05)
