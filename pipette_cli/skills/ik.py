@@ -21,6 +21,7 @@ from functools import cached_property
 import mink
 import mujoco
 import numpy as np
+from mink.utils import get_subtree_body_ids
 
 from pipette_cli.sim.scene import ROBOT_PREFIX
 from pipette_cli.sim.world import World
@@ -66,7 +67,7 @@ class ArmIK:
         self.posture = mink.PostureTask(model, cost=POSTURE_COST)
         self.distal, self.proximal = _arm_halves(world)
         ee = model.body(ROBOT_PREFIX + world.robot.end_effector.body).id
-        self.hand_bodies = {b for b in self.robot_bodies if _descends(model, b, ee)}
+        self.hand_bodies = set(get_subtree_body_ids(model, ee)) & self.robot_bodies
         self.limits: list[mink.Limit] = [mink.ConfigurationLimit(model)]
         if self.distal and self.proximal:
             self.limits.append(
@@ -234,17 +235,7 @@ def _arm_halves(world: World) -> tuple[list[int], list[int]]:
     links = [int(m.jnt_bodyid[j]) for j in world.arm_joint_ids]
     root = int(m.body_parentid[links[0]])
 
-    def subtree(body: int) -> set[int]:
-        out = {body}
-        for b in range(m.nbody):
-            parent = b
-            while parent not in out and parent != 0:
-                parent = int(m.body_parentid[parent])
-            if parent in out:
-                out.add(b)
-        return out
-
-    far = subtree(links[-3])
+    far = set(get_subtree_body_ids(m, links[-3]))
     near = {root, *links[:2]}
 
     def geoms(bodies: set[int]) -> list[int]:
@@ -255,11 +246,3 @@ def _arm_halves(world: World) -> tuple[list[int], list[int]]:
         ]
 
     return geoms(far), geoms(near)
-
-
-def _descends(model: mujoco.MjModel, body: int, ancestor: int) -> bool:
-    while body > 0:
-        if body == ancestor:
-            return True
-        body = int(model.body_parentid[body])
-    return False

@@ -48,7 +48,7 @@ class ProgramExpert:
         self._start_pos = world.tcp_position()
         self._start_rot = world.tcp_rotation()
         self._q = world.arm_qpos()
-        self._gripper = self._ctx.gripper
+        self._gripper = self._ctx.hand.gripper
 
     @property
     def done(self) -> bool:

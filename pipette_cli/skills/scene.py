@@ -14,6 +14,7 @@ from functools import cached_property
 import mujoco
 import numpy as np
 
+from pipette_cli.assets.library import load_asset_library
 from pipette_cli.sim.scene import ROBOT_PREFIX
 from pipette_cli.sim.world import World
 
@@ -177,6 +178,10 @@ class SceneQuery:
             if score > best_score:
                 best, best_score = direction, score
         return best
+
+    def semantics(self, name: str) -> dict:
+        """The ``pipette:*`` semantics of object ``name``'s asset (sites, hang height, lid angles, ...)."""
+        return load_asset_library().get(self.world.objects[name].asset).semantics()
 
     # ------------------------------------------------------------------ shapes
     def shape(self, name: str) -> Shape:

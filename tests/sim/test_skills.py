@@ -84,7 +84,7 @@ def test_pick_lifts_objects_of_every_shape(task_id: str, name: str, lift: float)
     start = world.position(name)
     world, expert = run(task_id, [PickSpec(object=name, lift=lift, hold_s=0.5)])
     assert world.position(name)[2] - start[2] > 0.6 * lift
-    assert expert._ctx is not None and expert._ctx.held is not None and expert._ctx.held.name == name
+    assert expert._ctx is not None and expert._ctx.hand.held is not None and expert._ctx.hand.held.name == name
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -321,12 +321,14 @@ def test_moves_give_a_damped_joint_the_time_its_actuator_needs() -> None:
     speeds = joint_speeds(ur5e)
     assert speeds[3:] == pytest.approx([JOINT_SPEED_SHARE * 28.0 / 20.0] * 3)
     ctx = SkillContext(ur5e, np.random.default_rng(0))
-    swing = ctx.q + np.array([0.0, 0.0, 0.0, 1.5, 0.0, 0.0])
-    assert ctx._seconds(ctx.pos, ctx.rot, TRANSIT_SPEED, swing) == pytest.approx(MIN_JERK_PEAK * 1.5 / speeds[3])
+    swing = ctx.hand.q + np.array([0.0, 0.0, 0.0, 1.5, 0.0, 0.0])
+    assert ctx.duration(ctx.hand.pos, ctx.hand.rot, TRANSIT_SPEED, swing) == pytest.approx(
+        MIN_JERK_PEAK * 1.5 / speeds[3]
+    )
     panda = SkillContext(World(task), np.random.default_rng(0))
-    nudge = panda.q + 0.05
-    far = panda.pos + np.array([0.3, 0.0, 0.0])
-    assert panda._seconds(far, panda.rot, TRANSIT_SPEED, nudge) == pytest.approx(0.3 / TRANSIT_SPEED)
+    nudge = panda.hand.q + 0.05
+    far = panda.hand.pos + np.array([0.3, 0.0, 0.0])
+    assert panda.duration(far, panda.hand.rot, TRANSIT_SPEED, nudge) == pytest.approx(0.3 / TRANSIT_SPEED)
 
 
 def test_a_short_arm_takes_a_lid_handle_bar_from_in_front() -> None:
@@ -366,9 +368,43 @@ def test_a_dry_run_can_ask_for_room_around_the_arm() -> None:
     ctx = SkillContext(world, np.random.default_rng(0))
     top = ctx.scene.surface_below(0.4, 0.25, set(), from_z=1.0)
     pos = np.array([0.4, 0.25, top + 0.01 + ctx.robot.gripper.fingertip])
-    solution = ctx.solve(pos, down_frame(np.array([0.0, 1.0, 0.0])), ctx.q)
+    solution = ctx.plan.solve(pos, down_frame(np.array([0.0, 1.0, 0.0])), ctx.hand.q)
     assert solution.ok()
     bench = {b for b in range(world.model.nbody) if world.model.body(b).name.startswith("bench")}
-    assert not any(other in bench for _, other in ctx.hits(solution.qpos))
-    assert any(other in bench for _, other in ctx.hits(solution.qpos, room=TRANSIT_ROOM))
+    assert not any(other in bench for _, other in ctx.plan.hits(solution.qpos))
+    assert any(other in bench for _, other in ctx.plan.hits(solution.qpos, room=TRANSIT_ROOM))
     assert world.model.geom_margin.max() == 0.0  # the world's own physics is untouched
+
+
+def test_the_planner_reads_the_hand_and_only_the_context_moves_it() -> None:
+    """Planning is a dry run: a path over the scene and a choice among candidates leave the hand's
+    planned pose, joints and what it may touch as they were; the context's moves along the path
+    then bring the hand to its end, and a shared motion continues from there."""
+    from pipette_cli.skills.frames import down_frame
+    from pipette_cli.skills.motions import follow, lift_clear
+    from pipette_cli.skills.runtime import SkillContext
+
+    world = World(REGISTRY.get("PickUpTestTube"))
+    world.reset(0)
+    ctx = SkillContext(world, np.random.default_rng(0))
+    hand = ctx.hand
+    before = (hand.pos.copy(), hand.rot.copy(), hand.q.copy(), set(hand.allowed))
+    goal = world.position("tube") + np.array([0.0, 0.0, 0.25])
+    rot = down_frame(np.array([0.0, 1.0, 0.0]))
+    legs = ctx.plan.path(goal, rot)
+    far = goal + np.array([5.0, 0.0, 0.0])  # out of every arm's reach
+    chosen = ctx.plan.choose([far, goal], lambda p: [(p, rot)])
+    assert legs and chosen is goal
+    assert ctx.plan.path(far, rot) is None and not ctx.plan.can_reach(far, rot)
+    np.testing.assert_array_equal(hand.pos, before[0])
+    np.testing.assert_array_equal(hand.rot, before[1])
+    np.testing.assert_array_equal(hand.q, before[2])
+    assert hand.allowed == before[3]
+
+    moves = list(follow(ctx, legs))
+    assert len(moves) == len(legs) and np.linalg.norm(hand.pos - goal) < 0.015
+    np.testing.assert_array_equal(hand.q, legs[-1].q)
+    assert moves[-1].q is hand.q
+    height = float(hand.pos[2])
+    lifted = list(lift_clear(ctx, 0.05))
+    assert lifted and hand.pos[2] == pytest.approx(height + 0.05)

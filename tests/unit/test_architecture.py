@@ -87,6 +87,57 @@ def test_modules_stay_small(path: Path) -> None:
     assert lines <= MAX_LINES, f"{path.relative_to(ROOT.parent)} has {lines} lines; split it by concept"
 
 
+SKILLS_MAX_LINES = 350
+"""The skills package is what every expert runs on: its modules stay smaller still (issue 35)."""
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "skills").rglob("*.py")), ids=lambda p: str(p.relative_to(ROOT)))
+def test_skill_modules_stay_smaller(path: Path) -> None:
+    lines = len(path.read_text().splitlines())
+    assert lines <= SKILLS_MAX_LINES, f"{path.relative_to(ROOT.parent)} has {lines} lines; split it by concept"
+
+
+SKILL_LIBRARY = ROOT / "skills" / "library"
+
+
+def _skill_imports(path: Path) -> list[tuple[int, str]]:
+    """(line, what) for every import in ``path`` of a skill module or the skill package
+    (``pipette_cli.skills.library``)."""
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            names = [node.module]
+        elif isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        else:
+            continue
+        out += [(node.lineno, n) for n in names if (n + ".").startswith("pipette_cli.skills.library.")]
+    return out
+
+
+def test_skills_do_not_import_skills() -> None:
+    """A skill module imports the shared motions and geometry (``skills/motions.py``, ``handling.py``,
+    ``targets.py``, ...), never another skill: what two skills share moves out of both."""
+    wrong = [
+        f"{path.relative_to(ROOT.parent)}:{line}: {name}"
+        for path in sorted(SKILL_LIBRARY.glob("*.py"))
+        if path.name != "__init__.py"
+        for line, name in _skill_imports(path)
+    ]
+    assert wrong == [], "move what the skills share into a module of pipette_cli/skills/ both import"
+
+
+def test_the_skill_import_check_sees_one(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text(
+        "from pipette_cli.skills.library.place import put_down\n"
+        "from pipette_cli.skills.library import pick\n"
+        "import pipette_cli.skills.library.hinge\n"
+        "from pipette_cli.skills.motions import back_off\n"
+    )
+    assert [line for line, _ in _skill_imports(module)] == [1, 2, 3]
+
+
 def test_the_layer_check_sees_a_wrong_import(tmp_path: Path) -> None:
     module = tmp_path / "m.py"
     module.write_text("def f():\n    from pipette_cli.cli.main import app\n")

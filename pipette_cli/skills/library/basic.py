@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
-from pipette_cli.skills.library.place import back_off
+from pipette_cli.skills.motions import back_off, transit
 from pipette_cli.skills.moves import OPEN, TRANSIT_SPEED, Move
 from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import RetreatSpec, WaitSpec
@@ -18,13 +18,13 @@ def wait(ctx: SkillContext, step: WaitSpec) -> Iterator[Move]:
 @skill(RetreatSpec)
 def retreat(ctx: SkillContext, step: RetreatSpec) -> Iterator[Move]:
 
-    if ctx.gripper != OPEN:
+    if ctx.hand.gripper != OPEN:
         yield ctx.grip(OPEN, 0.4)
-        ctx.held = None
+        ctx.hand.held = None
     yield from back_off(ctx, step.distance)
     if step.home:
         pos, rot = ctx.ik.tool_pose(ctx.robot.home())
-        yield from ctx.transit(pos, rot, what="the way home")
+        yield from transit(ctx, pos, rot, what="the way home")
         yield ctx.move(pos, rot, speed=TRANSIT_SPEED, what="the home pose")
     if step.hold_s:
         yield ctx.hold(step.hold_s)

@@ -15,18 +15,25 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, pitched_frame
-from pipette_cli.skills.grasp import plan_grasp, semantics
-from pipette_cli.skills.library.pick import grasp
-from pipette_cli.skills.library.place import back_off
+from pipette_cli.skills.grasp import plan_grasp
+from pipette_cli.skills.handling import grasp
+from pipette_cli.skills.joints import (
+    goal_angle,
+    moving_bodies,
+    part_handle,
+    plate_edge,
+    read_hinge,
+    wait_until_still,
+)
+from pipette_cli.skills.motions import back_off, lift_clear, transit
 from pipette_cli.skills.moves import APPROACH_SPEED, CLOSED, FINE_SPEED, OPEN, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.specs.expert import CloseHingeSpec, HingeSpec, OpenHingeSpec, SlideSpec
+from pipette_cli.specs.expert import CloseHingeSpec, OpenHingeSpec, SlideSpec
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +49,6 @@ MIN_PULL_DEG = 24.0
 FOLLOW = (1.0, 0.5, 0.0)
 PULL_STEP = 8.0
 """Degrees per move while pulling a handle along its arc (the joint is read after each)."""
-SETTLED_RAD_S = 0.05
 TIP_PITCHES = (0.0, 30.0)
 """Degrees below the horizon a hand pushing with its fingertips points, in the order tried."""
 APPROACHES = {"behind": (0.05, 0.02), "above": (0.01, 0.06)}
@@ -53,106 +59,6 @@ hand would cross the lid on the way in from behind)."""
 
 Push = tuple[float, float, bool, str]
 """A way to push a part: where along it (fraction), the hand's pitch, fingertips first, the approach."""
-
-
-@dataclass(frozen=True)
-class Hinge:
-    """A revolute joint in the world: anchor, unit axis, current angle and range (degrees)."""
-
-    joint: str
-    anchor: np.ndarray
-    axis: np.ndarray
-    angle: float
-    low: float
-    high: float
-
-    def point(self, p0: np.ndarray, angle0: float, angle: float) -> np.ndarray:
-        """Where a point ``p0`` of the moving part (taken at ``angle0``) is at ``angle``."""
-        return self.anchor + axis_rotation(self.axis, np.deg2rad(angle - angle0)) @ (p0 - self.anchor)
-
-    def motion(self, p: np.ndarray, sign: float) -> np.ndarray:
-        """Unit direction a point ``p`` of the part moves in when the angle changes with ``sign``."""
-        v = np.cross(self.axis, p - self.anchor) * sign
-        return v / (np.linalg.norm(v) + 1e-12)
-
-
-def read_hinge(ctx: SkillContext, joint: str) -> Hinge:
-    w = ctx.world
-    jid = w.joint_id(joint)
-    if w.model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_HINGE:
-        raise SkillFailure(f"{joint!r} is not a hinge; use the slide skill for sliding parts")
-    low, high = np.rad2deg(w.model.jnt_range[jid])
-    return Hinge(joint, w.data.xanchor[jid].copy(), w.data.xaxis[jid].copy(), w.joint(joint), float(low), float(high))
-
-
-def _moving_bodies(ctx: SkillContext, joint: str) -> set[int]:
-    """The bodies a joint moves (the lid or door and what hangs from it)."""
-    m = ctx.world.model
-    child = int(m.jnt_bodyid[ctx.world.joint_id(joint)])
-    out = {child}
-    for b in range(m.nbody):
-        parent = b
-        while parent > 0 and parent not in out:
-            parent = int(m.body_parentid[parent])
-        if parent in out:
-            out.add(b)
-    return out
-
-
-def settle(ctx: SkillContext, joint: str, limit_s: float = 1.5) -> Iterator[Move]:
-    """Hold still until ``joint`` comes to rest (a lid still swinging from being released or set)."""
-    w = ctx.world
-    dof = w.model.jnt_dofadr[w.joint_id(joint)]
-    waited = 0.0
-    while abs(float(w.data.qvel[dof])) > SETTLED_RAD_S and waited < limit_s:
-        yield ctx.hold(0.1)
-        waited += 0.1
-
-
-def goal_angle(ctx: SkillContext, hinge: Hinge, step: HingeSpec, opening: bool) -> float:
-    """The target angle: the step's, else the asset's open/closed angle, else 0 (closed) or the far
-    end of the range (open). Assets close at 0 and open toward the other end of their range."""
-    if step.to_deg is not None:
-        return step.to_deg
-
-    sem = semantics(ctx, hinge.joint.split("/", 1)[0])
-    key = "lid_open_angle_deg" if opening else "lid_closed_angle_deg"
-    if key in sem:
-        return float(sem[key])
-    if not opening:
-        return (
-            0.0 if hinge.low <= 0.0 <= hinge.high else (hinge.low if abs(hinge.low) < abs(hinge.high) else hinge.high)
-        )
-    far = hinge.high if abs(hinge.high) >= abs(hinge.low) else hinge.low
-    return 0.9 * far
-
-
-def plate_edge(ctx: SkillContext, joint: str) -> tuple[np.ndarray, float]:
-    """The far edge of the part's plate (its largest collision geom), at mid-thickness, and the
-    plate's half-thickness: where pushing it needs the least force."""
-    w = ctx.world
-    m, d = w.model, w.data
-    hinge = read_hinge(ctx, joint)
-    best = None
-    for body in _moving_bodies(ctx, joint):
-        for g in np.flatnonzero(m.geom_bodyid == body):
-            if m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0:
-                continue
-            volume = float(np.prod(m.geom_aabb[g, 3:]))
-            if best is None or volume > best[0]:
-                best = (volume, g)
-    if best is None:
-        raise SkillFailure(f"{joint!r}: the moving part has no collision geometry to push")
-    g = best[1]
-    rot = d.geom_xmat[g].reshape(3, 3)
-    center = d.geom_xpos[g] + rot @ m.geom_aabb[g, :3]
-    half = m.geom_aabb[g, 3:]
-    out = center - hinge.anchor
-    out -= hinge.axis * float(hinge.axis @ out)
-    out /= np.linalg.norm(out) + 1e-12
-    reach = float(np.abs(rot.T @ out) @ half)
-    thickness = float(np.abs(rot.T @ np.cross(hinge.axis, out)) @ half)
-    return center + reach * out, thickness
 
 
 def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> Iterator[Move]:
@@ -210,12 +116,12 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         (reach, pitch, False, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in (90.0, 60.0, 45.0)
     ]
     tips = [(reach, pitch, True, way) for way in APPROACHES for reach in PUSH_REACHES for pitch in TIP_PITCHES]
-    chosen = ctx.choose(candidates, poses, via=approach_of, touch=moving)
+    chosen = ctx.plan.choose(candidates, poses, via=approach_of, touch=moving)
     if chosen is None:
-        chosen = ctx.choose(tips, poses, via=approach_of, touch=moving)
+        chosen = ctx.plan.choose(tips, poses, via=approach_of, touch=moving)
         candidates += tips
     if chosen is None:
-        if not any(ctx.reachable(*poses(c)[1]) for c in candidates):
+        if not any(ctx.plan.reachable(*poses(c)[1]) for c in candidates):
             edge_now = push_point(PUSH_REACHES[0], angle0, 0.0)
             raise SkillFailure(
                 f"reach: the push on {joint!r} starts {edge_now[2] - ctx.base[2]:.2f} m above the "
@@ -227,8 +133,8 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
     start = angle0
     for attempt in range(MAX_PASSES):
         points = sweep(chosen, start)
-        yield from ctx.transit(lead_in(points[0], chosen[3]), rot, what=f"the approach to {joint!r}")
-        with ctx.touching(moving):
+        yield from transit(ctx, lead_in(points[0], chosen[3]), rot, what=f"the approach to {joint!r}")
+        with ctx.hand.touching(moving):
             yield ctx.move(points[0], rot, speed=APPROACH_SPEED, what=f"the push on {joint!r}")
             for point in points[1:]:
                 yield ctx.move(point, rot, speed=FINE_SPEED * 3, what=f"pushing {joint!r}")
@@ -238,23 +144,23 @@ def push_arc(ctx: SkillContext, joint: str, goal: float, moving: set[int]) -> It
         if attempt > 0 and abs(now - start) < 1.0:
             raise SkillFailure(f"{joint!r} does not move (stays at {now:.0f} deg, goal {goal:.0f} deg)")
         start = now
-    end = ctx.pos
-    with ctx.touching(moving):
+    end = ctx.hand.pos
+    with ctx.hand.touching(moving):
         yield ctx.move(end + 0.02 * UP - 0.02 * hinge.motion(end, sign), rot, speed=APPROACH_SPEED, what="backing off")
-        yield from ctx.lift_clear(0.10)
+        yield from lift_clear(ctx, 0.10)
 
 
 @skill(CloseHingeSpec)
 def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before closing {step.joint!r}")
-    if ctx.gripper != CLOSED:
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before closing {step.joint!r}")
+    if ctx.hand.gripper != CLOSED:
         yield ctx.grip(CLOSED, 0.3)
-    yield from settle(ctx, step.joint)
+    yield from wait_until_still(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
     goal = goal_angle(ctx, hinge, step, opening=False)
     if abs(hinge.angle - goal) > TOLERANCE_DEG:
-        yield from push_arc(ctx, step.joint, goal, _moving_bodies(ctx, step.joint))
+        yield from push_arc(ctx, step.joint, goal, moving_bodies(ctx, step.joint))
     if step.hold_s:
         yield ctx.hold(step.hold_s)
 
@@ -262,16 +168,16 @@ def close_hinge(ctx: SkillContext, step: CloseHingeSpec) -> Iterator[Move]:
 @skill(OpenHingeSpec)
 def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
     """Pull the handle along the arc as far as the arm follows it, then push the part the rest of the way."""
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before opening {step.joint!r}")
-    yield from settle(ctx, step.joint)
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before opening {step.joint!r}")
+    yield from wait_until_still(ctx, step.joint)
     hinge = read_hinge(ctx, step.joint)
     goal = goal_angle(ctx, hinge, step, opening=True)
     if abs(hinge.angle - goal) <= TOLERANCE_DEG:
         return
     obj = step.joint.split("/", 1)[0]
-    moving = _moving_bodies(ctx, step.joint)
-    handle_site = step.handle or _part_handle(ctx, step.joint)
+    moving = moving_bodies(ctx, step.joint)
+    handle_site = step.handle or part_handle(ctx, step.joint)
     sign = float(np.sign(goal - hinge.angle))
     if handle_site is not None:
         # a handle on a front face (a door's bar, a lid's front lip) is taken from in front; one on top from above
@@ -309,9 +215,9 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
                 f"the arc of {step.joint!r}"
             )
         yield from grasp(ctx, obj, at=handle_site, mode=mode, extra_touch=moving, then=arc)
-        ctx.held = None  # the part is articulated, not carried: the hand follows its arc
-        tcp0, rot0 = ctx.pos.copy(), ctx.rot.copy()
-        with ctx.touching(moving):
+        ctx.hand.held = None  # the part is articulated, not carried: the hand follows its arc
+        tcp0, rot0 = ctx.hand.pos.copy(), ctx.hand.rot.copy()
+        with ctx.hand.touching(moving):
             for target in targets:
                 # the hand turns with the handle as far as the arm lets it (less from here on where not)
                 move = None
@@ -333,9 +239,9 @@ def open_hinge(ctx: SkillContext, step: OpenHingeSpec) -> Iterator[Move]:
                     break
             yield ctx.grip(OPEN, 0.4)
             yield from back_off(ctx, 0.06)
-        yield from settle(ctx, step.joint)
+        yield from wait_until_still(ctx, step.joint)
     if abs(ctx.world.joint(step.joint) - goal) > TOLERANCE_DEG and sign * (ctx.world.joint(step.joint) - goal) < 0:
-        if ctx.gripper != CLOSED:
+        if ctx.hand.gripper != CLOSED:
             yield ctx.grip(CLOSED, 0.3)
         yield from push_arc(ctx, step.joint, goal, moving)
     if step.hold_s:
@@ -349,8 +255,8 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
     jid = w.joint_id(step.joint)
     if w.model.jnt_type[jid] != mujoco.mjtJoint.mjJNT_SLIDE:
         raise SkillFailure(f"{step.joint!r} is not a sliding joint; use open_hinge/close_hinge")
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before moving {step.joint!r}")
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before moving {step.joint!r}")
     low, high = (float(v) for v in w.model.jnt_range[jid])
     goal = high if step.to == "open" else low if step.to == "closed" else float(step.to)
     now = w.joint(step.joint)
@@ -359,17 +265,17 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
     axis = w.data.xaxis[jid].copy()
     direction = axis * np.sign(goal - now)
     obj = step.joint.split("/", 1)[0]
-    moving = _moving_bodies(ctx, step.joint)
-    handle = step.handle or _part_handle(ctx, step.joint)
+    moving = moving_bodies(ctx, step.joint)
+    handle = step.handle or part_handle(ctx, step.joint)
     if handle is None:
         raise SkillFailure(
             f"{step.joint!r}: the sliding part has no handle site to move it by; name one with 'handle:'"
         )
     yield from grasp(ctx, obj, at=handle, mode="side" if abs(direction[2]) < 0.7 else "top")
-    ctx.held = None  # the part slides on its joint; the hand follows
-    with ctx.touching(moving):
+    ctx.hand.held = None  # the part slides on its joint; the hand follows
+    with ctx.hand.touching(moving):
         travel = abs(goal - now)
-        yield ctx.move(ctx.pos + travel * direction, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
+        yield ctx.move(ctx.hand.pos + travel * direction, speed=FINE_SPEED * 2, what=f"sliding {step.joint!r}")
         yield ctx.grip(OPEN, 0.4)
         yield from back_off(ctx, 0.06)
     reached = w.joint(step.joint)
@@ -377,13 +283,3 @@ def slide(ctx: SkillContext, step: SlideSpec) -> Iterator[Move]:
         raise SkillFailure(f"{step.joint!r} is at {reached:.3f} m, not {goal:.3f} m: the grip slipped")
     if step.hold_s:
         yield ctx.hold(step.hold_s)
-
-
-def _part_handle(ctx: SkillContext, joint: str) -> str | None:
-    """A ``*handle`` site on the body ``joint`` moves."""
-    obj = joint.split("/", 1)[0]
-    body = ctx.world.model.jnt_bodyid[ctx.world.joint_id(joint)]
-    for name in semantics(ctx, obj).get("sites", []):
-        if "handle" in str(name) and ctx.world.model.site_bodyid[ctx.world.site_id(f"{obj}/{name}")] == body:
-            return f"{obj}/{name}"
-    return None

@@ -7,6 +7,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, down_frame, pitched_frame, tool_frame
+from pipette_cli.skills.motions import transit
 from pipette_cli.skills.moves import CLOSED, FINE_SPEED, Move, SkillFailure
 from pipette_cli.skills.runtime import SkillContext, skill
 from pipette_cli.specs.expert import PressSpec
@@ -17,8 +18,8 @@ STANDOFFS = (0.08, 0.05, 0.03)
 
 @skill(PressSpec)
 def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
-    if ctx.held is not None:
-        raise SkillFailure(f"the hand holds {ctx.held.name!r}; put it down before pressing")
+    if ctx.hand.held is not None:
+        raise SkillFailure(f"the hand holds {ctx.hand.held.name!r}; put it down before pressing")
     owner = step.button.split("/", 1)[0]
     site = ctx.world.position(step.button)
     panel = int(ctx.world.model.site_bodyid[ctx.world.site_id(step.button)])
@@ -49,16 +50,16 @@ def press(ctx: SkillContext, step: PressSpec) -> Iterator[Move]:
         touch = contact(candidate)
         return [(touch + standoff * normal, rot), (touch - step.depth * normal, rot)]
 
-    chosen = ctx.choose(candidates, poses, via=lambda c: (contact(c) + c[1] * normal, c[0]), touch={panel})
+    chosen = ctx.plan.choose(candidates, poses, via=lambda c: (contact(c) + c[1] * normal, c[0]), touch={panel})
     if chosen is None:
         raise SkillFailure(f"no reachable way to press {step.button!r} along its face")
     rot, standoff = chosen
     touch = contact(chosen)
     front, pushed = touch + standoff * normal, touch - step.depth * normal
-    if ctx.gripper != CLOSED:
+    if ctx.hand.gripper != CLOSED:
         yield ctx.grip(CLOSED, 0.3)
-    yield from ctx.transit(front, rot, what=f"the approach to {step.button!r}")
-    with ctx.touching({panel}):
+    yield from transit(ctx, front, rot, what=f"the approach to {step.button!r}")
+    with ctx.hand.touching({panel}):
         yield ctx.move(touch + 0.01 * normal, rot, speed=FINE_SPEED * 2, what=f"pressing {step.button!r}")
         yield ctx.move(pushed, rot, speed=FINE_SPEED, what=f"pressing {step.button!r}")
         if step.hold_s:
