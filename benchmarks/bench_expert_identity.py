@@ -65,10 +65,7 @@ def main() -> None:
     parser.add_argument("--compare", type=Path, default=None, help="Fingerprints of the other side to compare with.")
     args = parser.parse_args()
     registry = load_registry()
-    if args.tasks in ("all", "benchmark"):
-        ids = registry.ids("paper-benchmark" if args.tasks == "benchmark" else None)
-    else:
-        ids = [registry.get(t).id for t in args.tasks.split(",")]
+    ids = registry.select(args.tasks)
     seeds = [int(s) for s in args.seeds.split(",")]
     robots = args.robots.split(",") if args.robots else [""]
     runs: dict[str, dict | str] = {}

@@ -88,10 +88,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     registry = load_registry()
-    if args.tasks in ("all", "benchmark"):
-        ids = registry.ids("paper-benchmark" if args.tasks == "benchmark" else None)
-    else:
-        ids = [registry.get(t).id for t in args.tasks.split(",")]
+    ids = registry.select(args.tasks)
     robots = robot_names() if args.robots == "all" else [resolve_robot(r).name for r in args.robots.split(",")]
     started = time.perf_counter()
     rows = []

@@ -170,6 +170,17 @@ class Registry:
             if tag is None or tag in t.spec.tags or tag == t.spec.category or tag == t.spec.embodiment.robot
         )
 
+    def select(self, which: str) -> list[str]:
+        """Task ids a command line names: ``all``, ``benchmark`` (the paper's 12) or a comma list
+        of ids or names.
+
+        Raises:
+            TaskNotFound: an id of the list is unknown.
+        """
+        if which in ("all", "benchmark"):
+            return self.ids("paper-benchmark" if which == "benchmark" else None)
+        return [self.get(t.strip()).id for t in which.split(",") if t.strip()]
+
     def get(self, task_id: str) -> TaskSpec:
         """The task ``task_id``; ``PickUpTestTube-v1`` and ``PickUpTestTube`` (latest version) work too.
 

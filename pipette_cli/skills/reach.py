@@ -160,9 +160,10 @@ class Reach:
                 else:
                     if self.hand.held is None:
                         rot = self.nearest_flip(rot, leg.rot)
-                    q = self.straight_line(leg, pos, rot, 0.004)
-                    if q is None:
+                    line = self.straight_line(leg, pos, rot, 0.004)
+                    if line is None:
                         return None
+                    q = line
                 leg = Leg(np.asarray(pos, float), rot, q, APPROACH_SPEED)
                 worst = min(worst, float(np.min(np.minimum(q - low, high - q))))
         return worst

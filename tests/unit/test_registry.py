@@ -204,3 +204,12 @@ def test_validating_one_file_knows_the_evaluator_types_of_task_packs(
         EVALUATOR_RUNTIMES._sources.pop("mylab_touch", None)
         sys.modules.pop("mylab_evalpack", None)
     assert run_cli("tasks", "validate", tmp_path / "missing.yaml").exit_code == 1
+
+
+def test_a_command_line_selects_all_the_benchmark_or_a_list_of_tasks() -> None:
+    registry = load_registry([])
+    assert registry.select("all") == registry.ids() and len(registry.select("benchmark")) == 12
+    assert registry.select("PickUpTestTube, pipette/OpenWaterBathLid-v1") == [
+        "pipette/PickUpTestTube-v1",
+        "pipette/OpenWaterBathLid-v1",
+    ]
