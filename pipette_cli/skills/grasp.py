@@ -62,6 +62,7 @@ def plan_grasp(
     at: str | None = None,
     mode: str = "auto",
     height: float | None = None,
+    above: float | None = None,
     toward: np.ndarray | None = None,
     then: FollowThrough | None = None,
     later: FollowThrough | None = None,
@@ -75,7 +76,7 @@ def plan_grasp(
     taken next): a grasp that leaves one of them out of reach is not taken either. With ``exact`` (the
     poses are the ones the next step goes to, not one of its choices), grasps leaving them in
     comfortable reach come first: a long tool held at one end droops in the fingers, and the pose
-    moves with it."""
+    moves with it. ``above``: an upright object is taken at least that high over its origin."""
     shape = ctx.scene.shape(name)
     opening = ctx.robot.gripper.max_opening
     half = shape.world_half()
@@ -87,8 +88,8 @@ def plan_grasp(
         try:
             return _first_reachable(ctx, name, pinch_candidates(ctx, name, shape, toward), "pinch", then, later, exact)
         except SkillFailure:  # a near rim too close to the base to come at from the side: from straight above
-            above = pinch_candidates(ctx, name, shape, toward, above=True)
-            return _first_reachable(ctx, name, above, "pinch", then, later, exact)
+            overhead = pinch_candidates(ctx, name, shape, toward, above=True)
+            return _first_reachable(ctx, name, overhead, "pinch", then, later, exact)
     if mode == "side":
         if at is None:
             raise SkillFailure(f"a side grasp of {name!r} needs a site to grasp at ('at:')")
@@ -97,7 +98,7 @@ def plan_grasp(
     lying = abs(axis_obj[2]) < 0.7 or (
         at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
     )
-    point, closing, width, round_ = grasp_point(ctx, name, shape, at, height, lying)
+    point, closing, width, round_ = grasp_point(ctx, name, shape, at, height, lying, above)
     if width > opening - GRIP_MARGIN:
         raise SkillFailure(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "

@@ -71,10 +71,18 @@ def closed_over(ctx: SkillContext, name: str, point: np.ndarray, below: float) -
 
 
 def grasp_point(
-    ctx: SkillContext, name: str, shape: Shape, at: str | None, height: float | None, lying: bool
+    ctx: SkillContext,
+    name: str,
+    shape: Shape,
+    at: str | None,
+    height: float | None,
+    lying: bool,
+    above: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, float, bool]:
     """Grasp point, closing direction, the object's width across the fingers there, and whether it
-    is round there (the hand may close along any horizontal: a tube, a neck; not a handle bar)."""
+    is round there (the hand may close along any horizontal: a tube, a neck; not a handle bar).
+    ``above``: an upright object is taken at least that high over its origin (what a hole it is put
+    into next needs), as the hand allows."""
     sem = ctx.scene.semantics(name)
     base = ctx.world.position(name)
     if at is not None:
@@ -94,6 +102,8 @@ def grasp_point(
         z = float(ctx.world.position(f"{name}/grasp")[2])
     else:
         z = shape.bottom + 0.6 * (top - shape.bottom)
+    if above is not None:
+        z = max(z, base[2] + above)
     palm = ctx.robot.gripper.finger_depth - PALM_MARGIN
     z = max(z, top - palm, _fingertips_clear(ctx, name, shape))
     z = min(z, top - 0.004)

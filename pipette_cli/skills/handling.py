@@ -31,7 +31,7 @@ from pipette_cli.skills.moves import (
     fmt,
 )
 from pipette_cli.skills.runtime import SkillContext
-from pipette_cli.skills.targets import base_offset, insertion, resolve_target, upright_rotations
+from pipette_cli.skills.targets import base_offset, insertion, insertion_grasp, resolve_target, upright_rotations
 from pipette_cli.specs.expert import InsertIntoSpec, PositionOverSpec
 
 GRASP_SETTLE_S = 0.25
@@ -64,16 +64,20 @@ def grasp(
         raise SkillFailure(f"the hand already holds {ctx.hand.held.name!r}; put it down first")
     toward = entry_direction(ctx, name)
     after = tool_follow_through(ctx, name)
+    step = ctx.next_step
+    above = None  # taken high enough that the hole it goes into next seats it
+    if height is None and at is None and isinstance(step, InsertIntoSpec) and step.object == name:
+        above = insertion_grasp(ctx, step)
     exact = isinstance(ctx.next_step, PositionOverSpec)  # the pose it goes to, not one of its choices
     try:
         plan = plan_grasp(
-            ctx, name, at=at, mode=mode, height=height, toward=toward, then=then, later=after, exact=exact
+            ctx, name, at=at, mode=mode, height=height, above=above, toward=toward, then=then, later=after, exact=exact
         )
     except SkillFailure:
         if after is None:
             raise
         # no grasp leaves the next step's pose in reach: the next step turns what it holds as it can
-        plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, toward=toward, then=then)
+        plan = plan_grasp(ctx, name, at=at, mode=mode, height=height, above=above, toward=toward, then=then)
     exclude = ctx.scene.bodies(name)
     if ctx.hand.gripper != OPEN:
         yield ctx.grip(OPEN, 0.3)

@@ -11,10 +11,22 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pipette_cli.skills.frames import UP, axis_rotation, rotation_angle
+from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, rotation_angle
 from pipette_cli.skills.moves import Held
 from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.specs.expert import InsertIntoSpec, TargetSpec
+
+FINGER_ROOM = 0.002
+"""Metres the closed fingertips keep above what surrounds a hole an object is put into."""
+PAD_REACH = 0.008
+"""Metres a closed finger reaches beyond the object it holds, along the closing direction."""
+SEATED = 0.004
+"""Metres above its seat within which an object counts as in its hole (it is let go 3 mm up)."""
+STANDING_TILT = 12.0
+"""Degrees from upright within which an object let go in its hole counts as standing there."""
+SLIP_ROOM = 0.003
+"""Metres more than the least that an object to be put into a hole is taken higher up (it may slip
+up in the fingers on the way)."""
 
 
 def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool = True) -> np.ndarray:
@@ -101,3 +113,51 @@ def lowest_along_axis(ctx: SkillContext, name: str) -> float:
         c = rot.T @ (d.geom_xpos[g] - origin) + grot @ m.geom_aabb[g, :3]
         low = min(low, float(c[2] - np.abs(grot[2]) @ m.geom_aabb[g, 3:]))
     return 0.0 if not np.isfinite(low) else low
+
+
+def finger_floor(ctx: SkillContext, name: str, tcp: np.ndarray, rot: np.ndarray) -> float:
+    """The lowest height the tcp (as it stands) may take at ``tcp``'s place, turned ``rot``, with
+    the fingers closed on ``name``: lower, the fingertips would land on what surrounds the hole (a
+    rack's top grid, a rotor) before the object is seated. Where the fingers fit into the hole with
+    the object, that is the hole's floor."""
+    gripper = ctx.robot.gripper
+    approach, closing = rot[:, 2], rot[:, 1]
+    across = np.cross(approach, closing)
+    shape = ctx.scene.shape(name)
+    half = float(np.abs(closing @ shape.axes) @ shape.half)
+    tip = gripper.fingertip * approach
+    skip = ctx.hand.held_bodies() | ctx.scene.bodies(name)
+    from_z = float(tcp[2] + tip[2] + 0.05)
+    top = -np.inf
+    for side in (-1.0, 1.0):
+        for reach in (half + 0.001, half + PAD_REACH):
+            for off in (-0.5, 0.0, 0.5):
+                p = tcp + side * reach * closing + off * gripper.finger_thickness * across
+                top = max(top, ctx.scene.surface_below(p[0], p[1], skip, from_z=from_z))
+    return float(top + FINGER_ROOM - tip[2])
+
+
+def seat_gap(ctx: SkillContext, name: str, site: np.ndarray) -> float:
+    """Metres the object's mating point (its base, or where it hangs from) stands above ``site``."""
+    mate = ctx.world.position(name) + ctx.world.rotation(name) @ mating_point(ctx, name)
+    return float(mate[2] - site[2])
+
+
+def standing_in(ctx: SkillContext, name: str, site: np.ndarray) -> bool:
+    """Whether ``name`` stands upright in the hole at ``site`` (to be taken again and pushed home)."""
+    mate = ctx.world.position(name) + ctx.world.rotation(name) @ mating_point(ctx, name)
+    half = float(np.min(ctx.scene.shape(name).world_half()[:2]))
+    tilt = np.rad2deg(np.arccos(np.clip(ctx.world.rotation(name)[2, 2], -1.0, 1.0)))
+    return bool(tilt < STANDING_TILT and np.linalg.norm(mate[:2] - site[:2]) < half)
+
+
+def insertion_grasp(ctx: SkillContext, step: InsertIntoSpec) -> float:
+    """How high over its origin ``step.object`` must be taken for ``step`` to seat it in its hole
+    with the closed fingers over what surrounds the hole (a rack's top grid), and
+    :data:`SLIP_ROOM` more: a tube taken low would be let go above its seat."""
+    site = ctx.world.position(step.target)
+    rot = down_frame(horizontal(site - ctx.plan.base))
+    length = 2 * float(ctx.scene.shape(step.object).world_half().max())
+    floor = finger_floor(ctx, step.object, site + length * UP, rot)
+    seated_origin = site[2] + 0.003 - mating_point(ctx, step.object)[2]
+    return floor - seated_origin + SLIP_ROOM

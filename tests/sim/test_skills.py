@@ -124,6 +124,47 @@ def test_insert_into_a_rack_hole_and_a_pipette_stand() -> None:
     assert upright(world, "pipette") < 10
 
 
+@pytest.mark.parametrize(
+    ("task_id", "tube", "slot", "seed", "off"),
+    [
+        # a 16 x 150 mm test tube in an 18 mm hole of a 60 mm rack: seated, it may lean on the wall
+        ("skills/TubeIntoRack-v1", "tube", "rack/slot_5", 0, 0.003),
+        # a 1.5 mL microtube taken by its top out of a rotor well: the fingers would land on the rack's
+        # top grid 8 mm before it is seated, and it was let go 3 mm off its hole (it tipped)
+        ("protocols/UnloadMicrocentrifuge-v1", "tube", "rack/slot_9", 0, 0.001),
+    ],
+)
+def test_insert_into_is_measured_against_the_hole(task_id: str, tube: str, slot: str, seed: int, off: float) -> None:
+    """Lined up by where the tube is (not where the arm was told to go), put in no deeper than the
+    closed fingers allow over the rack, let go without dragging it: it stands in its hole."""
+    task = REGISTRY.get(task_id)
+    world = World(task)
+    world.reset(seed)
+    steps = list(task.expert or [])
+    insert = next(i for i, s in enumerate(steps) if s.skill == "insert_into")
+    expert = ProgramExpert(steps)
+    expert.reset(world, np.random.default_rng(seed))
+    pressed, released_off = 0, None
+    for _ in range(int(40.0 / world.control_dt)):
+        action = expert.act(world)
+        holding = expert.step_index == insert and expert._ctx is not None and expert._ctx.hand.held is not None
+        if holding and world.robot_touches("rack"):
+            pressed += 1
+        if released_off is None and expert.step_index == insert and action[-1] >= 0.5:  # the fingers open
+            released_off = float(np.linalg.norm(world.position(tube)[:2] - world.position(slot)[:2]))
+        world.step(action)
+        if expert.failure or expert.done or expert.step_index > insert:
+            break
+    assert expert.failure is None, expert.failure
+    assert released_off is not None and released_off < off, f"let go {released_off} m off the hole's axis"
+    assert pressed == 0, f"the fingers pressed on the rack for {pressed} steps"
+    for _ in range(int(0.5 / world.control_dt)):
+        world.step(expert.act(world))
+    assert np.linalg.norm(world.position(tube)[:2] - world.position(slot)[:2]) < 0.005
+    assert world.position(tube)[2] - world.position(slot)[2] < 0.012  # in the hole, not on its rim
+    assert upright(world, tube) < 10.0
+
+
 def test_a_tall_tube_goes_from_one_rack_into_another() -> None:
     world, _ = run("skills/TallTubeRackToRack-v1", seconds=15.0)
     assert world.verdict.success, world.verdict.reason

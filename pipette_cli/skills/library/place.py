@@ -14,19 +14,27 @@ from collections.abc import Generator, Iterator
 import numpy as np
 
 from pipette_cli.skills.frames import UP, rotation_angle, unit
-from pipette_cli.skills.handling import RELEASE_S, put_down
+from pipette_cli.skills.handling import put_down
+from pipette_cli.skills.insertion import REGRASP_RETREAT, let_go, line_up, push_home, standing_error
 from pipette_cli.skills.motions import back_off, transit
 from pipette_cli.skills.moves import (
     APPROACH_SPEED,
     FINE_SPEED,
-    OPEN,
     Held,
     Move,
     SkillFailure,
-    fmt,
 )
 from pipette_cli.skills.runtime import SkillContext, skill
-from pipette_cli.skills.targets import insertion, lowest_along_axis, resolve_target, upright_rotations
+from pipette_cli.skills.targets import (
+    SEATED,
+    finger_floor,
+    insertion,
+    lowest_along_axis,
+    resolve_target,
+    seat_gap,
+    standing_in,
+    upright_rotations,
+)
 from pipette_cli.specs.expert import InsertIntoSpec, MoveSpec, PlaceOnSpec
 
 log = logging.getLogger(__name__)
@@ -121,32 +129,36 @@ def insert_into(ctx: SkillContext, step: InsertIntoSpec) -> Iterator[Move]:
     way, tool_rot = chosen
     yield from transit(ctx, path(way, tool_rot)[0], tool_rot, what=f"carrying {step.object!r} to {step.target!r}")
     yield ctx.hold(0.3)  # let it stop swinging in the fingers
-    # closed loop: the object may have turned or slipped in the grasp. Measure it again, hold it truly
-    # upright (when the axis is auto) with its mating point lined up with the site, and only then go in
-    for _ in range(3):
+
+    def entry() -> tuple[np.ndarray, np.ndarray]:
+        # the object may have turned or slipped in the grasp: measured again, held truly upright
+        # (when the axis is auto) with its mating point over the site
         held = ctx.hand.holding(step.object)
-        if step.axis == "auto":
-            tool_rot = upright_tool(ctx, step.object)[0]
-        entry = path(way, tool_rot, held)[0]
-        if np.linalg.norm(entry - ctx.hand.pos) < 0.0015 and rotation_angle(ctx.hand.rot, tool_rot) < np.deg2rad(0.5):
-            break
-        log.debug(
-            "insert %s at t=%.2f: correcting by %s, %.1f deg",
-            step.object,
-            ctx.world.time,
-            fmt(entry - ctx.hand.pos),
-            float(np.rad2deg(rotation_angle(ctx.hand.rot, tool_rot))),
-        )
-        yield ctx.move(entry, tool_rot, speed=FINE_SPEED, what=f"lining {step.object!r} up with {step.target!r}")
-        yield ctx.hold(0.2)
+        rot = upright_tool(ctx, step.object)[0] if step.axis == "auto" else tool_rot
+        return path(way, rot, held)[0], rot
+
+    tool_rot = yield from line_up(ctx, entry, what=f"lining {step.object!r} up with {step.target!r}")
+    offset = standing_error(ctx)  # carried into the hole: the moves there are measured, not commanded
+    points = path(way, tool_rot, ctx.hand.holding(step.object))[1:]
+    site = ctx.world.position(step.target)
+    # down to its seat, the arm's sag pressing it on (only the sideways error is taken out); but no
+    # lower than the closed fingers allow over what surrounds the hole, the sag taken out too
+    floor = finger_floor(ctx, step.object, points[-1], tool_rot) if way[0] == "down" else -np.inf
+    blocked = bool(points[-1][2] < floor)
+    goals = [p + offset * np.array([1.0, 1.0, 0.0]) for p in points]
+    if blocked:
+        goals[-1] = np.array([*points[-1][:2], floor]) + offset
     with ctx.hand.touching(holder):
-        for point in path(way, tool_rot, held)[1:]:
-            yield ctx.move(point, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
+        for goal in goals:
+            yield ctx.move(goal, tool_rot, speed=FINE_SPEED, what=f"inserting {step.object!r} into {step.target!r}")
         if not step.release:
             return
-        yield ctx.grip(OPEN, RELEASE_S)
-        ctx.hand.held = None
-        with ctx.hand.touching(ctx.scene.bodies(step.object)):
+        yield ctx.hold(0.1)
+        stuck = seat_gap(ctx, step.object, site) > SEATED
+        yield from let_go(ctx, step.object, offset if blocked else None, REGRASP_RETREAT if stuck else step.retreat)
+        if stuck and seat_gap(ctx, step.object, site) > SEATED and standing_in(ctx, step.object, site):
+            yield from push_home(ctx, step.object, site, holder, step.retreat)
+        elif stuck:
             yield from back_off(ctx, step.retreat)
 
 
