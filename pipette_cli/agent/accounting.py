@@ -78,11 +78,12 @@ class _Words:
     used: list[bool]
 
     @classmethod
-    def of(cls, text: str, names: list[str], units: set[str]) -> _Words:
-        """The words the parser reads; quotes and a final full stop taken off, one of ``units``
-        glued to its number set apart ("48px" -> "48 px"; "15k", "5e" stay)."""
+    def of(cls, text: str, units: set[str]) -> _Words:
+        """The words the parser reads of ``text`` (paths and addresses already out); quotes and a
+        final full stop taken off, one of ``units`` glued to its number set apart ("48px" ->
+        "48 px"; "15k", "5e" stay)."""
         tokens: list[str] = []
-        for token in words_of(find_mentions(text, names).words).split():
+        for token in words_of(text).split():
             token = token.strip("'\"").rstrip(".")
             glued = _GLUED.match(token)
             tokens += [glued.group(1), glued.group(2)] if glued and glued.group(2) in units else [token]
@@ -134,7 +135,7 @@ class Accountant:
     def unused_words(self, request: str, plan: CheckedPlan) -> list[str]:
         """The words of ``request`` that ``plan`` does not explain, in order (see the module docstring)."""
         mentions = find_mentions(request, self.index.registry.ids())
-        words = _Words.of(request, self.index.registry.ids(), self.units)
+        words = _Words.of(mentions.words, self.units)
         words.where(lambda t: t in self.filler or not re.search(r"[a-z0-9]", t))
         if mentions.paths:  # "store them in out/x.h5", "write the augmented file to x.h5"
             words.where(lambda t: SAVE_VERB.fullmatch(t) is not None)
@@ -186,7 +187,7 @@ class Accountant:
 
     def _kinds(self, plan: CheckedPlan) -> set[str]:
         """The kinds of thing the plan makes or reads (``task`` when a step takes one)."""
-        kinds = {s.product_kind for s in plan.steps if s.product_kind}
+        kinds: set[str] = set()
         for step in plan.steps:
             product = self.vocab.products.get(step.command)
             if product is not None:

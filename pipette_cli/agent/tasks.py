@@ -237,15 +237,22 @@ class TaskIndex:
         """Tasks whose name, tags, robot or objects carry ``term``."""
         return {tid for tid, terms in self.terms.items() if terms.get(term, 0) > WEIGHTS["instruction"]}
 
+    def _take_names(self, text: str) -> tuple[str, list[str]]:
+        """``text`` lowered without the multi-word asset names it holds (longest first, each used
+        up), and those names."""
+        lowered, names = f" {text.lower()} ", []
+        for alias in self._aliases:
+            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
+            if " " in alias and re.search(pattern, lowered):
+                names.append(alias)
+                lowered = re.sub(pattern, " ", lowered)
+        return lowered, names
+
     def word_terms(self, text: str) -> list[set[str]]:
         """The terms of each thing ``text`` names: a multi-word asset name, else one word (its
         concept and the asset kind it names); "centrifuge" -> {centrifug, kind:centrifuge}."""
-        lowered, groups = f" {text.lower()} ", []
-        for alias in self._aliases:  # longest first; a multi-word alias is used up
-            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            if " " in alias and re.search(pattern, lowered):
-                groups.append({f"kind:{self._alias_kind[alias]}"})
-                lowered = re.sub(pattern, " ", lowered)
+        lowered, named = self._take_names(text)
+        groups = [{f"kind:{self._alias_kind[alias]}"} for alias in named]
         for synonym, word in self._synonyms:  # "take out" -> remove: one thing named
             if " " in synonym.pattern and synonym.search(lowered):
                 groups.append({stem(word)})
@@ -280,12 +287,7 @@ class TaskIndex:
     def filter_words(self, text: str) -> list[str]:
         """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words,
         and any robot or object of the libraries, which no task may have)."""
-        lowered, out = f" {text.lower()} ", []
-        for alias in self._aliases:
-            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            if " " in alias and re.search(pattern, lowered):
-                out.append(alias)
-                lowered = re.sub(pattern, " ", lowered)
+        lowered, out = self._take_names(text)
         for word in re.findall(r"[a-z0-9]+", lowered):
             terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
             if (any(self._strong(t) for t in terms) or terms & self._known) and word not in out:

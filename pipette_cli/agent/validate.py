@@ -197,11 +197,7 @@ class Validator:
         """Empty inputs take the latest earlier output of the kind they read; an input that is an
         earlier step's output takes the values that output sets (an augmented file is
         ``dataset_version: augmented``)."""
-        for value in list(args.values()):
-            for ref in value if isinstance(value, list) else [value]:
-                if isinstance(ref, StepRef) and steps[ref.from_step - 1].command in self.vocab.products:
-                    sets = self.vocab.products[steps[ref.from_step - 1].command].sets
-                    args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
+        self._take_over(info, args, steps)
         choice = self.catalog.one_of.get(info.name, ())
         chosen = any(not is_empty(args.get(c)) for c in choice)
         wanted = {
@@ -221,7 +217,7 @@ class Validator:
                 and isinstance(step.args.get(p), str | list)
                 and not any(isinstance(v, StepRef) for v in (step.args[p] if isinstance(step.args[p], list) else []))
             ]
-            sets = self.vocab.products[step.command].sets if step.command in self.vocab.products else {}
+            sets = self._sets(step.command)
             if any(not is_empty(args.get(k)) and args[k] != v for k, v in sets.items()):
                 offers = offers[1:]  # "convert the raw data": not what augment made
             for kind, value in offers:
@@ -234,8 +230,7 @@ class Validator:
                     if many
                     else (value[0] if isinstance(value, list) else value)
                 )
-                if isinstance(value, StepRef):
-                    args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
+                self._take_over(info, args, steps)
                 return
         for param, kind in wanted.items():
             if context and kind in context.products:
@@ -301,6 +296,18 @@ class Validator:
                 if named:
                     return named
         return None
+
+    def _sets(self, command: str) -> dict[str, str]:
+        """What ``command``'s output tells a step that reads it (``augment``: ``dataset_version: augmented``)."""
+        return self.vocab.products[command].sets if command in self.vocab.products else {}
+
+    def _take_over(self, info: CommandInfo, args: dict[str, Any], steps: list[CheckedStep]) -> None:
+        """Empty values of ``args`` that the earlier outputs it reads set."""
+        for value in list(args.values()):
+            for ref in value if isinstance(value, list) else [value]:
+                if isinstance(ref, StepRef):
+                    sets = self._sets(steps[ref.from_step - 1].command)
+                    args.update({k: v for k, v in sets.items() if k in info.params and is_empty(args.get(k))})
 
     def _templates(self, args: dict[str, Any], task: str | None) -> None:
         """``{Task}`` and ``{policy}`` in a value (a workflow's output folders) filled in; a value

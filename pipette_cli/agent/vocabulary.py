@@ -114,8 +114,9 @@ class VocabularySpec(Spec):
     corrections: list[str] = Field(default_factory=list)
     """Words that take back what came before ("actually", "no -")."""
     filler: list[str] = Field(default_factory=list)
-    recipes: dict[str, RecipeSpec] = Field(default_factory=dict)
     """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""
+    recipes: dict[str, RecipeSpec] = Field(default_factory=dict)
+    """Whole workflows asked for in a phrase ("compare raw vs augmented ...")."""
 
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
