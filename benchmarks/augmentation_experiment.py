@@ -560,10 +560,9 @@ def main() -> None:
     chosen = json.loads(pilot_file.read_text()) if pilot_file.is_file() else {}
     if args.stage != "pilot":  # the pilot starts from every candidate with all its demonstrations
         ex = replace(ex, fewer=tuple((t, n) for t, n in chosen.get("demos_per_task", {}).items() if n != ex.demos))
-    names = args.tasks.split(",") if args.tasks else chosen.get("tasks") or [e.task for e in nominal.tasks]
-    if args.stage == "pilot" and not args.tasks:
-        names = [e.task for e in nominal.tasks]
-    tasks = [registry.get(n) for n in names]
+    candidates = [e.task for e in nominal.tasks]  # the pilot starts from all; later stages from the pilot's choice
+    default = candidates if args.stage == "pilot" else chosen.get("tasks") or candidates
+    tasks = [registry.get(n) for n in (args.tasks.split(",") if args.tasks else default)]
     if args.stage == "pilot":
         pilot(ex, tasks, args.docs)
         return
