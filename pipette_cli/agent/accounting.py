@@ -25,7 +25,7 @@ from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
 from pipette_cli.agent.clauses import ANSWER_PREFIX, words_of
-from pipette_cli.agent.mentions import find_mentions
+from pipette_cli.agent.mentions import SAVE_VERBS, find_mentions
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex, short_name, stem
 from pipette_cli.agent.vocabulary import RecipeSpec, VocabularySpec, phrase_pattern
@@ -35,7 +35,7 @@ FREE_TEXT = ("description", "about", "name", "asset_id")
 _NUMBER = re.compile(r"^-?\d+(?:,\d{3})*(?:\.\d+)?(k)?(%)?$")
 _SIZE = re.compile(r"^(\d+)[x×](\d+)$")
 _GLUED = re.compile(r"^(\d+(?:\.\d+)?)([a-z]+)$")
-SAVE_VERB = re.compile(r"(?:save|write|store|put|keep|place)[sd]?|saved|written|stored|wrote")
+SAVE_VERB = re.compile(rf"(?:{SAVE_VERBS})[sd]?|saved|written|stored|wrote")
 
 
 def _literals(phrase: str) -> tuple[set[str], tuple[str, ...]]:

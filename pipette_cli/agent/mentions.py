@@ -46,8 +46,10 @@ _URL = re.compile(r"^[a-z][a-z0-9+.-]*://\S+$", re.IGNORECASE)
 _HOST_PORT = re.compile(r"^(?:localhost|[a-z0-9-]*[a-z][a-z0-9.-]*|\d{1,3}(?:\.\d{1,3}){3}):\d{2,5}$", re.IGNORECASE)
 _PORT = re.compile(r"\bport\s*(?:number\s*)?[:=]?\s*(\d{2,5})\b", re.IGNORECASE)
 _STRIP_LEFT, _STRIP_RIGHT = "([{\"'“‘<", ")]}\"'”’.,;:!?>"
+SAVE_VERBS = "save|write|store|put|keep|place"
+"""Verbs that ask a command to write somewhere."""
 SAVE = re.compile(
-    r"\b(?:save|write|store|put|keep|place)s?\b(?:\s+(?:it|them|this|that|the \w+))?\s+"
+    rf"\b(?:{SAVE_VERBS})s?\b(?:\s+(?:it|them|this|that|the \w+))?\s+"
     r"(?:to|in|into|under|at|as)$"
 )
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
