@@ -24,11 +24,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
-from pipette_cli.agent.clauses import ANSWER_PREFIX, words_of
-from pipette_cli.agent.mentions import SAVE_VERBS, find_mentions
+from pipette_cli.agent.clauses import ANSWER_PREFIX
+from pipette_cli.agent.mentions import SAVE_VERBS
 from pipette_cli.agent.plan import CheckedPlan, StepRef
-from pipette_cli.agent.tasks import TaskIndex, short_name, stem
-from pipette_cli.agent.vocabulary import RecipeSpec, VocabularySpec, phrase_pattern
+from pipette_cli.agent.tasks import TaskIndex
+from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec
+from pipette_cli.language.lexicon import short_name, stem
+from pipette_cli.language.mentions import find_mentions
+from pipette_cli.language.phrases import phrase_pattern, words_of
 
 FREE_TEXT = ("description", "about", "name", "asset_id")
 """Parameters whose value is the request's own words."""
@@ -125,7 +128,7 @@ class _Words:
 class Accountant:
     """Says which words of a request a checked plan leaves unexplained."""
 
-    def __init__(self, catalog: CommandCatalog, vocab: VocabularySpec, index: TaskIndex) -> None:
+    def __init__(self, catalog: CommandCatalog, vocab: WorkflowVocabularySpec, index: TaskIndex) -> None:
         self.catalog = catalog
         self.vocab = vocab
         self.index = index

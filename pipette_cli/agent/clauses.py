@@ -1,9 +1,10 @@
 """A request -> its clauses, one per command, and which command each clause asks for.
 
-Chained requests ("record 20 demos of X, augment them, convert and train ACT") are split at
-the vocabulary's chain words ("then", "after that", ...), at ";" and at sentence ends, and at
-"," and "and" when what follows asks for a command of its own (a verb such as "augment");
-anything else after them stays in the clause ("..., 64 px images", "pick and place").
+Chained requests ("record 20 demos of X, augment them, convert and train ACT") are split by the
+one clause splitter (:mod:`pipette_cli.language.clauses`) at the vocabulary's chain words
+("then", "after that", ...), at ";" and at sentence ends, and at "," and "and" when what follows
+asks for a command of its own (a verb such as "augment"); anything else after them stays in the
+clause ("..., 64 px images", "pick and place").
 
 A clause's command is the one whose cues (vocabulary ``intents``) weigh most: phrases 3,
 verbs 2, nouns 1, and the agent's answers 1 more when the clause is a question. On a tie the
@@ -12,37 +13,18 @@ command listed first in the vocabulary wins.
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
 from pipette_cli.agent.catalog import CommandCatalog
-from pipette_cli.agent.mentions import find_mentions
-from pipette_cli.agent.vocabulary import WEIGHTS, VocabularySpec, find_phrase, phrase_pattern
+from pipette_cli.agent.vocabulary import WEIGHTS, WorkflowVocabularySpec
+from pipette_cli.language import clauses as language
+from pipette_cli.language.clauses import Piece, Separators, join_words
+from pipette_cli.language.mentions import find_mentions
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 
 ANSWER_PREFIX = "answer "
 RECIPE_PREFIX = "recipe: "
 """A clause's command for a whole workflow (vocabulary ``recipes``): ``recipe: compare augmentation``."""
-
-
-_CONTRACTIONS = [
-    (re.compile(r"\b(what|how|it|that|there|where|who|here)'s\b"), r"\1 is"),
-    (re.compile(r"\blet's\b"), "let us"),
-    (re.compile(r"n't\b"), " not"),
-    (re.compile(r"'ll\b"), " will"),
-    (re.compile(r"'re\b"), " are"),
-    (re.compile(r"'ve\b"), " have"),
-    (re.compile(r"\bi'm\b"), "i am"),
-    (re.compile(r"\b(i|we|you)'d\b"), r"\1 would"),
-]
-
-
-def words_of(text: str) -> str:
-    """Lowercased words for cue matching: contractions spelled out ("what's" -> "what is"),
-    punctuation other than ``' - . + %`` turned into spaces."""
-    lowered = text.lower().replace("’", "'").replace("“", '"').replace("”", '"')
-    for pattern, spelled in _CONTRACTIONS:
-        lowered = pattern.sub(spelled, lowered)
-    return " ".join(re.sub(r"[^\w'.+%π-]+", " ", lowered).split()).replace(" .", " ").rstrip(".")
 
 
 @dataclass(frozen=True)
@@ -59,7 +41,7 @@ class Clause:
 class Intents:
     """Scores clauses against the vocabulary's command cues."""
 
-    def __init__(self, vocab: VocabularySpec, catalog: CommandCatalog, task_names: list[str]) -> None:
+    def __init__(self, vocab: WorkflowVocabularySpec, catalog: CommandCatalog, task_names: list[str]) -> None:
         self.vocab = vocab
         self.names = task_names
         commands = set(catalog.commands)
@@ -138,51 +120,46 @@ class Intents:
         return next(c for c in self.order if scores.get(c) == top), top
 
 
-_SENTENCE = r"[;!?]\s*(?=\S)|\.\s+(?=[A-Za-z])"
-
-
 def split_clauses(text: str, intents: Intents) -> list[Clause]:
-    """The clauses of ``text``, each with its command (None if it names none)."""
-    strong = "|".join(phrase_pattern(p).pattern for p in intents.vocab.chain.strong)
-    pattern = re.compile(
-        rf"(?P<strong>(?:,\s*|\s+and\s+|\s+)(?:{strong})[\s,:]*)|(?P<sentence>{_SENTENCE})"
-        rf"|(?P<weak>,\s+|\s+and\s+)",
-        re.IGNORECASE,
-    )
-    pieces: list[tuple[str, str, str]] = []  # (kind of the separator before, the separator, text)
-    position, kind, separator = 0, "strong", ""
-    for m in pattern.finditer(text):
-        pieces.append((kind, separator, text[position : m.start()]))
-        kind, separator, position = m.lastgroup or "weak", m.group(0), m.end()
-    pieces.append((kind, separator, text[position:]))
-    merged: list[list] = []  # [text, command]
-    for kind, separator, piece in pieces:
-        if not piece.strip():
-            continue
-        command, score = intents.best(piece)
-        # after a chain word any command starts a step; after a sentence end only a verb; after "," or
-        # "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step), and not
-        # when it names an option of the command before ("augment ... and write the yield report to x")
-        previous = merged[-1][1] if merged else None
-        starts = command is not None and (
-            kind == "strong"
-            or previous is None
-            or (
-                score >= WEIGHTS["verbs"]
-                and (kind == "sentence" or command != previous)
-                and not intents.cue_words(piece, command) & intents.option_words.get(previous, set())
+    """The clauses of ``text`` (:func:`pipette_cli.language.clauses.split_clauses`), each with
+    its command (None if it names none).
+
+    After a chain word any command starts a step; after a sentence end only a verb; after "," or
+    "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step), and not
+    when it names an option of the command before ("augment ... and write the yield report to x").
+    A clause keeps the command of the piece that started it."""
+    commands: list[str | None] = []
+
+    def starts(piece: Piece, before: language.Clause) -> bool:
+        if not commands:
+            commands.append(intents.best(before.text)[0])
+        command, score = intents.best(piece.text)
+        previous = commands[-1]
+        new = (
+            command is not None
+            and previous is not None
+            and (
+                piece.after == "strong"
+                or (
+                    score >= WEIGHTS["verbs"]
+                    and (piece.after == "sentence" or command != previous)
+                    and not intents.cue_words(piece.text, command) & intents.option_words.get(previous, set())
+                )
             )
         )
-        if merged and not (starts and merged[-1][1] is not None):
-            merged[-1][0] += separator + piece
-            merged[-1][1] = merged[-1][1] or command or intents.best(merged[-1][0])[0]
+        if new:
+            commands.append(command)
         else:
-            merged.append([piece, command, kind if merged else "strong"])
+            commands[-1] = previous or command or intents.best(join_words([*before.pieces, piece]))[0]
+        return new
+
+    separators = Separators(strong=tuple(intents.vocab.chain.strong))
+    found = language.split_clauses(text, separators, starts)
     clauses = []
-    for clause_text, command, after in merged:  # a clause keeps the command of the piece that started it
-        clause_text = clause_text.strip(" ,;")
-        best, score = intents.best(clause_text)
+    for clause, command in zip(found, commands or [None], strict=False):
+        best, score = intents.best(clause.text)
         if best is not None and best.startswith(RECIPE_PREFIX):
             command = best  # "train X with and without augmentation": the workflow, not its first command
-        clauses.append(Clause(clause_text, command or best, score, after))
+        after = "strong" if clause.after == "start" else clause.after
+        clauses.append(Clause(clause.text, command or best, score, after))
     return clauses

@@ -19,7 +19,7 @@ from pipette_cli.agent.catalog import CommandCatalog, CommandInfo, ParamInfo
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import VocabularySpec, lexicon
+from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, lexicon
 from pipette_cli.llm import ChatClient, ask_structured, make_client, strict_json_schema
 from pipette_cli.registry import Registry
 
@@ -107,7 +107,7 @@ class LLMAgent:
         kind: str,
         catalog: CommandCatalog,
         registry: Registry,
-        vocab: VocabularySpec | None = None,
+        vocab: WorkflowVocabularySpec | None = None,
         client: ChatClient | None = None,
         **options: Any,
     ) -> None:

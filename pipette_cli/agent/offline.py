@@ -24,13 +24,16 @@ from pipette_cli.agent.catalog import (
     Unsupported,
     is_empty,
 )
-from pipette_cli.agent.clauses import RECIPE_PREFIX, Intents, split_clauses, words_of
-from pipette_cli.agent.mentions import SAVE, assign_paths, find_mentions
+from pipette_cli.agent.clauses import RECIPE_PREFIX, Intents, split_clauses
+from pipette_cli.agent.mentions import SAVE, assign_paths
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
-from pipette_cli.agent.tasks import TaskIndex, short_name, stem, task_in_file_name
+from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import RecipeSpec, VocabularySpec, find_phrase, lexicon, phrase_pattern
-from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
+from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, lexicon
+from pipette_cli.language.assets import load_vocabulary as load_asset_words
+from pipette_cli.language.lexicon import short_name, stem
+from pipette_cli.language.mentions import find_mentions
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 from pipette_cli.registry import Registry
 
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
@@ -63,7 +66,9 @@ class OfflineAgent:
 
     name = "offline"
 
-    def __init__(self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec | None = None) -> None:
+    def __init__(
+        self, catalog: CommandCatalog, registry: Registry, vocab: WorkflowVocabularySpec | None = None
+    ) -> None:
         self.catalog = catalog
         self.registry = registry
         self.vocab = vocab or lexicon(registry)
@@ -429,7 +434,5 @@ class OfflineAgent:
         explicit = next((a for a in sorted(assets.assets, key=len, reverse=True) if a in squashed), None)
         if explicit:
             return explicit
-        for alias in assets.aliases():
-            if re.search(rf"(?<![\w-]){re.escape(alias)}(?![\w-])", words):
-                return assets.kinds[assets.alias_to_kind[alias]].default
-        return None
+        kind = next((kind for _, kind in assets.names_in(words)), None)
+        return assets.kinds[kind].default if kind else None

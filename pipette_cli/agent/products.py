@@ -14,7 +14,7 @@ from typing import Any
 
 from pipette_cli.agent.catalog import CommandInfo
 from pipette_cli.agent.plan import StepRef
-from pipette_cli.agent.vocabulary import VocabularySpec
+from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.lerobot.convert import DatasetVersion, default_root
 from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, LAST_CHECKPOINT, Policy, run_dir
 
@@ -49,7 +49,7 @@ RULES: dict[str, Callable[[CommandInfo, dict[str, Any], str | None], Path | None
 
 
 def product_of(
-    info: CommandInfo, args: dict[str, Any], task: str | None, vocab: VocabularySpec
+    info: CommandInfo, args: dict[str, Any], task: str | None, vocab: WorkflowVocabularySpec
 ) -> tuple[str | None, str | None]:
     """(path, kind) of what the step makes, or (None, None)."""
     spec = vocab.products.get(info.name)

@@ -16,35 +16,16 @@ import re
 from dataclasses import dataclass, field
 from functools import cached_property
 
-from pipette_cli.agent.vocabulary import VocabularySpec, find_phrase
-from pipette_cli.authoring.vocabulary import load_vocabulary as load_asset_words
+from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.errors import suggest
+from pipette_cli.language.assets import load_vocabulary as load_asset_words
+from pipette_cli.language.lexicon import camel_words, short_name, stem
+from pipette_cli.language.phrases import find_phrase, plain
 from pipette_cli.registry import Registry
 
 WEIGHTS = {"name": 1.0, "kind": 1.0, "tag": 0.7, "instruction": 0.4}
 ACTIONS = {"pick", "place", "remove", "open", "close", "press", "insert", "position", "transfer"}
 """Action words weigh half an object's: "close the lid" names many tasks, "the incubator" few."""
-_SUFFIXES = ("ing", "ed", "es", "s", "e")
-
-
-def stem(word: str) -> str:
-    """A crude stem, the same for a word's usual forms (close, closes, closing, closed -> clos)."""
-    for _ in range(2):
-        for suffix in _SUFFIXES:
-            if word.endswith(suffix) and len(word) - len(suffix) >= 3:
-                word = word[: -len(suffix)]
-                break
-    return word
-
-
-def camel_words(name: str) -> list[str]:
-    """``PickUpTestTube`` -> ``["pick", "up", "test", "tube"]``."""
-    return [w.lower() for w in re.findall(r"[A-Z][a-z]*|[0-9]+[a-z]*", name)]
-
-
-def short_name(task_id: str) -> str:
-    """``pipette/PickUpTestTube-v1`` -> ``PickUpTestTube``."""
-    return task_id.split("/", 1)[-1].rsplit("-v", 1)[0]
 
 
 def _longest_run(name: list[str], words: list[str]) -> int:
@@ -83,7 +64,7 @@ class TaskIndex:
     """Term weights of every registered task (see the module docstring)."""
 
     registry: Registry
-    vocab: VocabularySpec
+    vocab: WorkflowVocabularySpec
     terms: dict[str, dict[str, float]] = field(default_factory=dict)
     name_terms: dict[str, set[str]] = field(default_factory=dict)
     name_words: dict[str, list[str]] = field(default_factory=dict)
@@ -117,6 +98,7 @@ class TaskIndex:
             self.terms[tid] = terms
             self.name_terms[tid] = self.concepts(" ".join(names)) - self._stop
             self.name_words[tid] = [stem(w) for w in names]
+        self._assets = assets
         self._aliases = assets.aliases()
         self._alias_kind = assets.alias_to_kind
 
@@ -162,15 +144,8 @@ class TaskIndex:
 
     def request_terms(self, text: str) -> set[str]:
         """Concepts and asset kinds (``kind:conical tube``) a request names."""
-        lowered = f" {text.lower()} "
-        kinds: set[str] = set()
-        for alias in self._aliases:  # longest first; a multi-word alias is used up
-            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            if re.search(pattern, lowered):
-                kinds.add(f"kind:{self._alias_kind[alias]}")
-                if " " in alias:
-                    lowered = re.sub(pattern, " ", lowered)
-        return self.concepts(lowered) | kinds
+        lowered, names = self._take_names(text, every=True)
+        return self.concepts(lowered) | {f"kind:{kind}" for _, kind in names}
 
     def explicit(self, text: str) -> list[str]:
         """Task ids and names written out in ``text`` ("PickUpTestTube", "pick up test tube"),
@@ -237,28 +212,31 @@ class TaskIndex:
         """Tasks whose name, tags, robot or objects carry ``term``."""
         return {tid for tid, terms in self.terms.items() if terms.get(term, 0) > WEIGHTS["instruction"]}
 
-    def _take_names(self, text: str) -> tuple[str, list[str]]:
-        """``text`` lowered without the multi-word asset names it holds (longest first, each used
-        up), and those names."""
-        lowered, names = f" {text.lower()} ", []
-        for alias in self._aliases:
-            pattern = rf"(?<![\w-]){re.escape(alias)}(?![\w-])"
-            if " " in alias and re.search(pattern, lowered):
-                names.append(alias)
-                lowered = re.sub(pattern, " ", lowered)
-        return lowered, names
+    def _take_names(self, text: str, every: bool = False) -> tuple[str, list[tuple[str, str]]]:
+        """``text``'s words without the multi-word asset names it holds (whole before their
+        parts, :meth:`~pipette_cli.language.assets.Vocabulary.names_in`), and those names as
+        written with their kinds (``every``: the one-word names too, which stay in the words)."""
+        lowered = plain(text)
+        names: list[tuple[str, str]] = []
+        for name, kind in self._assets.names_in(text):
+            (start, end), multi = name.span, name.end - name.start > 1
+            if multi or every:
+                names.append((lowered[start:end], kind))
+            if multi:
+                lowered = lowered[:start] + " " * (end - start) + lowered[end:]
+        return f" {lowered} ", names
 
     def word_terms(self, text: str) -> list[set[str]]:
         """The terms of each thing ``text`` names: a multi-word asset name, else one word (its
         concept and the asset kind it names); "centrifuge" -> {centrifug, kind:centrifuge}."""
         lowered, named = self._take_names(text)
-        groups = [{f"kind:{self._alias_kind[alias]}"} for alias in named]
+        groups = [{f"kind:{kind}"} for _, kind in named]
         for synonym, word in self._synonyms:  # "take out" -> remove: one thing named
             if " " in synonym.pattern and synonym.search(lowered):
                 groups.append({stem(word)})
                 lowered = synonym.sub(" ", lowered)
         for word in re.findall(r"[a-z0-9]+", lowered):
-            terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
+            terms = self.concepts(word) | self._kind_of(word)
             if terms:
                 groups.append(terms)
         return groups
@@ -284,12 +262,18 @@ class TaskIndex:
             hits &= set().union(*actions)
         return sorted(hits), sorted(set(used))
 
+    def _kind_of(self, word: str) -> set[str]:
+        """``{kind:<kind>}`` when ``word`` (or its singular) names an asset kind, else nothing."""
+        kind = self._alias_kind.get(word) or self._alias_kind.get(self._assets.lemma(word))
+        return {f"kind:{kind}"} if kind else set()
+
     def filter_words(self, text: str) -> list[str]:
         """The words of ``text`` that :meth:`filter` uses (object, action, tag or robot words,
         and any robot or object of the libraries, which no task may have)."""
-        lowered, out = self._take_names(text)
+        lowered, named = self._take_names(text)
+        out = [written for written, _ in named]
         for word in re.findall(r"[a-z0-9]+", lowered):
-            terms = self.concepts(word) | ({f"kind:{self._alias_kind[word]}"} if word in self._alias_kind else set())
+            terms = self.concepts(word) | self._kind_of(word)
             if (any(self._strong(t) for t in terms) or terms & self._known) and word not in out:
                 out.append(word)
         return out

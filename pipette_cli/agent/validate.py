@@ -26,10 +26,11 @@ from pipette_cli.agent.accounting import Accountant
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, StepRef
 from pipette_cli.agent.products import product_of
-from pipette_cli.agent.tasks import TaskIndex, short_name, task_in_file_name
-from pipette_cli.agent.vocabulary import VocabularySpec
+from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
+from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.demos.store import scan
 from pipette_cli.errors import PipetteError, suggest
+from pipette_cli.language.lexicon import short_name
 from pipette_cli.registry import Registry
 
 _TRUE, _FALSE = {"true", "yes", "1", "on"}, {"false", "no", "0", "off"}
@@ -39,7 +40,7 @@ class Validator:
     """Checks and completes plans against the catalog, the registry and the vocabulary."""
 
     def __init__(
-        self, catalog: CommandCatalog, registry: Registry, vocab: VocabularySpec, index: TaskIndex | None = None
+        self, catalog: CommandCatalog, registry: Registry, vocab: WorkflowVocabularySpec, index: TaskIndex | None = None
     ) -> None:
         self.catalog = catalog
         self.registry = registry

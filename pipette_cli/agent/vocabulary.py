@@ -8,15 +8,14 @@ addresses already taken out).
 
 from __future__ import annotations
 
-import itertools
-import re
 from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from pydantic import Field, ValidationError
 
-from pipette_cli.errors import PipetteError, SpecError
+from pipette_cli.errors import SpecError
+from pipette_cli.language.lexicon import registry_values
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
 
@@ -85,7 +84,7 @@ class RecipeSpec(Spec):
     steps: list[RecipeStepSpec] = Field(min_length=1)
 
 
-class VocabularySpec(Spec):
+class WorkflowVocabularySpec(Spec):
     intents: dict[str, IntentCuesSpec]
     questions: list[str]
     chain: ChainSpec
@@ -129,7 +128,7 @@ class VocabularySpec(Spec):
 
 
 @cache
-def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
+def load_vocabulary(path: Path = VOCABULARY_FILE) -> WorkflowVocabularySpec:
     """Read and validate the vocabulary file.
 
     Raises:
@@ -138,97 +137,14 @@ def load_vocabulary(path: Path = VOCABULARY_FILE) -> VocabularySpec:
     doc = read_yaml(path)
     raw = to_plain(doc)
     try:
-        return VocabularySpec.model_validate(raw)
+        return WorkflowVocabularySpec.model_validate(raw)
     except ValidationError as exc:
-        raise SpecError(validation_problems(exc, VocabularySpec, raw, doc, str(path))) from None
+        raise SpecError(validation_problems(exc, WorkflowVocabularySpec, raw, doc, str(path))) from None
 
 
-def suite_words(registry: Registry) -> dict[str, list[str]]:
-    """Suite id -> the words that name it: its id and the words of its name ("paper benchmark"),
-    and any part of them followed by "suite" that names no other suite ("the nominal suite")."""
-    from pipette_cli.evaluation.suites import load_suites  # deferred: suites only when a lexicon is built
-
-    try:
-        ids = load_suites(registry).ids()
-    except PipetteError:
-        return {}  # a broken suite file: `pipette eval --suite` says what is wrong with it
-    words = {
-        sid: [w.lower() for w in re.findall(r"[A-Z][a-z]*|[0-9]+", sid.split("/")[-1].rsplit("-v", 1)[0])]
-        for sid in ids
-    }
-    parts: dict[str, list[str]] = {}
-    for sid, name in words.items():
-        for size in range(1, min(len(name), 4) + 1):  # any of its words, in any order ("the paraphrased paper suite")
-            for chosen in itertools.permutations(name, size):
-                parts.setdefault(f"{' '.join(chosen)} suite", []).append(sid)
-
-    def owner(suites: list[str]) -> str | None:  # a part several suites share names the one with the fewest words
-        fewest = min(len(words[s]) for s in suites)
-        basic = [s for s in suites if len(words[s]) == fewest]
-        return basic[0] if len(basic) == 1 else None
-
-    return {
-        sid: sorted(
-            {
-                sid.lower(),
-                sid.split("/")[-1].lower(),
-                " ".join(name),
-                *(p for p, owners in parts.items() if owner(owners) == sid),
-            },
-            key=len,
-            reverse=True,
-        )
-        for sid, name in words.items()
-    }
-
-
-def lexicon(registry: Registry) -> VocabularySpec:
-    """The vocabulary with the registries' words added as values: every robot's names (``robot``)
-    and every suite's (``suite_id``)."""
-    from pipette_cli.specs.robot import robot_words  # deferred: robot facts only when a lexicon is built
-
+def lexicon(registry: Registry) -> WorkflowVocabularySpec:
+    """The vocabulary with the registries' words added as values
+    (:func:`pipette_cli.language.lexicon.registry_values`: every robot's names as ``robot``,
+    every suite's as ``suite_id``)."""
     vocab = load_vocabulary()
-    return vocab.model_copy(
-        update={"values": {**vocab.values, "robot": robot_words(), "suite_id": suite_words(registry)}}
-    )
-
-
-def _item(token: str) -> str:
-    if token.startswith("(") and token.endswith(")"):
-        alternatives = sorted(token[1:-1].split("|"), key=len, reverse=True)  # "camera poses" before "camera"
-        return "(?:" + "|".join(_words(alt) for alt in alternatives) + ")"
-    if token.endswith("*"):
-        return re.escape(token[:-1]) + r"[\w'-]*"
-    return re.escape(token)
-
-
-def _words(text: str) -> str:
-    """Regex of a phrase: tokens joined by whitespace; ``...`` widens one gap to ten words;
-    ``token?`` is optional (never the first token)."""
-    out, gap = "", r"\s+"
-    for token in re.findall(r"\([^)]*\)\??|\S+", text.strip()):
-        if token == "...":
-            gap = r"\s+(?:\S+\s+){0,10}?"
-            continue
-        optional = token.endswith("?") and len(token) > 1
-        piece = _item(token[:-1] if optional else token)
-        if not out:
-            out = piece
-        elif optional:
-            out += f"(?:{gap}{piece})?"
-        else:
-            out += gap + piece
-        gap = r"\s+"
-    return out
-
-
-@cache
-def phrase_pattern(phrase: str) -> re.Pattern[str]:
-    """The regular expression of a vocabulary phrase, bounded by non-word characters."""
-    return re.compile(rf"(?<![\w-]){_words(phrase)}(?![\w-])")
-
-
-def find_phrase(phrases: list[str], text: str) -> re.Match[str] | None:
-    """The first match of any of ``phrases`` in ``text`` (earliest position)."""
-    found = [m for m in (phrase_pattern(p).search(text) for p in phrases) if m]
-    return min(found, key=lambda m: (m.start(), -len(m.group(0)))) if found else None
+    return vocab.model_copy(update={"values": {**vocab.values, **registry_values(registry)}})

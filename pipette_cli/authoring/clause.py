@@ -11,8 +11,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pipette_cli.authoring.text import Token, first_match, match
-from pipette_cli.authoring.vocabulary import Vocabulary
+from pipette_cli.language.assets import Vocabulary
+from pipette_cli.language.mentions import name_at
+from pipette_cli.language.phrases import Token, first_match, match
 
 PART_LINKS = ("of", "on", "in", "inside", "at")
 """Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
@@ -172,12 +173,12 @@ class ClauseReader:
             if i in verbs or tokens[i].kind != "word":
                 i += 1
                 continue
-            alias = first_match(tokens, i, self.aliases)
-            head = alias[0] if alias else ""
-            compound = self._compound(tokens, i, alias[1], verbs) if alias else None
-            if compound is not None:  # "pipette tip box": one mention of the tip box (see _compound)
-                head, n = compound
-                alias = (" ".join(t.text for t in tokens[i : i + n]), n)
+            name = name_at(tokens, i, self.aliases, stop=verbs)  # "pipette tip box": one tip box
+            head = name.phrase if name else ""
+            alias = None
+            if name is not None:
+                shown = " ".join(t.text for t in tokens[i : name.end]) if name.compound else name.phrase
+                alias = (shown, name.end - i)
             bench = first_match(tokens, i, self.bench)
             pronoun = first_match(tokens, i, self.pronouns)
             part = first_match(tokens, i, list(self.part_words))
@@ -199,22 +200,6 @@ class ClauseReader:
             for k in range(i, i + n):
                 tokens[k].used = True
             i += n
-
-    def _compound(self, tokens: list[Token], i: int, n: int, verbs: set[int]) -> tuple[str, int] | None:
-        """``(head name, words)`` where names overlap from ``i`` on, the last ending after the first
-        (``n`` words): a compound's head is its last name, so "pipette tip box" is one mention of a
-        tip box, not a pipette tip followed by an unknown "box". None when no name overlaps."""
-        head: tuple[str, int] | None = None
-        end = i + n
-        j = i + 1
-        while j < end:
-            if j in verbs:
-                break
-            later = first_match(tokens, j, self.aliases)
-            if later is not None and j + later[1] > end:
-                head, end = (later[0], j + later[1] - i), j + later[1]
-            j += 1
-        return head
 
     def _part_has_owner(self, clause: Clause, i: int, n: int) -> bool:
         """A part word directly after a mention ("incubator shelf") or before "of the X"."""

@@ -11,7 +11,7 @@ from pipette_cli.authoring.measure import AssetGeometry
 from pipette_cli.authoring.plan import PlanError
 from pipette_cli.authoring.resolve import diameter, fits, holders_that_fit, hole
 from pipette_cli.authoring.scene import r
-from pipette_cli.authoring.vocabulary import Vocabulary
+from pipette_cli.language.assets import Vocabulary
 
 RECEPTACLES = ("cuvette_slot", "rotor_center", "cup_center", "block_center", "drawer_center")
 """Sites that hold an object with a little play (its radius may exceed the bare room by 1.5 mm)."""

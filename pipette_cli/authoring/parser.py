@@ -27,14 +27,14 @@ from pipette_cli.authoring.plan import (
 from pipette_cli.authoring.refusals import ACTION_WORDS, refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
 from pipette_cli.authoring.text import (
-    extract_robots,
     extract_thresholds,
     has_negation,
     normalise,
     split_steps,
-    tokenise,
 )
-from pipette_cli.authoring.vocabulary import Vocabulary
+from pipette_cli.language.assets import Vocabulary
+from pipette_cli.language.lexicon import robot_mentions
+from pipette_cli.language.understanding import not_understood_line
 
 HATCH_PARTS = ("lid", "door", "drawer", "sash")
 REMOVING = ("out of", "off", "off of", "out from", "from inside")
@@ -48,6 +48,8 @@ class ParseResult:
 
     plan: TaskPlanSpec
     remarks: list[str]
+    not_understood: list[str] = field(default_factory=list)
+    """Words of the description the plan does not use (shown with it; never written under --yes)."""
 
 
 @dataclass(eq=False)
@@ -454,18 +456,22 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
             "negations are not supported: describe what the robot should do, e.g. 'Close the centrifuge lid'"
         )
     text, thresholds = extract_thresholds(text)
-    text, robots = extract_robots(text)
+    text, robots = robot_mentions(text)
     if len(robots) > 1:
         raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
     reader = ClauseReader(vocab)
-    tokens = tokenise(text, vocab)
-    clauses = [reader.read(part) for part in split_steps(tokens, vocab, reader.is_verb)]
+    clauses = [reader.read(part) for part in split_steps(text, reader.is_verb, vocab)]
     if not clauses:
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     refuse_unsupported(clauses, vocab)
     builder = Builder(vocab)
-    builder.remarks += refuse_unknown(clauses, vocab)
-    for clause in clauses:
-        builder.add(clause)
-    plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
-    return ParseResult(plan, builder.remarks)
+    unknown = refuse_unknown(clauses, vocab)
+    try:
+        for clause in clauses:
+            builder.add(clause)
+        plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
+    except PlanError as exc:
+        if not unknown:
+            raise
+        raise PlanError(f"{exc} ({not_understood_line(unknown, None)})", final=exc.final) from None
+    return ParseResult(plan, builder.remarks, unknown)

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import Field, model_validator
 
 from pipette_cli.errors import SpecError
+from pipette_cli.language.assets import Relation
 from pipette_cli.llm import strict_json_schema
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.robot import robot_names
@@ -24,8 +25,6 @@ from pipette_cli.specs.robot import robot_names
 Action = Literal["pick", "place", "remove", "open", "close", "press", "position", "run"]
 INSTRUMENT_ACTIONS = ("open", "close", "press", "run")
 """Actions on an instrument (its lid, door, drawer, buttons); the others move an object."""
-Relation = Literal["next_to", "left_of", "right_of", "behind", "in_front_of"]
-"""Where a placement goes relative to its target, as seen from the robot (left is its left)."""
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
 Part = Literal[
     "lid",

@@ -10,7 +10,7 @@ import re
 
 from pipette_cli.authoring.clause import Clause
 from pipette_cli.authoring.plan import PlanError
-from pipette_cli.authoring.vocabulary import Vocabulary
+from pipette_cli.language.assets import Vocabulary
 
 ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over, start"
 
@@ -29,25 +29,39 @@ def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
                     raise PlanError(f"'{word}': {spec.reason}", final=True)
 
 
-def refuse_unknown(clauses: list[Clause], vocab: Vocabulary) -> list[str]:
-    """``unknown object 'X'; nearest: ...`` for words that name nothing; ``not understood`` for a
-    word before a known object that describes none of its kind ("the zorbly flask" is no flask of
-    the library: choosing one anyway would drop the word). Words that describe a member choose it."""
-    remarks: list[str] = []
+def refuse_unknown(clauses: list[Clause], vocab: Vocabulary, *, refuse: bool = True) -> list[str]:
+    """Refuse words that stand where an object or an action belongs but name nothing
+    (``unknown object 'X'; nearest: ...``, ``unknown action``); return the other words nothing
+    explains, to be listed as not understood with the plan: a word before a known object that
+    describes none of its kind ("the zorbly flask" is no flask of the library: choosing one anyway
+    without saying so would drop the word), or a word outside any object ("very zorbishly").
+    Words that describe a member choose it. With ``refuse`` False every such word is listed (an
+    LLM backend may still make a plan without them; they stay not understood)."""
+    listed: list[str] = []
+    prepositions = {w for p, _ in vocab.words.preposition_roles() for w in p.split()}
     for clause in clauses:
+        texts = [t.text for t in clause.tokens]
         for phrase in clause.unknown:
             owner = next((m for m in clause.mentions if set(phrase.split()) <= set(m.modifiers)), None)
             if owner is not None:
-                strange = [w for w in phrase.split() if not vocab.describes(w, owner.kind)]
-                if strange:
-                    raise PlanError(
-                        f"not understood: '{' '.join(strange)}' in '{owner.words()}': no {owner.kind} of the asset "
-                        f"library is described by it; leave it out or name the object as `pipette assets list` does"
-                    )
+                listed += [" ".join(w for w in phrase.split() if not vocab.describes(w, owner.kind))]
+                continue
+            if not refuse:
+                listed.append(phrase)
                 continue
             if clause.action is None and clause.tokens and phrase.split()[0] == clause.tokens[0].text:
                 raise PlanError(f"unknown action '{phrase}'; actions: {ACTION_WORDS}")
-            nearest = vocab.nearest(phrase)
-            hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
-            raise PlanError(f"unknown object '{phrase}'; nearest: {hint}")
-    return remarks
+            at = _position(texts, phrase)
+            before = texts[at - 1] if at > 0 else ""
+            if at <= 0 or before in vocab.words.articles or before in prepositions:
+                nearest = vocab.nearest(phrase)
+                hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
+                raise PlanError(f"unknown object '{phrase}'; nearest: {hint}")
+            listed.append(phrase)
+    return [w for w in listed if w]
+
+
+def _position(words: list[str], phrase: str) -> int:
+    """Where ``phrase`` starts among ``words`` (-1 if it does not)."""
+    parts = phrase.split()
+    return next((i for i in range(len(words)) if words[i : i + len(parts)] == parts), -1)

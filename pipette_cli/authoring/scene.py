@@ -26,7 +26,7 @@ from pipette_cli.authoring.motors import release_angle
 from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.authoring.resolve import choose_pair, holders_that_fit
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid
-from pipette_cli.authoring.vocabulary import load_vocabulary
+from pipette_cli.language.assets import load_vocabulary
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")

@@ -39,7 +39,7 @@ from pipette_cli.authoring.scene import (
     receiving_site,
 )
 from pipette_cli.authoring.stage_base import Stage, reference_point
-from pipette_cli.authoring.vocabulary import load_vocabulary
+from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec

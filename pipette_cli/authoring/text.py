@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from dataclasses import dataclass
-from functools import cache
 
-from pipette_cli.authoring.vocabulary import Vocabulary, VocabularySpec
-from pipette_cli.specs.robot import robot_words
+from pipette_cli.language.assets import Vocabulary, VocabularySpec
+from pipette_cli.language.clauses import Piece, Separators, split_clauses
+from pipette_cli.language.phrases import Token, any_phrase, singular
 
 SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
     (r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+)\s*(?:mm)?\b", lambda m: [f"{m[1]}x{m[2]}", f"{m[1]}mm"]),
@@ -52,29 +51,6 @@ UPRIGHT = r"\b(upright|without tilting|not tilt|keep(?:ing)? it level|level|with
 NEGATION = r"\b(don't|dont|do not|never|must not|mustn't|should not|shouldn't|avoid)\b"
 
 
-@dataclass
-class Token:
-    """One word (``lemma``: its singular form), a size tag, or punctuation."""
-
-    text: str
-    kind: str = "word"  # word | size | punct
-    lemma: str = ""
-    used: bool = False
-
-    def __post_init__(self) -> None:
-        self.lemma = self.lemma or self.text
-
-
-def _alternation(phrases: list[str]) -> str:
-    ordered = sorted(set(phrases), key=lambda p: (-len(p), p))
-    return "|".join(re.escape(p).replace(r"\ ", r"\s+") for p in ordered)
-
-
-@cache
-def _polite_pattern(polite: tuple[str, ...]) -> re.Pattern[str]:
-    return re.compile(rf"(?<![\w'])(?:{_alternation(list(polite))})(?![\w'])[,!]?")
-
-
 def normalise(description: str, words: VocabularySpec) -> str:
     """Lower case, plain ASCII units, numbers without thousands commas, hyphens split, numbers
     written as words before units, polite forms and negation-free spacing."""
@@ -90,7 +66,7 @@ def normalise(description: str, words: VocabularySpec) -> str:
     units = r"(?=\s*(?:s|secs?|seconds?|min|mins|minutes?|cm|mm|ml|ul|l|deg|degrees?|wells?|channels?)\b)"
     for word, value in sorted(words.numbers.items(), key=lambda kv: -len(kv[0])):
         s = re.sub(rf"\b{re.escape(word)}\b{units}", f"{value:g}", s)
-    s = _polite_pattern(tuple(words.polite)).sub(" ", s)
+    s = any_phrase(tuple(words.polite)).sub(" ", s)
     return re.sub(r"\s+", " ", s).strip()
 
 
@@ -111,33 +87,6 @@ def extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
     return text, found
 
 
-def extract_robots(text: str) -> tuple[str, list[str]]:
-    """Robots the description names (``with the Piper arm``; their names: the robot registry's,
-    :func:`~pipette_cli.specs.robot.robot_words`), and the text without them."""
-    robots: list[str] = []
-    for robot, names in robot_words().items():
-        for name in names:
-            if re.search(rf"\b{re.escape(name)}\b", text):
-                if robot not in robots:
-                    robots.append(robot)
-                text = re.sub(rf"\b(?:with|using|by)?\s*(?:the\s+)?{re.escape(name)}(?:\s+(?:arm|robot))?\b", " ", text)
-    return text, robots
-
-
-def singular(word: str, words: VocabularySpec) -> str:
-    """``tubes`` -> ``tube``, ``boxes`` -> ``box``, ``pipettes`` -> ``pipette``; words in
-    ``plurals.singular`` stay as they are."""
-    if word in words.plurals.irregular:
-        return words.plurals.irregular[word]
-    if len(word) <= 3 or word in words.plurals.singular or not word.endswith("s") or word.endswith("ss"):
-        return word
-    if word.endswith("ies"):
-        return word[:-3] + "y"
-    if word.endswith(("ches", "shes", "xes", "sses")):
-        return word[:-2]
-    return word[:-1]
-
-
 def tokenise(text: str, vocab: Vocabulary) -> list[Token]:
     """Words (with singular lemmas), size tags and punctuation."""
     spans: list[tuple[int, int, list[str]]] = []
@@ -155,74 +104,39 @@ def tokenise(text: str, vocab: Vocabulary) -> list[Token]:
             if word in ",.;:!?":
                 tokens.append(Token(word, "punct"))
             else:
-                lemma = word if word in known else singular(word, vocab.words)
+                lemma = (
+                    word
+                    if word in known
+                    else singular(word, vocab.words.plurals.irregular, vocab.words.plurals.singular)
+                )
                 tokens.append(Token(word, "word", lemma))
         tokens.extend(Token(tag, "size") for tag in tags)
         pos = end
     return tokens
 
 
-def match(tokens: list[Token], i: int, phrase: str) -> int:
-    """Tokens consumed by ``phrase`` at position ``i`` (0 when it does not match there)."""
-    parts = phrase.split()
-    if i + len(parts) > len(tokens):
-        return 0
-    for k, word in enumerate(parts):
-        token = tokens[i + k]
-        if token.kind != "word" or word not in (token.text, token.lemma):
-            return 0
-    return len(parts)
-
-
-def first_match(tokens: list[Token], i: int, phrases: list[str]) -> tuple[str, int] | None:
-    """The longest of ``phrases`` matching at ``i``."""
-    best: tuple[str, int] | None = None
-    for phrase in phrases:
-        n = match(tokens, i, phrase)
-        if n and (best is None or n > best[1]):
-            best = (phrase, n)
-    return best
-
-
-def split_steps(
-    tokens: list[Token], vocab: Vocabulary, is_verb: Callable[[list[Token], int], bool]
-) -> list[list[Token]]:
-    """Split a description into steps: at sentence punctuation, at sequence words ("then",
-    "after that"), and at "and" or "," followed by a new verb ("pick up the tube and put it ...").
-    Words that only mark the first step ("first") are dropped."""
+def split_steps(text: str, reader_is_verb: Callable[[list[Token], int], bool], vocab: Vocabulary) -> list[list[Token]]:
+    """A normalised description -> the tokens of each step (:func:`pipette_cli.language.clauses.split_clauses`):
+    at sentence punctuation, at sequence words ("then", "after that"), and at "and", "," or ":"
+    followed by a new verb ("pick up the tube and put it ..."). Words that only mark the first
+    step ("first") are dropped; "next to" is a place, not "next"."""
     words = vocab.words
     skip = set(words.fillers) - set(words.articles)
-    prepositions = [p for p, _ in words.preposition_roles() if len(p.split()) > 1]
-    steps: list[list[Token]] = [[]]
-    i = 0
-    while i < len(tokens):
-        token = tokens[i]
-        if token.kind == "punct" and token.text in ".;!?":
-            steps.append([])
-            i += 1
-            continue
-        prep = first_match(tokens, i, prepositions)  # "next to" is a place, not "next"
-        if prep is not None:
-            steps[-1].extend(tokens[i : i + prep[1]])
-            i += prep[1]
-            continue
-        marker = first_match(tokens, i, words.sequence)
-        if marker is not None:
-            steps.append([])
-            i += marker[1]
-            continue
-        opener = first_match(tokens, i, words.first)
-        if opener is not None:
-            i += opener[1]
-            continue
-        if (token.kind == "punct" and token.text in ",:") or token.text in ("and", "&"):
-            k = i + 1
-            while k < len(tokens) and tokens[k].kind == "word" and tokens[k].text in skip and not is_verb(tokens, k):
-                k += 1
-            if k < len(tokens) and is_verb(tokens, k):
-                steps.append([])
-                i += 1
-                continue
-        steps[-1].append(token)
-        i += 1
+    separators = Separators(
+        strong=tuple(words.sequence),
+        weak=(",", ":", "and", "&"),
+        openers=tuple(words.first),
+        keep=tuple(p for p, _ in words.preposition_roles() if len(p.split()) > 1),
+    )
+
+    def starts(piece: Piece, _before: object) -> bool:
+        if piece.after != "weak":
+            return True
+        tokens = tokenise(piece.text, vocab)
+        k = 0
+        while k < len(tokens) and tokens[k].kind == "word" and tokens[k].text in skip and not reader_is_verb(tokens, k):
+            k += 1
+        return k < len(tokens) and reader_is_verb(tokens, k)
+
+    steps = [tokenise(clause.text, vocab) for clause in split_clauses(text, separators, starts)]
     return [s for s in steps if any(t.kind == "word" for t in s)]

@@ -17,7 +17,7 @@ from pipette_cli.authoring.measure import AssetGeometry, measure_asset
 from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
 from pipette_cli.authoring.resolve import Wanted, candidates
 from pipette_cli.authoring.text import normalise, tokenise
-from pipette_cli.authoring.vocabulary import AssetInfo, Vocabulary
+from pipette_cli.language.assets import AssetInfo, Vocabulary
 from pipette_cli.skills.grasp_candidates import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN, ROUND
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 

@@ -24,10 +24,10 @@ from pipette_cli.authoring.measure import measure_asset
 from pipette_cli.authoring.plan import PlanError, TaskPlanSpec, plan_json_schema
 from pipette_cli.authoring.refusals import refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.render import environment, render_task
-from pipette_cli.authoring.text import normalise, split_steps, tokenise
+from pipette_cli.authoring.text import normalise, split_steps
 from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_plan
-from pipette_cli.authoring.vocabulary import Vocabulary, load_vocabulary
 from pipette_cli.errors import PipetteError, SimError, SpecError
+from pipette_cli.language.assets import Vocabulary, load_vocabulary
 from pipette_cli.registry import Registry, validate_task_document
 from pipette_cli.sim.world import World
 from pipette_cli.specs.robot import robot_names
@@ -53,6 +53,8 @@ class DraftedTask:
     yaml_text: str
     spec: TaskSpec
     remarks: list[str] = field(default_factory=list)
+    not_understood: list[str] = field(default_factory=list)
+    """Words of the description the plan does not use: shown with the draft; ``--yes`` does not write it."""
     report: CheckReport | None = None
     """What the ``--check`` gate found (None without it)."""
 
@@ -105,10 +107,12 @@ def finish_plan(
     vocab: Vocabulary,
     options: DraftOptions = DraftOptions(),
     remarks: tuple[str, ...] = (),
+    not_understood: tuple[str, ...] = (),
 ) -> DraftedTask:
     """Validate, compose, render, check against the registry rules, build and gate one plan.
 
-    ``remarks`` become VERIFY notes (the offline parser's choices among equal assets).
+    ``remarks`` become VERIFY notes (the offline parser's choices among equal assets);
+    ``not_understood`` are the description's words the plan does not use.
 
     Raises:
         PlanError: the plan is impossible (each problem says what to change), the id is taken, or
@@ -134,7 +138,9 @@ def finish_plan(
             ["the drafted YAML does not validate (a bug in the template or composition):", *exc.problems]
         ) from None
     text = dump_yaml(doc)  # the registry's house style, so the file round-trips through ruamel unchanged
-    drafted = DraftedTask(description, backend, checked.plan, composed, text, spec, list(remarks))
+    drafted = DraftedTask(
+        description, backend, checked.plan, composed, text, spec, list(remarks), not_understood=list(not_understood)
+    )
     if options.build:
         try:
             World(spec)
@@ -145,21 +151,27 @@ def finish_plan(
     return drafted
 
 
-def screen(description: str, vocab: Vocabulary) -> set[str]:
+def screen(description: str, vocab: Vocabulary) -> tuple[set[str], dict[str, str], list[str]]:
     """Refuse what no plan can do before asking an LLM (liquids, caps...: final), and return the
-    kinds of object the description names (an LLM's plan may only use those)."""
+    kinds of object the description names (an LLM's plan may only use those), each kind's words
+    as written, and the words nothing in the lexicon explains (not understood, whatever the plan)."""
     reader = ClauseReader(vocab)
-    tokens = tokenise(normalise(description, vocab.words), vocab)
-    clauses = [reader.read(part) for part in split_steps(tokens, vocab, reader.is_verb)]
+    clauses = [reader.read(part) for part in split_steps(normalise(description, vocab.words), reader.is_verb, vocab)]
     refuse_unsupported(clauses, vocab)
-    kinds = {m.kind for c in clauses for m in c.mentions if not m.is_bench and not m.is_pronoun}
-    kinds |= {c.implied_target for c in clauses if c.implied_target}
-    if not kinds:
+    named = {m.kind: m.words() for c in clauses for m in c.mentions if not m.is_bench and not m.is_pronoun}
+    named |= {c.implied_target: c.verb or c.implied_target for c in clauses if c.implied_target}
+    if not named:
         refuse_unknown(clauses, vocab)
         raise PlanError(
             "found no object of the asset library in the description; name one (see `pipette assets list`)", final=True
         )
-    return kinds
+    return set(named), named, refuse_unknown(clauses, vocab, refuse=False)
+
+
+def unused_names(checked: CheckedPlan, named: dict[str, str]) -> list[str]:
+    """The words of the objects the description names that an LLM's plan leaves out."""
+    used = {kind for obj in checked.objects.values() for kind in obj.info.kinds}
+    return [words for kind, words in named.items() if kind not in used]
 
 
 def grounding_problems(checked: CheckedPlan, kinds: set[str], vocab: Vocabulary) -> list[str]:
@@ -200,16 +212,23 @@ def draft_task(
     parsed = backend.parse_task(description)
     if parsed is not None:
         return finish_plan(
-            parsed.plan, description, backend.name, vocab=vocab, options=options, remarks=tuple(parsed.remarks)
+            parsed.plan,
+            description,
+            backend.name,
+            vocab=vocab,
+            options=options,
+            remarks=tuple(parsed.remarks),
+            not_understood=tuple(parsed.not_understood),
         )
-    kinds = screen(description, vocab)
+    kinds, named, unknown = screen(description, vocab)
 
     def accept(plan: TaskPlanSpec) -> DraftedTask:
         checked = validate_plan(plan, vocab)
         problems = grounding_problems(checked, kinds, vocab)
         if problems:
             raise PlanError(problems)
-        return finish_plan(plan, description, backend.name, vocab=vocab, options=options)
+        unused = (*unknown, *unused_names(checked, named))
+        return finish_plan(plan, description, backend.name, vocab=vocab, options=options, not_understood=unused)
 
     return backend.complete(
         system=task_prompt(vocab),

@@ -16,6 +16,7 @@ from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepRef, Step
 from pipette_cli.agent.run import PlanRunner
 from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json
 from pipette_cli.errors import PipetteError
+from pipette_cli.language.understanding import not_understood_line, refused_under_yes
 from pipette_cli.registry import load_registry
 
 
@@ -81,16 +82,8 @@ def show_plan(catalog: CommandCatalog, plan: CheckedPlan) -> None:
     out_console.print(table)
 
 
-def not_understood(plan: CheckedPlan) -> str:
-    """The line that names the request's words the plan does not use ('' if none)."""
-    if not plan.unused:
-        return ""
-    said = ", ".join(repr(w) for w in plan.unused)
-    return f"not understood: {said} (the plan above does not use {'it' if len(plan.unused) == 1 else 'them'})"
-
-
 def show_not_understood(plan: CheckedPlan) -> None:
-    line = not_understood(plan)
+    line = not_understood_line(plan.unused)
     if line:
         err_console.print(f"[yellow]{escape(line)}[/yellow]", soft_wrap=True)
 
@@ -160,11 +153,7 @@ def _handle(
     if not as_json:
         show_not_understood(plan)
     if plan.unused and not answers_only and yes:
-        raise AgentError(
-            f"not run: the request's {', '.join(repr(w) for w in plan.unused)} "
-            f"{'is' if len(plan.unused) == 1 else 'are'} not understood; rephrase the request "
-            "(or leave those words out) to run it with --yes"
-        )
+        raise AgentError(refused_under_yes(plan.unused, "run"))
     if not answers_only and not yes:
         if not (interactive or sys.stdin.isatty()):
             err_console.print(f"[dim]add --yes to run {'it' if len(plan.steps) == 1 else 'them'}[/dim]")

@@ -7,11 +7,13 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
 from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json
 from pipette_cli.errors import plural
+from pipette_cli.language.understanding import not_understood_line, refused_under_yes
 from pipette_cli.registry import load_registry
 
 
@@ -75,6 +77,7 @@ def new_task(
     """
     # deferred: httpx, mink, scipy (~0.4 s)
     from pipette_cli.authoring.backends import make_backend
+    from pipette_cli.authoring.plan import PlanError
     from pipette_cli.authoring.workflow import check_gate, draft_task, plan_summary, write_task
 
     registry = load_registry(STATE.registry_dirs)
@@ -97,6 +100,7 @@ def new_task(
                 "plan": drafted.plan.model_dump(mode="json"),
                 "steps": plan_summary(drafted.composed.checked),
                 "remarks": drafted.remarks,
+                "not_understood": drafted.not_understood,
                 "yaml": drafted.yaml_text,
                 "check": report.as_dict() if report else None,
             }
@@ -123,9 +127,15 @@ def new_task(
             markup=False,
             soft_wrap=True,
         )
+    if drafted.not_understood:
+        err_console.print(
+            f"[yellow]{escape(not_understood_line(drafted.not_understood, 'draft'))}[/yellow]", soft_wrap=True
+        )
     if dry_run:
         err_console.print("dry run: nothing written")
         return
+    if drafted.not_understood and yes:
+        raise PlanError(refused_under_yes(drafted.not_understood, "write"))
     if not _confirm(f"write {target}?", yes):
         err_console.print("not written")
         raise typer.Exit(1)

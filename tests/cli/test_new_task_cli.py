@@ -28,6 +28,20 @@ def test_new_task_writes_a_valid_registry_file(run_cli, tmp_path) -> None:
     assert again.exit_code == 1 and "already registered" in again.stderr
 
 
+def test_words_the_draft_does_not_use_are_listed_and_yes_does_not_write_it(run_cli, tmp_path) -> None:
+    text = "Put the zorbly petri dish on the orbital shaker"
+    result = run_cli("new-task", text, "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and not list(tmp_path.iterdir())
+    said = " ".join(result.stderr.split())
+    assert "not understood: 'zorbly' (the draft above does not use it)" in said
+    assert "not written: the request's 'zorbly' is not understood" in said
+    assert "instruction: Put the zorbly petri dish" in result.stdout  # the draft is shown
+    shown = json.loads(run_cli("new-task", text, "--json", "--dry-run").stdout)
+    assert shown["not_understood"] == ["zorbly"] and shown["plan"]["steps"][0]["action"] == "place"
+    plain = json.loads(run_cli("new-task", TEXT, "--json", "--dry-run").stdout)
+    assert plain["not_understood"] == []
+
+
 def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
     result = run_cli(
         "new-task",

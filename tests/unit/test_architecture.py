@@ -32,6 +32,7 @@ LAYERS: list[set[str]] = [
     {"demos"},
     {"augment", "lerobot", "serving"},
     {"evaluation"},
+    {"language"},
     {"authoring", "demo"},
     {"agent"},
     {"cli", "envs"},
@@ -136,6 +137,94 @@ def test_the_skill_import_check_sees_one(tmp_path: Path) -> None:
         "from pipette_cli.skills.motions import back_off\n"
     )
     assert [line for line, _ in _skill_imports(module)] == [1, 2, 3]
+
+
+LANGUAGE = ROOT / "language"
+FRONT_ENDS = [ROOT / "agent", ROOT / "authoring"]
+SHARED_LANGUAGE = {
+    "phrases": {"phrase_pattern", "find_phrase", "words_of", "singular", "match", "first_match", "Token"},
+    "clauses": {"split_clauses", "pieces", "Separators"},
+    "mentions": {"find_mentions", "name_at", "names_in", "word_tokens"},
+    "lexicon": {"registry_values", "suite_words", "robot_mentions", "short_name", "camel_words", "stem"},
+    "assets": {"load_vocabulary", "Vocabulary", "VocabularySpec"},
+}
+"""What the two language front-ends share, by module of pipette_cli/language/."""
+
+
+def _definitions(path: Path) -> list[tuple[int, str]]:
+    """(line, name) of every module-level function and class."""
+    return [
+        (node.lineno, node.name)
+        for node in ast.parse(path.read_text(), str(path)).body
+        if isinstance(node, ast.FunctionDef | ast.ClassDef)
+    ]
+
+
+def _front_end_modules() -> list[Path]:
+    return sorted(p for root in FRONT_ENDS for p in root.rglob("*.py"))
+
+
+def test_the_language_front_ends_share_one_home_for_each_part() -> None:
+    """One lexicon, one clause splitter, one mention resolver for `pipette agent` and `pipette
+    new-task` (issue 33): each shared part is defined in pipette_cli/language/ and nowhere in
+    agent/ or authoring/, where a grammar keeps only its own rules on top."""
+    for module, names in SHARED_LANGUAGE.items():
+        defined = {name for _, name in _definitions(LANGUAGE / f"{module}.py")}
+        assert names <= defined, f"language/{module}.py lacks {sorted(names - defined)}"
+    shared = {name for names in SHARED_LANGUAGE.values() for name in names} - {"split_clauses", "load_vocabulary"}
+    again = [
+        f"{path.relative_to(ROOT.parent)}:{line}: {name}"
+        for path in _front_end_modules()
+        for line, name in _definitions(path)
+        if name in shared
+    ]
+    assert again == [], "use the part in pipette_cli/language/ instead of a second one"
+
+
+def _splits_without_the_splitter(path: Path) -> list[tuple[int, str]]:
+    """(line, name) of each function named ``split*`` that does not call language's ``split_clauses``."""
+    tree = ast.parse(path.read_text(), str(path))
+    imported = {
+        alias.asname or alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom) and node.module in ("pipette_cli.language.clauses", "pipette_cli.language")
+        for alias in node.names
+    }
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.FunctionDef) and node.name.startswith("split"):
+            called = {
+                (c.func.value.id if isinstance(c.func, ast.Attribute) and isinstance(c.func.value, ast.Name) else "")
+                + ("." if isinstance(c.func, ast.Attribute) else "")
+                + (c.func.attr if isinstance(c.func, ast.Attribute) else getattr(c.func, "id", ""))
+                for c in ast.walk(node)
+                if isinstance(c, ast.Call)
+            }
+            uses = ("split_clauses" in called and "split_clauses" in imported) or any(
+                call.endswith(".split_clauses") and call.split(".")[0] in imported for call in called
+            )
+            if not uses:
+                out.append((node.lineno, node.name))
+    return out
+
+
+def test_front_end_splitters_call_the_one_clause_splitter() -> None:
+    wrong = [
+        f"{path.relative_to(ROOT.parent)}:{line}: {name}"
+        for path in _front_end_modules()
+        for line, name in _splits_without_the_splitter(path)
+    ]
+    assert wrong == [], "split clauses with pipette_cli.language.clauses.split_clauses (the grammar decides `starts`)"
+
+
+def test_the_splitter_check_sees_a_second_splitter(tmp_path: Path) -> None:
+    module = tmp_path / "m.py"
+    module.write_text(
+        "import re\nfrom pipette_cli.language.clauses import split_clauses\n"
+        "def split_steps(text):\n    return re.split(r',', text)\n"
+        "def split_ok(text, s):\n    return split_clauses(text, s)\n"
+    )
+    assert _splits_without_the_splitter(module) == [(3, "split_steps")]
 
 
 def test_the_layer_check_sees_a_wrong_import(tmp_path: Path) -> None:

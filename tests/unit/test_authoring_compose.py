@@ -10,8 +10,8 @@ from pipette_cli.authoring.backends import make_backend
 from pipette_cli.authoring.measure import measure_asset
 from pipette_cli.authoring.parser import parse_description
 from pipette_cli.authoring.plan import TaskPlanSpec, plan_json_schema
-from pipette_cli.authoring.vocabulary import load_vocabulary
 from pipette_cli.authoring.workflow import draft_task
+from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.llm import strict_json_schema
 
 

@@ -71,6 +71,7 @@ def test_offline_plan_matches_and_builds(case, registry) -> None:
     # a namespace of its own: the registry already holds drafts of some of these descriptions
     drafted = draft_task(case["text"], make_backend("offline"), registry=registry, namespace="testgen")
     assert plan_summary(drafted.composed.checked) == case["steps"]
+    assert drafted.not_understood == case.get("not_understood", [])  # listed, never dropped in silence
     spec = drafted.spec
     assert spec.embodiment.robot == case.get("robot", "franka_panda")
     assert len(spec.expert) >= len(case["steps"])  # every step has skill steps

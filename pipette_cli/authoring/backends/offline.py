@@ -8,7 +8,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel
 
 from pipette_cli.authoring.parser import ParseResult, parse_description
-from pipette_cli.authoring.vocabulary import load_vocabulary
+from pipette_cli.language.assets import load_vocabulary
 
 T = TypeVar("T")
 M = TypeVar("M", bound=BaseModel)

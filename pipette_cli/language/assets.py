@@ -16,13 +16,14 @@ import re
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Literal, TypeVar
 
 from pydantic import Field, ValidationError
 
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
-from pipette_cli.authoring.plan import Relation
 from pipette_cli.errors import SpecError
+from pipette_cli.language.mentions import Name, names_in
+from pipette_cli.language.phrases import singular
 from pipette_cli.resources import data_dir, env_paths
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
@@ -32,6 +33,8 @@ S = TypeVar("S", bound=Spec)
 VOCABULARY_FILE = "vocabulary.yaml"
 ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position", "run")
 Phrase = str
+Relation = Literal["next_to", "left_of", "right_of", "behind", "in_front_of"]
+"""Where a placement goes relative to its target, as seen from the robot (left is its left)."""
 
 
 class KindSpec(Spec):
@@ -252,6 +255,15 @@ class Vocabulary:
     def aliases(self) -> list[str]:
         """Alias phrases, longest first (for greedy matching)."""
         return sorted(self.alias_to_kind, key=lambda a: (-len(a.split()), -len(a), a))
+
+    def lemma(self, word: str) -> str:
+        """A word's singular form by this vocabulary's plural rules."""
+        return singular(word, self.words.plurals.irregular, self.words.plurals.singular)
+
+    def names_in(self, text: str) -> list[tuple[Name, str]]:
+        """The asset names ``text`` holds, each with its kind, whole before their parts
+        (:func:`~pipette_cli.language.mentions.names_in`: "pipette tip box" is one tip box)."""
+        return [(name, self.alias_to_kind[name.phrase]) for name in names_in(text, self.aliases(), self.lemma)]
 
     def nearest(self, phrase: str, n: int = 3) -> list[str]:
         """Names closest to an unknown phrase: kind names by spelling, then by shared words."""
