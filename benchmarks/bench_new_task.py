@@ -30,10 +30,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ruamel.yaml import YAML
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.check import check_task
 from pipette_cli.authoring.workflow import draft_task, plan_summary
 from pipette_cli.demos.provenance import git_state
 from pipette_cli.errors import PipetteError
+from pipette_cli.taskgen.check import check_task
 
 
 def load_cases(path: Path) -> list[dict]:

@@ -26,10 +26,10 @@ from pipette_cli.assets.generators import all_generators
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
 from pipette_cli.assets.usd_writer import write_usda
 from pipette_cli.assets.validate import validate_asset
-from pipette_cli.authoring.plan import PlanError as DraftError
 from pipette_cli.errors import AssetError, PipetteError
 from pipette_cli.resources import env_paths
 from pipette_cli.specs.base import Spec
+from pipette_cli.taskgen.plan import PlanError as DraftError
 
 if TYPE_CHECKING:
     from pipette_cli.assets.model import AssetDef

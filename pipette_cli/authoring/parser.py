@@ -1,4 +1,4 @@
-"""The offline backend: an English description -> :class:`~pipette_cli.authoring.plan.TaskPlanSpec`.
+"""The offline backend: an English description -> :class:`~pipette_cli.taskgen.plan.TaskPlanSpec`.
 
 Deterministic: the text is normalised (:mod:`.text`), split into steps at sequence words, each
 step read against the vocabulary (:mod:`.clause`), and the steps assembled into one plan. Objects
@@ -15,17 +15,7 @@ import re
 from dataclasses import dataclass, field
 
 from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
-from pipette_cli.authoring.plan import (
-    INSTRUMENT_ACTIONS,
-    PlanError,
-    PlanObjectSpec,
-    PlanStepSpec,
-    PlanThresholdsSpec,
-    Relation,
-    TaskPlanSpec,
-)
 from pipette_cli.authoring.refusals import ACTION_WORDS, refuse_unknown, refuse_unsupported
-from pipette_cli.authoring.resolve import Wanted, candidates, choose_pair, hole
 from pipette_cli.authoring.text import (
     extract_thresholds,
     has_negation,
@@ -35,6 +25,16 @@ from pipette_cli.authoring.text import (
 from pipette_cli.language.assets import Vocabulary
 from pipette_cli.language.lexicon import robot_mentions
 from pipette_cli.language.understanding import not_understood_line
+from pipette_cli.taskgen.plan import (
+    INSTRUMENT_ACTIONS,
+    PlanError,
+    PlanObjectSpec,
+    PlanStepSpec,
+    PlanThresholdsSpec,
+    Relation,
+    TaskPlanSpec,
+)
+from pipette_cli.taskgen.resolve import Wanted, candidates, choose_pair, hole
 
 HATCH_PARTS = ("lid", "door", "drawer", "sash")
 REMOVING = ("out of", "off", "off of", "out from", "from inside")

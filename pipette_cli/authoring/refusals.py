@@ -9,8 +9,8 @@ from __future__ import annotations
 import re
 
 from pipette_cli.authoring.clause import Clause
-from pipette_cli.authoring.plan import PlanError
 from pipette_cli.language.assets import Vocabulary
+from pipette_cli.taskgen.plan import PlanError
 
 ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over, start"
 

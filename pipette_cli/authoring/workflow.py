@@ -1,7 +1,7 @@
 """``pipette new-task``: description -> plan -> checked plan -> composed task -> YAML -> built task.
 
 The same path serves every backend. The offline backend parses the description into a
-:class:`~pipette_cli.authoring.plan.TaskPlanSpec`; an LLM backend fills the same model through
+:class:`~pipette_cli.taskgen.plan.TaskPlanSpec`; an LLM backend fills the same model through
 structured output. A plan is accepted only when it validates (:mod:`.validate`), composes, renders
 to YAML that the registry's own rules accept, builds, and passes the caller's ``gate`` (``--check``).
 LLM backends are sent every rejection back for a corrected answer, a bounded number of times;
@@ -13,19 +13,14 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pipette_cli.authoring.backends import AuthoringBackend
-from pipette_cli.authoring.check import check_task
 from pipette_cli.authoring.clause import ClauseReader
-from pipette_cli.authoring.compose import ComposedTask, compose
-from pipette_cli.authoring.measure import measure_asset
-from pipette_cli.authoring.plan import PlanError, TaskPlanSpec, plan_json_schema
 from pipette_cli.authoring.refusals import refuse_unknown, refuse_unsupported
-from pipette_cli.authoring.render import environment, render_task
-from pipette_cli.authoring.text import normalise, split_steps
-from pipette_cli.authoring.validate import CheckedPlan, separate_lid, validate_plan
+from pipette_cli.authoring.text import normalise, split_steps, tokenise
 from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.language.assets import Vocabulary, load_vocabulary
 from pipette_cli.registry import Registry, validate_task_document
@@ -33,9 +28,16 @@ from pipette_cli.sim.world import World
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
+from pipette_cli.taskgen.check import check_task
+from pipette_cli.taskgen.compose import ComposedTask, compose
+from pipette_cli.taskgen.measure import measure_asset
+from pipette_cli.taskgen.plan import PlanError, TaskPlanSpec, plan_json_schema
+from pipette_cli.taskgen.render import environment, render_task
+from pipette_cli.taskgen.resolve import Wanted, candidates
+from pipette_cli.taskgen.validate import CheckedPlan, separate_lid, validate_plan
 
 if TYPE_CHECKING:
-    from pipette_cli.authoring.check import CheckReport
+    from pipette_cli.taskgen.check import CheckReport
 
 PROMPT_TEMPLATE = "prompts/task_draft.md.j2"
 Gate = Callable[["DraftedTask"], None]
@@ -118,7 +120,7 @@ def finish_plan(
         PlanError: the plan is impossible (each problem says what to change), the id is taken, or
             the task fails to build or to pass ``gate``.
     """
-    checked = validate_plan(plan, vocab)
+    checked = validate_plan(plan, vocab, partial(resolve_asset, vocab=vocab))
     registry = options.registry
     composed = compose(checked, namespace=options.namespace, task_id=options.task_id, remarks=remarks)
     if not re.match(TASK_ID_PATTERN, composed.task_id):
@@ -149,6 +151,25 @@ def finish_plan(
     if options.gate is not None:
         options.gate(drafted)
     return drafted
+
+
+def resolve_asset(words: str, vocab: Vocabulary) -> str:
+    """An asset id for ``words``: the id itself, or the asset its words name ("the 15 mL falcon tube").
+
+    Raises:
+        PlanError: nothing in the library is called that ("unknown object 'X'; nearest: ...").
+    """
+    if words in vocab.assets:
+        return words
+    text = normalise(words.replace("_", " "), vocab.words)
+    clause = ClauseReader(vocab).read(tokenise(text, vocab))
+    found = [m for m in clause.mentions if not m.is_bench and not m.is_pronoun]
+    if found:
+        m = found[-1]
+        return candidates(vocab, Wanted(m.kind, tuple(m.sizes), tuple(m.modifiers)))[0]
+    nearest = vocab.nearest(words.replace("_", " "))
+    hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
+    raise PlanError(f"unknown object '{words}'; nearest: {hint}")
 
 
 def screen(description: str, vocab: Vocabulary) -> tuple[set[str], dict[str, str], list[str]]:
@@ -223,7 +244,7 @@ def draft_task(
     kinds, named, unknown = screen(description, vocab)
 
     def accept(plan: TaskPlanSpec) -> DraftedTask:
-        checked = validate_plan(plan, vocab)
+        checked = validate_plan(plan, vocab, partial(resolve_asset, vocab=vocab))
         problems = grounding_problems(checked, kinds, vocab)
         if problems:
             raise PlanError(problems)

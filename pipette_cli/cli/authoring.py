@@ -77,8 +77,8 @@ def new_task(
     """
     # deferred: httpx, mink, scipy (~0.4 s)
     from pipette_cli.authoring.backends import make_backend
-    from pipette_cli.authoring.plan import PlanError
     from pipette_cli.authoring.workflow import check_gate, draft_task, plan_summary, write_task
+    from pipette_cli.taskgen.plan import PlanError
 
     registry = load_registry(STATE.registry_dirs)
     engine = make_backend(backend, model=model, base_url=base_url)

@@ -60,7 +60,7 @@ def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
 
 
 def test_check_failure_names_the_stage_and_writes_nothing_without_force(run_cli, tmp_path, monkeypatch) -> None:
-    from pipette_cli.authoring import check
+    from pipette_cli.taskgen import check
 
     monkeypatch.setattr(check, "SOLVE_SHARE", 1.01)  # no expert can pass: the gate must refuse
     result = run_cli("new-task", TEXT, "--check", "--episodes", "1", "--out", tmp_path, "--yes")

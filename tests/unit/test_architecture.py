@@ -33,6 +33,7 @@ LAYERS: list[set[str]] = [
     {"augment", "lerobot", "serving"},
     {"evaluation"},
     {"language"},
+    {"taskgen"},
     {"authoring", "demo"},
     {"agent"},
     {"cli", "envs"},

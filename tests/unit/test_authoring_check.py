@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.check import SolveReport, check_task, solve_check
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.demos.experts import base as experts
 from pipette_cli.specs.task import TaskSpec
+from pipette_cli.taskgen.check import SolveReport, check_task, solve_check
 
 TEXT = "Put the 90 mm petri dish on the orbital shaker"
 

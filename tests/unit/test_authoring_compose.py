@@ -7,12 +7,12 @@ import math
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.measure import measure_asset
 from pipette_cli.authoring.parser import parse_description
-from pipette_cli.authoring.plan import TaskPlanSpec, plan_json_schema
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.llm import strict_json_schema
+from pipette_cli.taskgen.measure import measure_asset
+from pipette_cli.taskgen.plan import TaskPlanSpec, plan_json_schema
 
 
 def drafted(text: str):
@@ -144,7 +144,7 @@ def test_the_llm_schema_names_only_library_assets() -> None:
 
 
 def test_a_tube_that_cannot_stand_starts_in_a_rack_that_fits_it_and_a_beaker_on_the_bench() -> None:
-    from pipette_cli.authoring.measure import stands_alone
+    from pipette_cli.taskgen.measure import stands_alone
 
     assert not stands_alone("conical_tube_15ml") and not stands_alone("pipette_tip_200ul")  # tips over, rolls
     assert stands_alone("beaker_250ml") and stands_alone("petri_dish_90mm")
@@ -190,15 +190,15 @@ def test_a_latched_lid_is_opened_by_its_release_and_closed_from_where_it_pops_to
 
 
 def test_holds_open_tells_a_friction_held_lid_from_one_that_falls_shut() -> None:
-    from pipette_cli.authoring.measure import holds_open
+    from pipette_cli.taskgen.measure import holds_open
 
     assert holds_open("centrifuge_benchtop", "lid_hinge", -40.0)
     assert not holds_open("microcentrifuge", "lid_hinge", -40.0)
 
 
 def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) -> None:
-    from pipette_cli.authoring.layout import Layout
-    from pipette_cli.authoring.plan import PlanError
+    from pipette_cli.taskgen.layout import Layout
+    from pipette_cli.taskgen.plan import PlanError
 
     monkeypatch.setattr(Layout, "place", lambda self, footprint, z, **_: None)
     with pytest.raises(PlanError, match="no place for the 15 mL conical tube rack"):
@@ -220,8 +220,8 @@ def test_a_tube_that_starts_standing_in_a_rack_is_judged_standing_where_it_is_se
 
 @pytest.mark.parametrize("robot", ["franka_panda", "ur5e_robotiq", "agilex_piper"])
 def test_a_flat_plate_wider_than_the_gripper_is_refused_a_dish_is_pinched(robot: str) -> None:
-    from pipette_cli.authoring.validate import grip_problem, grip_width
     from pipette_cli.specs.robot import robot_spec
+    from pipette_cli.taskgen.validate import grip_problem, grip_width
 
     spec = robot_spec(robot)
     plate = measure_asset("well_plate_96")  # SBS footprint: 127.8 x 85.5 mm, pinched across a whole side

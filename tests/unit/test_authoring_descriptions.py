@@ -15,11 +15,11 @@ import pytest
 from ruamel.yaml import YAML
 
 from pipette_cli.authoring.backends import make_backend
-from pipette_cli.authoring.naming import MAX_ID
-from pipette_cli.authoring.plan import PlanError
 from pipette_cli.authoring.workflow import draft_task, plan_summary
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.yaml_io import parse_yaml
+from pipette_cli.taskgen.naming import MAX_ID
+from pipette_cli.taskgen.plan import PlanError
 
 CASES = YAML(typ="safe").load((Path(__file__).parents[1] / "fixtures" / "authoring" / "descriptions.yaml").read_text())[
     "cases"

@@ -4,16 +4,16 @@ and an instrument's run: its start button, as the protocols do (``protocols/Spin
 
 from __future__ import annotations
 
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo, measure_asset
-from pipette_cli.authoring.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
-from pipette_cli.authoring.plan import PlanError, PlanStepSpec
-from pipette_cli.authoring.scene import HANDLES, PART_JOINTS, hatch_joint, r
-from pipette_cli.authoring.stage_base import Stage, StageBase
-from pipette_cli.authoring.validate import separate_lid
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
 from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, RunSpec
+from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, measure_asset
+from pipette_cli.taskgen.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
+from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
+from pipette_cli.taskgen.scene import HANDLES, PART_JOINTS, hatch_joint, r
+from pipette_cli.taskgen.stage_base import Stage, StageBase
+from pipette_cli.taskgen.validate import separate_lid
 
 RUN_SECONDS = 10.0
 """Length of a drafted instrument's run (its start button's)."""
@@ -22,7 +22,7 @@ RAN_S = 2.0
 
 
 class HatchStages(StageBase):
-    """The open and close stages of :class:`~pipette_cli.authoring.stages.StageBuilder`."""
+    """The open and close stages of :class:`~pipette_cli.taskgen.stages.StageBuilder`."""
 
     def _open(self, step: PlanStepSpec) -> Stage:
         return self._hatch(step, opening=True)

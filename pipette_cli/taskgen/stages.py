@@ -26,24 +26,24 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipette_cli.authoring.fit import check_hole_fit, fit_radius
-from pipette_cli.authoring.hatch_stages import HatchStages
-from pipette_cli.authoring.layout import Footprint
-from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.plan import PlanError, PlanStepSpec
-from pipette_cli.authoring.relation_stages import RelationStages
-from pipette_cli.authoring.scene import (
-    hatch_joint,
-    open_value,
-    r,
-    receiving_site,
-)
-from pipette_cli.authoring.stage_base import Stage, reference_point
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
 from pipette_cli.specs.mechanisms import ButtonReleaseSpec
+from pipette_cli.taskgen.fit import check_hole_fit, fit_radius
+from pipette_cli.taskgen.hatch_stages import HatchStages
+from pipette_cli.taskgen.layout import Footprint
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
+from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
+from pipette_cli.taskgen.relation_stages import RelationStages
+from pipette_cli.taskgen.scene import (
+    hatch_joint,
+    open_value,
+    r,
+    receiving_site,
+)
+from pipette_cli.taskgen.stage_base import Stage, reference_point
 
 SLOTS = ("cuvette_slot",)
 """Receptacles an object goes *into* (``insert_into``); the others are surfaces it is set on."""

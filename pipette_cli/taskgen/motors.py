@@ -13,9 +13,9 @@
 
 from __future__ import annotations
 
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo
 from pipette_cli.specs.base import BoundSpec
 from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, MotorSpec
+from pipette_cli.taskgen.measure import AssetGeometry, JointInfo
 
 OPEN_SHARE = 0.95
 """The motor opens the part to this share of its joint's open limit."""

@@ -96,7 +96,7 @@ class PlanStepSpec(Spec):
         """``target`` of a step that must have one (place, position).
 
         Raises:
-            PlanError: the step has none (:func:`~pipette_cli.authoring.validate.validate_plan`
+            PlanError: the step has none (:func:`~pipette_cli.taskgen.validate.validate_plan`
                 refuses such plans first, so this is a caller that skipped validation).
         """
         if self.target is None:

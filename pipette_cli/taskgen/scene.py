@@ -20,13 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.authoring.layout import Footprint, Layout, PlacedObject
-from pipette_cli.authoring.measure import AssetGeometry, JointInfo, holds_open, measure_asset, stands_alone
-from pipette_cli.authoring.motors import release_angle
-from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
-from pipette_cli.authoring.resolve import choose_pair, holders_that_fit
-from pipette_cli.authoring.validate import CheckedPlan, separate_lid
 from pipette_cli.language.assets import load_vocabulary
+from pipette_cli.taskgen.layout import Footprint, Layout, PlacedObject
+from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, measure_asset, stands_alone
+from pipette_cli.taskgen.motors import release_angle
+from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
+from pipette_cli.taskgen.resolve import choose_pair, holders_that_fit
+from pipette_cli.taskgen.validate import CheckedPlan, separate_lid
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")

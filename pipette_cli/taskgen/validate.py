@@ -1,8 +1,9 @@
 """One validator for every backend's plan: assets exist, each step can be done with those objects
 by this robot, and the roles agree with the steps.
 
-A plan from an LLM may name an asset by its words ("15 mL falcon tube"); they are resolved through
-the same vocabulary as the offline parser's. Every problem is one sentence saying what to change,
+A plan from an LLM may name an asset by its words ("15 mL falcon tube"); the caller resolves them
+(``resolve``: :func:`pipette_cli.authoring.workflow.resolve_asset` reads them as the offline parser
+does), so no words are read here. Every problem is one sentence saying what to change,
 so an LLM backend can send it back for a corrected answer. What no plan can fix (a plate wider
 than the gripper opens) is said the same way.
 """
@@ -10,16 +11,14 @@ than the gripper opens) is said the same way.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from pipette_cli.authoring.clause import ClauseReader
-from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
-from pipette_cli.authoring.resolve import Wanted, candidates
-from pipette_cli.authoring.text import normalise, tokenise
 from pipette_cli.language.assets import AssetInfo, Vocabulary
 from pipette_cli.skills.grasp_candidates import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN, ROUND
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
+from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
 
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 
@@ -49,25 +48,6 @@ class CheckedPlan:
 
     def asset(self, name: str) -> str:
         return self.objects[name].asset
-
-
-def resolve_asset(words: str, vocab: Vocabulary) -> str:
-    """An asset id for ``words``: the id itself, or the asset its words name ("the 15 mL falcon tube").
-
-    Raises:
-        PlanError: nothing in the library is called that ("unknown object 'X'; nearest: ...").
-    """
-    if words in vocab.assets:
-        return words
-    text = normalise(words.replace("_", " "), vocab.words)
-    clause = ClauseReader(vocab).read(tokenise(text, vocab))
-    found = [m for m in clause.mentions if not m.is_bench and not m.is_pronoun]
-    if found:
-        m = found[-1]
-        return candidates(vocab, Wanted(m.kind, tuple(m.sizes), tuple(m.modifiers)))[0]
-    nearest = vocab.nearest(words.replace("_", " "))
-    hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
-    raise PlanError(f"unknown object '{words}'; nearest: {hint}")
 
 
 def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
@@ -167,6 +147,15 @@ def separate_lid(geom: AssetGeometry) -> str | None:
     return m.group(1) if m else None
 
 
+def _asset_id(words: str, vocab: Vocabulary, resolve: Callable[[str], str] | None) -> str:
+    if words in vocab.assets:
+        return words
+    if resolve is not None:
+        return resolve(words)
+    nearest = vocab.closest(words)
+    raise PlanError(f"unknown asset id '{words}'; nearest: {', '.join(nearest) or 'see `pipette assets list`'}")
+
+
 def _roles(plan: TaskPlanSpec) -> dict[str, str]:
     roles: dict[str, str] = {}
     for s in plan.steps:
@@ -181,8 +170,9 @@ def _roles(plan: TaskPlanSpec) -> dict[str, str]:
     return roles
 
 
-def validate_plan(plan: TaskPlanSpec, vocab: Vocabulary) -> CheckedPlan:
-    """Check ``plan`` against the asset library and the robot.
+def validate_plan(plan: TaskPlanSpec, vocab: Vocabulary, resolve: Callable[[str], str] | None = None) -> CheckedPlan:
+    """Check ``plan`` against the asset library and the robot; ``resolve`` turns an object's
+    ``asset`` that is no library id into one (without it, only ids are accepted).
 
     Raises:
         PlanError: every problem found, each saying what to change.
@@ -194,7 +184,7 @@ def validate_plan(plan: TaskPlanSpec, vocab: Vocabulary) -> CheckedPlan:
     fixed: list[PlanObjectSpec] = []
     for i, obj in enumerate(plan.objects):
         try:
-            asset = resolve_asset(obj.asset, vocab)
+            asset = _asset_id(obj.asset, vocab, resolve)
         except PlanError as exc:
             problems.append(f"objects.{i}.asset: {exc}")
             continue

@@ -13,8 +13,8 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 
-from pipette_cli.authoring.plan import PlanStepSpec
-from pipette_cli.authoring.validate import CheckedPlan
+from pipette_cli.taskgen.plan import PlanStepSpec
+from pipette_cli.taskgen.validate import CheckedPlan
 
 MAX_ID = 48
 """Characters of a generated id under the default namespace (``generated/...-v1``)."""

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pipette_cli.authoring.layout import PlacedObject
-from pipette_cli.authoring.measure import AssetGeometry, measure_asset
-from pipette_cli.authoring.plan import PlanStepSpec, PlanThresholdsSpec
-from pipette_cli.authoring.scene import SceneBuilder, covered
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.mechanisms import ButtonReleaseSpec, InstrumentSpec
+from pipette_cli.taskgen.layout import PlacedObject
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
+from pipette_cli.taskgen.plan import PlanStepSpec, PlanThresholdsSpec
+from pipette_cli.taskgen.scene import SceneBuilder, covered
 
 
 @dataclass

@@ -16,8 +16,8 @@ from typing import Any
 import jinja2
 from pydantic import BaseModel
 
-from pipette_cli.authoring.compose import ComposedTask
 from pipette_cli.resources import data_dir
+from pipette_cli.taskgen.compose import ComposedTask
 
 DRAFT_TEMPLATE = "tasks/_draft.yaml.j2"
 _PLAIN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _./()%+-]*$")

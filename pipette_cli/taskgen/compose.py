@@ -14,17 +14,17 @@ from typing import Any
 
 import numpy as np
 
-from pipette_cli.authoring.layout import PlacedObject
-from pipette_cli.authoring.naming import stage_instruction, step_name
-from pipette_cli.authoring.naming import task_id as derive_id
-from pipette_cli.authoring.plan import PlanError
-from pipette_cli.authoring.scene import SceneBuilder, r
-from pipette_cli.authoring.stages import Stage, StageBuilder
-from pipette_cli.authoring.validate import CheckedPlan
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs.expert import StepSpec
 from pipette_cli.specs.mechanisms import InstrumentSpec, MechanismSpec
 from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
+from pipette_cli.taskgen.layout import PlacedObject
+from pipette_cli.taskgen.naming import stage_instruction, step_name
+from pipette_cli.taskgen.naming import task_id as derive_id
+from pipette_cli.taskgen.plan import PlanError
+from pipette_cli.taskgen.scene import SceneBuilder, r
+from pipette_cli.taskgen.stages import Stage, StageBuilder
+from pipette_cli.taskgen.validate import CheckedPlan
 
 CATEGORY = {
     "pick": "consumable_handling",

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pipette_cli.authoring.plan import PlanError
 from pipette_cli.language.assets import Vocabulary, size_class
+from pipette_cli.taskgen.plan import PlanError
 
 VARIANTS = ("nocap", "open", "skirted", "quartz", "large", "small", "carousel", "linear", "deep")
 """Id words of variants a description must ask for ("uncapped", "skirted", "quartz"...)."""

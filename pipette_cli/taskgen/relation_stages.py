@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipette_cli.authoring.plan import PlanStepSpec
-from pipette_cli.authoring.scene import r
-from pipette_cli.authoring.stage_base import Stage, StageBase, reference_point
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
+from pipette_cli.taskgen.plan import PlanStepSpec
+from pipette_cli.taskgen.scene import r
+from pipette_cli.taskgen.stage_base import Stage, StageBase, reference_point
 
 REACH = 0.12
 """Metres past the reference's side the region extends (the object's own width added)."""
@@ -31,7 +31,7 @@ WORDS = {
 
 
 class RelationStages(StageBase):
-    """The relation placements of :class:`~pipette_cli.authoring.stages.StageBuilder`."""
+    """The relation placements of :class:`~pipette_cli.taskgen.stages.StageBuilder`."""
 
     def _beside(self, step: PlanStepSpec) -> Stage:
         item, ref = step.object, step.required_target()
