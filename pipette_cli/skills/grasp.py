@@ -27,9 +27,6 @@ import numpy as np
 
 from pipette_cli.skills.frames import UP
 from pipette_cli.skills.grasp_candidates import (
-    FLAT,
-    GRIP_MARGIN,
-    LONG,
     Grasp,
     at_site,
     grasp_point,
@@ -38,6 +35,7 @@ from pipette_cli.skills.grasp_candidates import (
     side_candidates,
     top_candidates,
 )
+from pipette_cli.skills.grip import FLAT, LONG, fits_gripper
 from pipette_cli.skills.moves import COMFORT, SkillFailure
 from pipette_cli.skills.runtime import SkillContext
 
@@ -99,7 +97,7 @@ def plan_grasp(
         at is None and shape.half[shape.vertical_axis()] < np.max(shape.half) * 0.6 and (long_ or not low)
     )
     point, closing, width, round_ = grasp_point(ctx, name, shape, at, height, lying, above)
-    if width > opening - GRIP_MARGIN:
+    if not fits_gripper(width, opening):
         raise SkillFailure(
             f"no grasp for {name!r}: it is {width * 1000:.0f} mm across where it would be held; the "
             f"{ctx.robot.name}'s gripper opens {opening * 1000:.0f} mm"

@@ -14,23 +14,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame
+from pipette_cli.skills.grip import FINGERTIP_LIFT, GRIP_MARGIN, PALM_MARGIN, ROUND
 from pipette_cli.skills.moves import SkillFailure
 from pipette_cli.skills.runtime import SkillContext
 from pipette_cli.skills.scene import Shape
 
-GRIP_MARGIN = 0.006
-"""Metres the open gripper must exceed the object's width by."""
-PALM_MARGIN = 0.008
-"""Metres kept between the object's top and the palm."""
-FINGERTIP_LIFT = 0.012
-"""Lowest tcp height above the supporting surface for a straight-down grasp (fingertips' reach)."""
-FLAT = 0.03
-"""Objects lower than this are pinched at the rim rather than taken around an axis (unless long)."""
-LONG = 2.5
-"""A low object whose footprint is this many times longer than wide (a syringe, tweezers, a rod
-lying on the bench) is taken across its long axis from above, not pinched at a rim."""
-ROUND = 0.006
-"""Metres within which a flat object's footprint sides count as equal: round (a dish), not a plate."""
 PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
 PINCH_TURNS = (35.0, -35.0)

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from pipette_cli.language.assets import AssetInfo, Vocabulary
-from pipette_cli.skills.grasp_candidates import FINGERTIP_LIFT, FLAT, GRIP_MARGIN, PALM_MARGIN, ROUND
+from pipette_cli.skills.grip import fits_gripper, held_width
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
 from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
 from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
@@ -51,35 +51,20 @@ class CheckedPlan:
 
 
 def grip_width(geom: AssetGeometry, robot: RobotSpec) -> float | None:
-    """Metres across the object where the skills' grasp (:mod:`pipette_cli.skills.grasp`) would take
-    it, from its resting collision boxes; None for a flat round object (a dish), which is pinched
-    across a chord near its rim as narrow as the gripper needs. A flat rectangle (a plate, a slide) is
-    pinched across a whole side: its narrower one at best."""
-    boxes = geom.boxes
-    low, high = geom.low, geom.high
-    if float(high[2] - low[2]) < FLAT:
-        footprint = high[:2] - low[:2]
-        return None if abs(float(footprint[0] - footprint[1])) < ROUND else float(min(footprint))
-    if geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2]):
-        return float(min(high[:2] - low[:2]))  # lying: across its long axis
-    top = float(high[2])
-    z = (
-        geom.origin_height + float(geom.sites["grasp"][2])
-        if "grasp" in geom.sites
-        else float(low[2]) + 0.6 * (top - float(low[2]))
+    """Metres across the object where the skills' grasp would take it
+    (:func:`pipette_cli.skills.grip.held_width`); None for a flat round object."""
+    lying = geom.semantics.get("upright", True) is False or any(abs(a) > 45.0 for a in geom.rest_euler_deg[:2])
+    grasp_z = geom.origin_height + float(geom.sites["grasp"][2]) if "grasp" in geom.sites else None
+    return held_width(
+        geom.boxes, geom.low, geom.high, finger_depth=robot.gripper.finger_depth, grasp_z=grasp_z, lying=lying
     )
-    z = min(max(z, top - (robot.gripper.finger_depth - PALM_MARGIN), float(low[2]) + FINGERTIP_LIFT), top - 0.004)
-    slab = boxes[(boxes[:, 2] <= z + 0.008) & (boxes[:, 5] >= z - 0.008)]
-    if not len(slab):
-        slab = boxes
-    return float(min(slab[:, 3:5].max(axis=0) - slab[:, 0:2].min(axis=0)))
 
 
 def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None:
     """Why ``robot``'s gripper cannot hold the object, or None."""
     width = grip_width(geom, robot)
     opening = robot.gripper.max_opening
-    if width is None or width <= opening - GRIP_MARGIN:
+    if width is None or fits_gripper(width, opening):
         return None
     return (
         f"impossible request: the {name} is {width * 1000:.0f} mm across where it would be held; the "
