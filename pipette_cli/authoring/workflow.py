@@ -25,7 +25,7 @@ from pipette_cli.errors import PipetteError, SimError, SpecError
 from pipette_cli.language.assets import Vocabulary, load_vocabulary
 from pipette_cli.registry import Registry, validate_task_document
 from pipette_cli.sim.world import World
-from pipette_cli.specs.robot import robot_names
+from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_names
 from pipette_cli.specs.task import TASK_ID_PATTERN, TaskSpec
 from pipette_cli.specs.yaml_io import dump_yaml, parse_yaml
 from pipette_cli.taskgen.check import check_task
@@ -55,6 +55,8 @@ class DraftedTask:
     yaml_text: str
     spec: TaskSpec
     remarks: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    """What the user is told about choices made for them (another robot than the default)."""
     not_understood: list[str] = field(default_factory=list)
     """Words of the description the plan does not use: shown with the draft; ``--yes`` does not write it."""
     report: CheckReport | None = None
@@ -210,6 +212,34 @@ def grounding_problems(checked: CheckedPlan, kinds: set[str], vocab: Vocabulary)
     return problems
 
 
+def on_a_robot_that_can(plan: TaskPlanSpec, finish: Callable[[TaskPlanSpec], DraftedTask]) -> DraftedTask:
+    """``finish(plan)``; when the plan names no robot and the default cannot do it for a limit of
+    its own (reach, gripper opening, payload), the first registered robot that can, said in the
+    draft's notes.
+
+    Raises:
+        PlanError: the default robot's problem when it is no robot limit; else every robot's limit.
+    """
+    try:
+        return finish(plan)
+    except PlanError as exc:
+        if plan.robot is not None or not exc.robot_limit:
+            raise
+        tried = [(DEFAULT_ROBOT, exc.problems[0])]
+    for robot in (r for r in robot_names() if r != DEFAULT_ROBOT):
+        try:
+            drafted = finish(plan.model_copy(update={"robot": robot}))
+        except PlanError as exc:
+            tried.append((robot, exc.problems[0]))
+            continue
+        drafted.notes.append(
+            f"drafted for the {robot}, the first robot that can: the {tried[0][0]} cannot ({tried[0][1]})"
+        )
+        return drafted
+    said = "; ".join(f"the {robot}: {problem}" for robot, problem in tried)
+    raise PlanError(f"no registered robot can do this: {said}", robot_limit=True)
+
+
 def draft_task(
     description: str,
     backend: AuthoringBackend,
@@ -232,14 +262,17 @@ def draft_task(
     options = DraftOptions(namespace=namespace, task_id=task_id, registry=registry, build=build, gate=gate)
     parsed = backend.parse_task(description)
     if parsed is not None:
-        return finish_plan(
+        return on_a_robot_that_can(
             parsed.plan,
-            description,
-            backend.name,
-            vocab=vocab,
-            options=options,
-            remarks=tuple(parsed.remarks),
-            not_understood=tuple(parsed.not_understood),
+            partial(
+                finish_plan,
+                description=description,
+                backend=backend.name,
+                vocab=vocab,
+                options=options,
+                remarks=tuple(parsed.remarks),
+                not_understood=tuple(parsed.not_understood),
+            ),
         )
     kinds, named, unknown = screen(description, vocab)
 
@@ -249,7 +282,15 @@ def draft_task(
         if problems:
             raise PlanError(problems)
         unused = (*unknown, *unused_names(checked, named))
-        return finish_plan(plan, description, backend.name, vocab=vocab, options=options, not_understood=unused)
+        finish = partial(
+            finish_plan,
+            description=description,
+            backend=backend.name,
+            vocab=vocab,
+            options=options,
+            not_understood=unused,
+        )
+        return on_a_robot_that_can(plan, finish)
 
     return backend.complete(
         system=task_prompt(vocab),

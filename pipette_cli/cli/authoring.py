@@ -100,6 +100,7 @@ def new_task(
                 "plan": drafted.plan.model_dump(mode="json"),
                 "steps": plan_summary(drafted.composed.checked),
                 "remarks": drafted.remarks,
+                "notes": drafted.notes,
                 "not_understood": drafted.not_understood,
                 "yaml": drafted.yaml_text,
                 "check": report.as_dict() if report else None,
@@ -127,6 +128,8 @@ def new_task(
             markup=False,
             soft_wrap=True,
         )
+    for note in drafted.notes:
+        err_console.print(note, markup=False, soft_wrap=True)
     if drafted.not_understood:
         err_console.print(
             f"[yellow]{escape(not_understood_line(drafted.not_understood, 'draft'))}[/yellow]", soft_wrap=True

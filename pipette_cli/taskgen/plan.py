@@ -56,11 +56,13 @@ MAX_STEPS = 5
 class PlanError(SpecError):
     """A plan (or a description) that cannot become a task. ``problems`` has one sentence per
     problem, each saying what to change; ``final`` marks refusals no rewording can fix (liquids,
-    screwing caps): an LLM backend is not asked again."""
+    screwing caps): an LLM backend is not asked again; ``robot_limit`` marks problems that are all
+    limits of the robot (reach, gripper opening, payload): another robot may do the task."""
 
-    def __init__(self, problems: list[str] | str, *, final: bool = False) -> None:
+    def __init__(self, problems: list[str] | str, *, final: bool = False, robot_limit: bool = False) -> None:
         super().__init__(problems)
         self.final = final
+        self.robot_limit = robot_limit
 
 
 class PlanObjectSpec(Spec):

@@ -496,5 +496,6 @@ class SceneBuilder:
         return PlanError(
             f"impossible layout: found no place for the {self.human(name)} on the bench within the "
             f"{self.robot}'s comfortable reach ({ws.min_reach:.2f}-{ws.max_reach:.2f} m) clear of the robot "
-            "and the other objects; try fewer objects or another robot ('with the UR5e')"
+            "and the other objects; try fewer objects or another robot ('with the UR5e')",
+            robot_limit=True,
         )

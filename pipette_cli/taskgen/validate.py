@@ -72,25 +72,29 @@ def grip_problem(geom: AssetGeometry, robot: RobotSpec, name: str) -> str | None
     )
 
 
-def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], robot: RobotSpec) -> list[str]:
+def _check_step(
+    i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], robot: RobotSpec
+) -> tuple[list[str], list[str]]:
+    """The step's problems, and separately those that are limits of ``robot`` (opening, payload)."""
     where = f"steps.{i} ({step.action} {step.object})"
     obj = objects[step.object]
     info = obj.info
     human = info.human_name()
     problems: list[str] = []
+    limits: list[str] = []
     if step.action in ("pick", "place", "remove", "position"):
         if not info.graspable:
             problems.append(
                 f"{where}: impossible request: the {human} is fixed to the bench ({info.category}); the robot "
                 f"cannot move it"
             )
-            return problems
+            return problems, limits
         grip = grip_problem(measure_asset(obj.asset), robot, human)
         if grip:
-            problems.append(f"{where}: {grip}")
+            limits.append(f"{where}: {grip}")
         mass = float(info.semantics.get("mass", 0.0))
         if mass > robot.payload_kg:
-            problems.append(
+            limits.append(
                 f"{where}: the {human} weighs {mass:.1f} kg, over the {robot.name}'s {robot.payload_kg} kg payload"
             )
     if step.action in ("place", "position") and step.target is None:
@@ -114,7 +118,7 @@ def _check_step(i: int, step: PlanStepSpec, objects: dict[str, CheckedObject], r
         )
     if step.relation is not None and step.action != "place":
         problems.append(f"{where}: a relation ({step.relation}) only says where a placement goes")
-    return problems
+    return problems, limits
 
 
 def _openable(asset: str, part: str | None) -> bool:
@@ -178,8 +182,11 @@ def validate_plan(plan: TaskPlanSpec, vocab: Vocabulary, resolve: Callable[[str]
         objects[obj.name] = CheckedObject(spec, asset, vocab.assets[asset])
     if problems:
         raise PlanError(problems)
+    limits: list[str] = []
     for i, step in enumerate(plan.steps):
-        problems += _check_step(i, step, objects, robot)
-    if problems:
-        raise PlanError(problems)
+        step_problems, step_limits = _check_step(i, step, objects, robot)
+        problems += step_problems
+        limits += step_limits
+    if problems or limits:
+        raise PlanError([*problems, *limits], robot_limit=not problems)
     return CheckedPlan(plan.model_copy(update={"objects": fixed}), objects, robot)

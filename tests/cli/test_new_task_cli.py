@@ -42,6 +42,22 @@ def test_words_the_draft_does_not_use_are_listed_and_yes_does_not_write_it(run_c
     assert plain["not_understood"] == []
 
 
+def test_a_sentence_the_default_robot_cannot_do_goes_to_the_first_robot_that_can(run_cli) -> None:
+    shown = json.loads(
+        run_cli("new-task", "Hold the multichannel pipette above the reagent reservoir", "--json", "--dry-run").stdout
+    )
+    assert "robot: ur5e_robotiq" in shown["yaml"]
+    assert (
+        shown["notes"] and "the franka_panda cannot" in shown["notes"][0] and "gripper opens 80 mm" in shown["notes"][0]
+    )
+    named = run_cli("new-task", "Hold the multichannel pipette above the reagent reservoir with the Panda", "--dry-run")
+    assert named.exit_code == 1 and "gripper opens 80 mm" in " ".join(named.stderr.split())  # a named robot is kept
+    plate = run_cli("new-task", "Put the 96-well plate on the orbital shaker", "--dry-run")
+    said = " ".join(plate.stderr.split())
+    assert plate.exit_code == 1 and "no registered robot can do this" in said
+    assert all(robot in said for robot in ("franka_panda", "agilex_piper", "ur5e_robotiq"))
+
+
 def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
     result = run_cli(
         "new-task",
