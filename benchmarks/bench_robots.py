@@ -23,16 +23,13 @@ from pathlib import Path
 os.environ.setdefault("MUJOCO_GL", "egl")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pipette_cli.demos.check import check_expert
+from pipette_cli.demos.check import LIMIT, check_expert
 from pipette_cli.demos.embodiment import on_robot, resolve_robot
 from pipette_cli.demos.provenance import git_state
 from pipette_cli.errors import InfeasibleTask
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.robot import robot_names
 from pipette_cli.specs.task import TaskSpec
-
-LIMIT = re.compile(r"\): ((?:reach|payload|gripper): .*)$")
-"""An expert failure naming a physical limit (the skills' refusals: ``step N (...): reach: ...``)."""
 
 
 def run_cell(task: TaskSpec, robot: str, episodes: int, seed: int) -> dict:

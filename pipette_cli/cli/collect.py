@@ -59,7 +59,7 @@ def collect(
 
     Example: pipette collect PickUpTestTube --robot ur5e_2f85 --episodes 50 --out tube_ur5e.h5 --workers 4
     """
-    spec = load_task(task_id, robot)
+    spec = load_task(task_id, robot, check_limits=True)
     if source is Source.teleop and workers != 1:
         raise PipetteError("--workers applies to --source scripted only; teleoperation runs one episode at a time")
 

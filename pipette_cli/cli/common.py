@@ -15,6 +15,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.text import Text
 
+from pipette_cli.demos.check import placed_on
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.progress import ProgressLines
 from pipette_cli.registry import load_registry
@@ -91,9 +92,11 @@ RobotOption = Annotated[
 ]
 
 
-def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
+def load_task(task_id: str, robot: str | None = None, *, check_limits: bool = False) -> TaskSpec:
     """The registry's task ``task_id``, placed on ``robot`` when one is given (a line on stderr says
-    where its base moved, if it did).
+    where its base moved, if it did); with ``check_limits`` (before recording or running episodes)
+    a robot that cannot do the task for a limit of its own is refused up front
+    (:func:`~pipette_cli.demos.check.placed_on`).
 
     Raises:
         TaskNotFound: unknown task.
@@ -104,7 +107,7 @@ def load_task(task_id: str, robot: str | None = None) -> TaskSpec:
     if robot is None:
         return task
 
-    placed = on_robot(task, robot)
+    placed = placed_on(task, robot) if check_limits else on_robot(task, robot)
     before, after = task.embodiment.base.pos, placed.embodiment.base.pos
     if placed.embodiment.robot != task.embodiment.robot and before != after:
         err_console.print(

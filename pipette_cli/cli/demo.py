@@ -35,7 +35,7 @@ def demo(
 
     Example: pipette demo --robot ur5e_2f85 --out demo_run
     """
-    task = load_task(task_id, robot)
+    task = load_task(task_id, robot, check_limits=True)
     report = run_demo(
         task,
         out,

@@ -19,8 +19,8 @@ from pipette_cli.cli.common import (
     spec_default,
     spec_help,
 )
+from pipette_cli.demos.check import placed_on
 from pipette_cli.demos.collect import deferred_interrupt
-from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.errors import PipetteError, plural
 from pipette_cli.evaluation.settings import (
     ADHOC_EPISODES,
@@ -199,7 +199,7 @@ def _plan(
     if suite_id is None:
         if task_id is None:
             raise PipetteError("name a task or a suite: pipette eval TASK ... or pipette eval --suite ID ...")
-        task = on_robot(registry.get(task_id), robot)
+        task = placed_on(registry.get(task_id), robot)
         plan = adhoc_plan(task, ADHOC_EPISODES if episodes is None else episodes, ADHOC_SEED if seed is None else seed)
         return [TaskRun(task, out, tuple(plan))], EvalSettings(config, image_size, dataset_version=dataset_version)
     fixed = [
@@ -215,7 +215,7 @@ def _plan(
     tasks = None if task_id is None else [registry.get(task_id).id]
     by_task = episode_plan(suite.spec, tasks)
     runs = [
-        TaskRun(on_robot(registry.get(t), robot), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()
+        TaskRun(placed_on(registry.get(t), robot), out / t.replace("/", "_"), tuple(eps)) for t, eps in by_task.items()
     ]
     settings = EvalSettings(config, suite.spec.image_size, suite.spec.render_profile, dataset_version, suite.record())
     return runs, settings

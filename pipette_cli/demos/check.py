@@ -9,13 +9,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
+from pipette_cli.errors import InfeasibleTask
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.world import World
 from pipette_cli.specs.task import TaskSpec, stage_specs
 
 EXPERT_FAILED = "expert_failed"
 """Failure reason of an episode whose expert gave up (a skill step could not do its job)."""
+LIMIT = re.compile(r"\): ((?:reach|payload|gripper): .*)$")
+"""An expert failure naming a limit of the robot that a skill found before moving
+(``step N (...): reach: ...``): another robot may not have it."""
+LIMIT_SEEDS = (0, 1, 2)
+"""Seeds on which the expert must stop at a limit of the robot for the robot to be refused."""
 
 
 @dataclass
@@ -100,3 +107,37 @@ def check_expert(task: TaskSpec, episodes: int, seed: int = 0) -> ExpertReport:
     report.seconds = time.perf_counter() - start
     report.mean_steps = steps / max(1, report.episodes)
     return report
+
+
+def robot_limit(task: TaskSpec, seeds: tuple[int, ...] = LIMIT_SEEDS) -> str | None:
+    """The limit of the task's robot that rules the task out ("reach: the push on ... starts 0.61 m
+    above the agilex_piper's base ..."): the expert, run without rendering, stops naming one on
+    every seed of ``seeds``; None as soon as a seed does not."""
+    world = World(task)
+    found: str | None = None
+    for seed in seeds:
+        _, failure = run_expert_episode(world, seed)
+        limit = LIMIT.search(failure or "")
+        if limit is None:
+            return None
+        found = found or limit.group(1)
+    return found
+
+
+def placed_on(task: TaskSpec, robot: str | None) -> TaskSpec:
+    """``task`` on ``robot`` (:func:`~pipette_cli.demos.embodiment.on_robot`), checked up front where
+    the robot is not the task's own: a robot whose expert stops at a limit of its own on every seed
+    of :data:`LIMIT_SEEDS` is refused before any episode is recorded or evaluated.
+
+    Raises:
+        SimError: unknown robot.
+        InfeasibleTask: the robot cannot do the task (payload, reach, gripper: the limit named).
+    """
+    placed = on_robot(task, robot)
+    if placed.embodiment.robot == task.embodiment.robot:
+        return placed
+    limit = robot_limit(placed)
+    if limit is not None:
+        seeds = f"{LIMIT_SEEDS[0]}-{LIMIT_SEEDS[-1]}"
+        raise InfeasibleTask(f"{task.id} on the {placed.embodiment.robot}: {limit} (its expert, seeds {seeds})")
+    return placed

@@ -492,10 +492,9 @@ class SceneBuilder:
         return free[0]
 
     def _no_room(self, name: str) -> PlanError:
-        ws = self.ws
         return PlanError(
-            f"impossible layout: found no place for the {self.human(name)} on the bench within the "
-            f"{self.robot}'s comfortable reach ({ws.min_reach:.2f}-{ws.max_reach:.2f} m) clear of the robot "
+            f"impossible layout: found no place for the {self.human(name)} on the bench within the {self.robot}'s"
+            f" comfortable reach ({self.ws.min_reach:.2f}-{self.ws.max_reach:.2f} m) clear of the robot "
             "and the other objects; try fewer objects or another robot ('with the UR5e')",
             robot_limit=True,
         )

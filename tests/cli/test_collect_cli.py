@@ -85,6 +85,28 @@ def test_a_file_of_another_task_or_image_size_is_refused_untouched(run_cli, wigg
     assert out.read_bytes() == before
 
 
+def test_a_robot_that_cannot_do_the_task_is_refused_before_any_episode(run_cli, tmp_path: Path) -> None:
+    """The Piper cannot reach the centrifuge lid's edge (0.61 m above its base): its expert stops
+    naming that limit before moving, so collect refuses up front instead of recording failures."""
+    out = tmp_path / "piper.h5"
+    result = run_cli("collect", "CloseCentrifugeLid", "--robot", "piper", "--episodes", "2", "--out", out)
+    said = " ".join(result.stderr.split())
+    assert result.exit_code == 1 and not out.exists(), result.stderr
+    assert "pipette/CloseCentrifugeLid-v1 on the agilex_piper: reach: the push on 'centrifuge/lid_hinge'" in said
+    assert "(its expert, seeds 0-2)" in said
+
+
+def test_robot_limit_is_found_only_where_every_seed_stops_at_one() -> None:
+    from pipette_cli.demos.check import robot_limit
+    from pipette_cli.demos.embodiment import on_robot
+    from pipette_cli.registry import load_registry
+
+    task = load_registry().get("pipette/CloseCentrifugeLid-v1")
+    assert robot_limit(on_robot(task, "ur5e_robotiq"), seeds=(0,)) is None  # the UR5e closes it
+    limit = robot_limit(on_robot(task, "agilex_piper"), seeds=(0, 1))
+    assert limit is not None and limit.startswith("reach: ")
+
+
 def test_teleop_needs_a_display_and_one_worker(run_cli, monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)

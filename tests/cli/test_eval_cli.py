@@ -167,6 +167,25 @@ def test_eval_names_what_is_wrong_with_a_suite_request(run_cli, tmp_path: Path) 
     assert nothing.exit_code == 1 and "name a task or a suite" in nothing.stderr
 
 
+def test_eval_refuses_a_robot_that_cannot_do_the_task_before_connecting(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "ev"
+    result = run_cli(
+        "eval",
+        "CloseCentrifugeLid",
+        "--robot",
+        "piper",
+        "--endpoint",
+        "tcp://127.0.0.1:1",
+        "--episodes",
+        "1",
+        "--out",
+        out,
+    )
+    said = " ".join(result.stderr.split())
+    assert result.exit_code == 1 and "on the agilex_piper: reach: the push on 'centrifuge/lid_hinge'" in said
+    assert not out.exists()
+
+
 def test_eval_gives_up_on_a_server_that_never_answers(run_cli, tmp_path: Path) -> None:
     import socket
 
