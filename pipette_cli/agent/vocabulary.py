@@ -12,12 +12,11 @@ from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from pydantic import Field, ValidationError
+from pydantic import Field
 
-from pipette_cli.errors import SpecError
 from pipette_cli.language.lexicon import registry_values
 from pipette_cli.specs.base import Spec
-from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
+from pipette_cli.specs.yaml_io import read_spec
 
 if TYPE_CHECKING:
     from pipette_cli.registry import Registry
@@ -134,12 +133,7 @@ def load_vocabulary(path: Path = VOCABULARY_FILE) -> WorkflowVocabularySpec:
     Raises:
         SpecError: ``file:line: field: message`` for each problem.
     """
-    doc = read_yaml(path)
-    raw = to_plain(doc)
-    try:
-        return WorkflowVocabularySpec.model_validate(raw)
-    except ValidationError as exc:
-        raise SpecError(validation_problems(exc, WorkflowVocabularySpec, raw, doc, str(path))) from None
+    return read_spec(path, WorkflowVocabularySpec)
 
 
 def lexicon(registry: Registry) -> WorkflowVocabularySpec:

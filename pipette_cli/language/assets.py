@@ -16,9 +16,9 @@ import re
 from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
-from pydantic import Field, ValidationError
+from pydantic import Field
 
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
 from pipette_cli.errors import SpecError
@@ -26,9 +26,7 @@ from pipette_cli.language.mentions import Name, names_in
 from pipette_cli.language.phrases import singular
 from pipette_cli.resources import data_dir, env_paths
 from pipette_cli.specs.base import Spec
-from pipette_cli.specs.yaml_io import read_yaml, to_plain, validation_problems
-
-S = TypeVar("S", bound=Spec)
+from pipette_cli.specs.yaml_io import read_spec
 
 VOCABULARY_FILE = "vocabulary.yaml"
 ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position", "run")
@@ -102,15 +100,6 @@ class ExtraKindsSpec(Spec):
     """A user asset root's ``vocabulary.yaml``: more kinds only."""
 
     kinds: dict[str, KindSpec] = {}
-
-
-def _read(path: Path, model: type[S]) -> S:
-    doc = read_yaml(path)
-    raw = to_plain(doc)
-    try:
-        return model.model_validate(raw)
-    except ValidationError as exc:
-        raise SpecError(validation_problems(exc, model, raw, doc, str(path))) from None
 
 
 @dataclass(frozen=True)
@@ -309,10 +298,10 @@ def load_vocabulary_spec() -> VocabularySpec:
         SpecError: ``file:line: field: message`` for each problem.
     """
     built_in, *extra = vocabulary_files()
-    spec = _read(built_in, VocabularySpec)
+    spec = read_spec(built_in, VocabularySpec)
     kinds = dict(spec.kinds)
     for path in extra:
-        for name, kind in _read(path, ExtraKindsSpec).kinds.items():
+        for name, kind in read_spec(path, ExtraKindsSpec).kinds.items():
             kinds.setdefault(name, kind)
     return spec.model_copy(update={"kinds": kinds})
 

@@ -170,3 +170,20 @@ def validation_problems(exc: ValidationError, model: type[BaseModel], raw: Any, 
             message = message.removeprefix("Value error, ")
         problems.append(format_problem(source, doc, loc, message))
     return problems
+
+
+M = typing.TypeVar("M", bound=BaseModel)
+
+
+def read_spec(path: Path, model: type[M]) -> M:
+    """The YAML file at ``path`` validated as ``model``.
+
+    Raises:
+        SpecError: ``file:line: field: message`` for each problem (or the file's YAML error).
+    """
+    doc = read_yaml(path)
+    raw = to_plain(doc)
+    try:
+        return model.model_validate(raw)
+    except ValidationError as exc:
+        raise SpecError(validation_problems(exc, model, raw, doc, str(path))) from None
