@@ -145,7 +145,10 @@ class ClauseReader:
         i = 0
         while i < len(tokens):
             found = self.verb_at(tokens, i) if tokens[i].kind == "word" else None
-            # a verb-noun word ("stand", "rack") is a verb only where no action was found yet
+            # a verb-noun word ("stand", "rack") is a verb only where no action was found yet; after
+            # one, a word that starts an object's name ("the sparkly pipette tip box") names it
+            if found is not None and clause.action is not None and name_at(tokens, i, self.aliases) is not None:
+                found = None
             if found is not None and (clause.action is None or found[0] == "unsupported"):
                 kind, phrase, n = found
                 if kind == "unsupported":
