@@ -38,7 +38,13 @@ def _named(before: str, params: list[ParamInfo]) -> ParamInfo | None:
     return next((p for p in params if option_words(p) & said), None)
 
 
-def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, Any], catalog: CommandCatalog) -> None:
+def assign_paths(
+    info: CommandInfo,
+    paths: list[PathMention],
+    args: dict[str, Any],
+    catalog: CommandCatalog,
+    readers: dict[str, list[str]] | None = None,
+) -> None:
     """Put each of ``paths`` into the path option of ``info`` it is for (``args`` is updated).
 
     Raises:
@@ -79,6 +85,14 @@ def assign_paths(info: CommandInfo, paths: list[PathMention], args: dict[str, An
             writes[0] if len(options) == 1 and writes else None,
         ]
         target = next((p for p in candidates if p is not None), None)
+        suffix = mention.path.rsplit(".", 1)[-1].lower() if "." in mention.path else ""
+        others = [c for c in (readers or {}).get(suffix, []) if c != info.name]
+        if target is None and others:  # "train on data/x.h5": a file this command does not read
+            said = ", ".join(f"pipette {c}" for c in others)
+            raise AgentError(
+                f"'pipette {info.name}' does not read {mention.path!r} (a .{suffix} file); {said} do: e.g. "
+                f"'{others[0]} {mention.path}, then {info.name} ...'"
+            )
         if target is None and not options:
             raise AgentError(f"'pipette {info.name}' takes no file or folder, but the request names {mention.path!r}")
         if target is None:

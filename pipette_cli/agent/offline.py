@@ -219,7 +219,7 @@ class OfflineAgent:
         paths = mentions.paths
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
-        assign_paths(info, paths, args, self.catalog)
+        assign_paths(info, paths, args, self.catalog, self.vocab.readers())
         saved = [m.path for m in paths]
         policy = self._policy(words)
         if policy:

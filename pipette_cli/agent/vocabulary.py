@@ -100,6 +100,8 @@ class WorkflowVocabularySpec(Spec):
     background: dict[str, str]
     products: dict[str, ProductSpec]
     consumes: dict[str, str]
+    files: dict[str, str] = Field(default_factory=dict)
+    """A file suffix -> the kind of thing such a file is (``h5`` -> ``demos``)."""
     stands_in: dict[str, dict[str, str]] = {}
     refers: dict[str, list[str]] = Field(default_factory=dict)
     """A kind of thing (``demos``, ``policy``, ``task``...) -> words that refer to it."""
@@ -119,6 +121,20 @@ class WorkflowVocabularySpec(Spec):
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
         return self.options.get(f"{command}.{param}") or self.options.get(param, OptionWordsSpec())
+
+    def readers(self) -> dict[str, list[str]]:
+        """A file suffix -> the commands that read that kind of file, those that turn it into
+        something else first (``h5`` -> convert, augment, data inspect, ...)."""
+
+        def order(command: str, kind: str) -> tuple[bool, bool]:
+            made = self.products.get(command)
+            return (made is None or made.kind == kind, " " in command)
+
+        out = {}
+        for suffix, kind in self.files.items():
+            commands = dict.fromkeys(key.rsplit(".", 1)[0] for key, k in self.consumes.items() if k == kind)
+            out[suffix] = sorted(commands, key=lambda c: order(c, kind))
+        return out
 
     def policy_words(self) -> list[tuple[str, str]]:
         """(word, policy) pairs, longest word first ("pi0.5" before "pi0")."""
