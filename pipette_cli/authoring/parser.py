@@ -144,6 +144,18 @@ class Builder:
         if action == "run":
             self._run(clause, direct)
             return
+        before = self.steps[-1] if self.steps else None
+        if (
+            action == "place"
+            and len(direct) == 1
+            and direct[0].is_pronoun
+            and before is not None
+            and before.action == "open"
+            and before.object is not None
+            and before.part in HATCH_PARTS
+        ):  # "lift the lid off the water bath, then put it back": "it" is the part the step before opened
+            self._hatch("close", clause, [before.object.mention], None, part_name=before.part)
+            return
         lid = self._loose_lid(action, clause, direct)
         if lid is not None:  # "open the water bath lid", "take the bath lid off": its instrument's lid
             self._hatch(lid[0], clause, [lid[1]], None, part_name="lid")
