@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pipette_cli.language.assets import Vocabulary
+from pipette_cli.language.assets import Vocabulary, size_class
 from pipette_cli.language.mentions import name_at
 from pipette_cli.language.phrases import Token, first_match, match
 
@@ -134,6 +134,7 @@ class ClauseReader:
         verbs = self._verbs(clause)
         self._mentions(clause, verbs)
         self._sizes_and_modifiers(clause, verbs)
+        self._lone_sizes(clause)
         self._parts(clause)
         self._prepositions(clause, verbs)
         self._unknown(clause)
@@ -246,6 +247,28 @@ class ClauseReader:
             if after is not None and not after.used and after.text in set(self.modifiers.values()):
                 m.modifiers.append(after.text)
                 after.used = True
+
+    def _lone_sizes(self, clause: Clause) -> None:
+        """A size no mention takes that only one kind has names an object of that kind ("the P200"
+        is a pipette, "the T75" a flask; "the P10", a size no pipette has, a pipette too, so the
+        refusal lists the pipettes' sizes); a size several kinds share ("15 mL") stays a size."""
+        for i, token in enumerate(clause.tokens):
+            if token.kind != "size" or token.used:
+                continue
+            kinds = {k for info in self.vocab.assets.values() if token.text in info.size_tags for k in info.kinds[:1]}
+            if not kinds:  # a size none has ("the P10"): the one kind sized that way, to say which sizes it has
+                unit = size_class(token.text)
+                kinds = {
+                    k
+                    for info in self.vocab.assets.values()
+                    if any(size_class(t) == unit for t in info.size_tags)
+                    for k in info.kinds[:1]
+                }
+            if len(kinds) == 1:
+                kind = kinds.pop()
+                clause.mentions.append(Mention(i, i + 1, kind, kind, sizes=[token.text], window_start=i))
+                token.used = True
+        clause.mentions.sort(key=lambda m: m.start)
 
     def _parts(self, clause: Clause) -> None:
         tokens = clause.tokens

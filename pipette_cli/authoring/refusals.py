@@ -32,7 +32,8 @@ def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
 def refuse_unknown(clauses: list[Clause], vocab: Vocabulary, *, refuse: bool = True) -> list[str]:
     """Refuse words that stand where an object or an action belongs but name nothing
     (``unknown object 'X'; nearest: ...``, ``unknown action``); return the other words nothing
-    explains, to be listed as not understood with the plan: a word before a known object that
+    explains, to be listed as not understood with the plan (a word stands where an object belongs
+    after an article, a preposition or a number: "the -80 freezer"): a word before a known object that
     describes none of its kind ("the zorbly flask" is no flask of the library: choosing one anyway
     without saying so would drop the word), or a word outside any object ("very zorbishly").
     Words that describe a member choose it. With ``refuse`` False every such word is listed (an
@@ -53,7 +54,7 @@ def refuse_unknown(clauses: list[Clause], vocab: Vocabulary, *, refuse: bool = T
                 raise PlanError(f"unknown action '{phrase}'; actions: {ACTION_WORDS}")
             at = _position(texts, phrase)
             before = texts[at - 1] if at > 0 else ""
-            if at <= 0 or before in vocab.words.articles or before in prepositions:
+            if at <= 0 or before in vocab.words.articles or before in prepositions or before[:1].isdigit():
                 nearest = vocab.nearest(phrase)
                 hint = ", ".join(nearest) if nearest else "nothing similar (see `pipette assets list`)"
                 raise PlanError(f"unknown object '{phrase}'; nearest: {hint}")
