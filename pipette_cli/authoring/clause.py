@@ -15,6 +15,8 @@ from pipette_cli.language.assets import Vocabulary, size_class
 from pipette_cli.language.mentions import name_at
 from pipette_cli.language.phrases import Token, first_match, match
 
+MEASURES = ("ml", "ul", "mm")
+"""Size classes that measure rather than name (a lone "6 cm" is a distance, not a 60 mm dish)."""
 PART_LINKS = ("of", "on", "in", "inside", "at")
 """Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
 
@@ -251,9 +253,10 @@ class ClauseReader:
     def _lone_sizes(self, clause: Clause) -> None:
         """A size no mention takes that only one kind has names an object of that kind ("the P200"
         is a pipette, "the T75" a flask; "the P10", a size no pipette has, a pipette too, so the
-        refusal lists the pipettes' sizes); a size several kinds share ("15 mL") stays a size."""
+        refusal lists the pipettes' sizes); a size several kinds share ("15 mL") or a measure
+        ("6 cm") stays a size."""
         for i, token in enumerate(clause.tokens):
-            if token.kind != "size" or token.used:
+            if token.kind != "size" or token.used or size_class(token.text) in MEASURES:
                 continue
             kinds = {k for info in self.vocab.assets.values() if token.text in info.size_tags for k in info.kinds[:1]}
             if not kinds:  # a size none has ("the P10"): the one kind sized that way, to say which sizes it has

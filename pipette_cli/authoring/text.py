@@ -31,7 +31,7 @@ SECONDS = r"(?:seconds?|secs?|s)\b"
 THRESHOLD_PATTERNS: tuple[tuple[str, str, float], ...] = (
     # (regex, field, scale); the first group is the number
     (
-        r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it|up)\s+(\d+(?:\.\d+)?)\s*cm\b",
+        r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it|up)\s+(?:about\s+|around\s+|roughly\s+)?(\d+(?:\.\d+)?)\s*cm\b",
         "lift_height_m",
         0.01,
     ),
