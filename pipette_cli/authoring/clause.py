@@ -325,13 +325,15 @@ class ClauseReader:
     def _unknown(self, clause: Clause) -> None:
         current: list[str] = []
         for token in [*clause.tokens, Token(".", "punct")]:
-            unknown = (
-                token.kind == "word"
-                and not token.used
-                and token.text not in self.fillers
-                and token.text not in self.articles
-                and not token.text.isdigit()
-                and token.text not in self.prep_words
+            unknown = not token.used and (  # a size no object takes ("6 cm" nowhere) is not understood either
+                token.kind == "size"
+                or (
+                    token.kind == "word"
+                    and token.text not in self.fillers
+                    and token.text not in self.articles
+                    and not token.text.isdigit()
+                    and token.text not in self.prep_words
+                )
             )
             if unknown:
                 current.append(token.text)

@@ -29,13 +29,19 @@ SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
 )
 SECONDS = r"(?:seconds?|secs?|s)\b"
 THRESHOLD_PATTERNS: tuple[tuple[str, str, float], ...] = (
-    # (regex, field, scale); the first group is the number
+    # (regex, field, scale); the first group (or the one named n) is the number; the match (or the
+    # group named said) is taken out of the text
     (
         r"\b(?:by|at least|to a height of|a height of|lift(?:ed)? it|raise(?:d)? it|up)\s+(?:about\s+|around\s+|roughly\s+)?(\d+(?:\.\d+)?)\s*cm\b",
         "lift_height_m",
         0.01,
     ),
     (r"\b(?:by|at least|to a height of|a height of|up)\s+(\d+(?:\.\d+)?)\s*mm\b", "lift_height_m", 0.001),
+    (  # "lift the tube about 5 cm": only the height is taken out of the text, not the verb and object
+        r"\b(?:lift|raise)\w*\b[^.,;]*?\s(?P<said>(?:about\s+|around\s+|roughly\s+)?(?P<n>\d+(?:\.\d+)?)\s*cm)\b",
+        "lift_height_m",
+        0.01,
+    ),
     (rf"\bfor\s+(?:at least\s+|about\s+|around\s+)?(\d+(?:\.\d+)?)\s*{SECONDS}", "hold_s", 1.0),
     (rf"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*{SECONDS}", "timeout_s", 1.0),
     (r"\b(?:within|in under|in less than|under|in)\s+(\d+(?:\.\d+)?)\s*(?:min|mins|minutes?)\b", "timeout_s", 60.0),
@@ -79,9 +85,11 @@ def extract_thresholds(text: str) -> tuple[str, dict[str, float]]:
     found: dict[str, float] = {}
     for pattern, name, scale in THRESHOLD_PATTERNS:
         for m in re.finditer(pattern, text):
+            named = m.re.groupindex  # a pattern may say which group is the number (n) and which words go (said)
             if name not in found:
-                found[name] = round(float(m.group(1)) * scale, 6)
-            text = text[: m.start()] + " " * (m.end() - m.start()) + text[m.end() :]
+                found[name] = round(float(m.group("n" if "n" in named else 1)) * scale, 6)
+            start = m.start("said") if "said" in named else m.start()
+            text = text[:start] + " " * (m.end() - start) + text[m.end() :]
     if re.search(UPRIGHT, text) and "max_tilt_deg" not in found:
         found["max_tilt_deg"] = 15.0
     return text, found
