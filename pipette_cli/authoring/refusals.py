@@ -1,7 +1,7 @@
-"""What a description asks that no task can be: what the simulator cannot do (liquids, caps,
-running instruments without a start button), words that name nothing known, and words before a
-known object that describe none of its kind. Each is refused in one line with the reason; no word
-of a description is dropped in silence.
+"""What a description asks that no task can be, and the words no plan uses: what the simulator
+cannot do (liquids, caps, running instruments without a start button) and words where an object or
+an action belongs that name nothing are refused in one line with the reason; any other word nothing
+explains is listed with the draft as not understood. No word of a description is dropped in silence.
 """
 
 from __future__ import annotations
@@ -30,14 +30,13 @@ def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:
 
 
 def refuse_unknown(clauses: list[Clause], vocab: Vocabulary, *, refuse: bool = True) -> list[str]:
-    """Refuse words that stand where an object or an action belongs but name nothing
-    (``unknown object 'X'; nearest: ...``, ``unknown action``); return the other words nothing
-    explains, to be listed as not understood with the plan (a word stands where an object belongs
-    after an article, a preposition or a number: "the -80 freezer"): a word before a known object that
-    describes none of its kind ("the zorbly flask" is no flask of the library: choosing one anyway
-    without saying so would drop the word), or a word outside any object ("very zorbishly").
-    Words that describe a member choose it. With ``refuse`` False every such word is listed (an
-    LLM backend may still make a plan without them; they stay not understood)."""
+    """Refuse words that stand where an object or an action belongs but name nothing (after an
+    article, a preposition or a number, "the -80 freezer": ``unknown object 'X'; nearest: ...``;
+    first in a step without a verb: ``unknown action``). Return the other words nothing explains,
+    listed as not understood with the draft: a word before a known object that describes none of
+    its kind ("the zorbly flask": choosing a flask anyway without saying so would drop the word), or
+    a word outside any object ("very zorbishly"). Words that describe a member choose it. With
+    ``refuse`` False every such word is listed (an LLM may still plan without them)."""
     listed: list[str] = []
     prepositions = {w for p, _ in vocab.words.preposition_roles() for w in p.split()}
     for clause in clauses:
