@@ -313,22 +313,24 @@ class DemoAugmenter:
             )
             keys = {camera: (camera, view_key(plan, camera)) for camera in rig.ids}
             known = {camera: seen[key] for camera, key in keys.items() if seen is not None and key in seen}
-            frames = render_rollout(
-                world,
-                rig,
-                seed,
-                rollout,
-                plan,
-                vision_every=self.task.timing.vision_every,
-                known=known,
-                on_capture=lambda t, views: pending.__setitem__(t, self.compressor.submit(_compress_views, views)),
-            )
+            try:
+                frames = render_rollout(
+                    world,
+                    rig,
+                    seed,
+                    rollout,
+                    plan,
+                    vision_every=self.task.timing.vision_every,
+                    known=known,
+                    on_capture=lambda t, views: pending.__setitem__(t, self.compressor.submit(_compress_views, views)),
+                )
+            finally:
+                if own_rig:  # a cluttered scene's own renderer (its GL context) goes even when rendering fails
+                    rig.close()
             if seen is not None:
                 fresh = fresh_steps(rollout.num_steps, self.task.timing.vision_every)
                 for camera, key in keys.items():
                     seen.setdefault(key, [frames[t][camera] for t in np.flatnonzero(fresh)])
-            if own_rig:
-                rig.close()
         t1 = time.perf_counter()
         attrs = {
             **self.attrs,

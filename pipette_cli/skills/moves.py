@@ -45,9 +45,9 @@ SHIFTS = 8
 """Where the exact spot is out of reach, how far (steps of SHIFT_STEP) toward the robot a placement
 may move while staying on the same surface."""
 COMFORT = 0.25
+"""Radians every arm joint should keep from its limits for a pose to count as comfortable."""
 ENOUGH = 3
 """Feasible but uncomfortable candidates looked at before taking the best of them."""
-"""Radians every arm joint should keep from its limits for a pose to count as comfortable."""
 
 
 class SkillFailure(PipetteError):

@@ -163,6 +163,23 @@ def test_validate_refuses_objects_that_interpenetrate_at_reset(run_cli, tmp_path
     )
 
 
+def test_validate_names_a_criterion_part_the_scene_lacks_at_its_line(run_cli, tmp_path: Path) -> None:
+    typo = tmp_path / "pan_typo.yaml"
+    typo.write_text(
+        (REGISTRY / "place_tube_on_balance.yaml")
+        .read_text()
+        .replace("pipette/PlaceTubeOnBalance-v1", "mylab/PanTypo-v1")
+        .replace("center: balance/pan_center", "center: balance/pan_centre")
+    )
+    result = run_cli("tasks", "validate", typo)
+    said = " ".join(result.stderr.split())
+    assert result.exit_code == 1 and "ok  " not in result.stderr
+    assert (
+        f"error: {typo}:{_line(typo, 'center:')}: success.within.center: asset 'electronic_balance' has no site, "
+        "body or joint 'pan_centre'; did you mean 'balance/pan_center'" in said
+    )
+
+
 def test_usage_error_exits_2(run_cli) -> None:
     assert run_cli("tasks", "list", "--no-such-option").exit_code == 2
     assert run_cli("tasks", "frobnicate").exit_code == 2
