@@ -67,7 +67,12 @@ def judge(case: dict, backend, solve: bool, episodes: int) -> dict:
             task=drafted.spec.id,
             steps=steps,
             robot=robot,
-            right="steps" in case and steps == case["steps"] and robot == case.get("robot", "franka_panda"),
+            not_understood=drafted.not_understood,
+            # right only with every word used or listed as the case expects: never right by dropping words
+            right="steps" in case
+            and steps == case["steps"]
+            and robot == case.get("robot", "franka_panda")
+            and drafted.not_understood == case.get("not_understood", []),
         )
         if solve and "steps" in case:
             report = check_task(drafted.spec, episodes)

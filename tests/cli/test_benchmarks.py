@@ -193,6 +193,15 @@ def test_bench_eval_measures_episodes_per_hour_and_dead_server_detection(tmp_pat
     assert "episodes/h" in result.stdout
 
 
+def test_bench_language_scores_both_development_sets(tmp_path) -> None:
+    out = tmp_path / "language.json"
+    result = bench("bench_language.py", "--limit", "4", "--out", str(out))
+    data = read(out)
+    assert data["agent"]["requests"] == 4 and data["new_task"]["sentences"] == 4
+    assert data["agent"]["tracebacks"] == 0 and data["new_task"]["tracebacks"] == 0
+    assert "pipette agent" in result.stdout and "pipette new-task" in result.stdout
+
+
 def test_bench_robots_fills_the_task_by_robot_table(tmp_path) -> None:
     out, md = tmp_path / "robots.json", tmp_path / "robots.md"
     result = bench(
