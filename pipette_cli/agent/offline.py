@@ -29,7 +29,7 @@ from pipette_cli.agent.mentions import SAVE, assign_paths
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, lexicon
+from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
@@ -106,7 +106,7 @@ class OfflineAgent:
     def _read(self, text: str) -> tuple[PlanSpec, list[str]]:
         steps: list[StepSpec] = []
         problems: list[str] = []
-        clauses = split_clauses(text, self.intents)
+        clauses = split_clauses(self._corrected(text), self.intents)
         while clauses:
             clause = clauses.pop(0)
             if clause.command is not None and clause.command.startswith(RECIPE_PREFIX):
@@ -137,6 +137,22 @@ class OfflineAgent:
                 "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"
             )
         return PlanSpec(steps=steps), problems
+
+    def _corrected(self, text: str) -> str:
+        """What the request asks after its last correction where that asks for a command of its own
+        ("make 3 copies? no - just augment ...": the words before "no -" are taken back, as the word
+        accounting takes them); a correction of a value ("... actually just the paper variants")
+        keeps the request whole."""
+        lowered = text.lower()
+        found = [
+            m
+            for p in self.vocab.corrections
+            for m in phrase_pattern(p.lower()).finditer(lowered)
+            if re.search(r"(?:^|[?.!;:,]|\s-)\s*$", lowered[: m.start()])  # one that starts a clause, not "instead of"
+        ]
+        tail = text[max(m.end() for m in found) :] if found else text
+        _, score = self.intents.best(tail)
+        return tail if score >= WEIGHTS["verbs"] else text  # "... actually just the paper variants" corrects a value
 
     def _expand(self, recipe: RecipeSpec, text: str, before: int, problems: list[str]) -> list[StepSpec]:
         """The recipe's steps, each filled from the clause's words (the recipe's own values win;
