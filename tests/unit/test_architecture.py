@@ -182,6 +182,21 @@ def test_the_language_front_ends_share_one_home_for_each_part() -> None:
     assert again == [], "use the part in pipette_cli/language/ instead of a second one"
 
 
+def test_taskgen_reads_no_words() -> None:
+    """`taskgen/` turns a typed plan into a task: of the language package it reads only the asset
+    facts (`language/assets.py`: kinds, members, size tags), never the splitter, phrases or mentions."""
+    wrong = []
+    for path in sorted((ROOT / "taskgen").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                reads_words = (
+                    node.module.startswith("pipette_cli.language") and node.module != "pipette_cli.language.assets"
+                )
+                if reads_words or node.module.startswith("pipette_cli.authoring"):
+                    wrong.append(f"{path.relative_to(ROOT.parent)}:{node.lineno}: {node.module}")
+    assert wrong == [], "taskgen builds from the plan; reading words belongs to the task grammar (authoring/)"
+
+
 def _splits_without_the_splitter(path: Path) -> list[tuple[int, str]]:
     """(line, name) of each function named ``split*`` that does not call language's ``split_clauses``."""
     tree = ast.parse(path.read_text(), str(path))
