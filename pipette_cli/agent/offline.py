@@ -1,7 +1,7 @@
 """The offline agent: a deterministic parser from a request to a :class:`PlanSpec`.
 
 The request is split into clauses, one per command (:mod:`.clauses`). In each clause, paths and
-addresses are taken out first (:mod:`.mentions`) and fill the command's path and address
+addresses are taken out first (:mod:`pipette_cli.language.mentions`, then :mod:`.mentions` for where each path goes) and fill the command's path and address
 options; the remaining words give the task (matched against the registry, :mod:`.tasks`), the
 policy, numbers next to the words of an option ("30 demos", "seed 3", "64 px"), values named
 by their words ("on the gpu", "augmented"), flags ("as json", "dry run") and free text. Every

@@ -2,7 +2,7 @@
 
 The same path serves every backend. The offline backend parses the description into a
 :class:`~pipette_cli.taskgen.plan.TaskPlanSpec`; an LLM backend fills the same model through
-structured output. A plan is accepted only when it validates (:mod:`.validate`), composes, renders
+structured output. A plan is accepted only when it validates (:mod:`pipette_cli.taskgen.validate`), composes, renders
 to YAML that the registry's own rules accept, builds, and passes the caller's ``gate`` (``--check``).
 LLM backends are sent every rejection back for a corrected answer, a bounded number of times;
 what cannot be simulated (liquids, screwing caps) is refused before any request.
