@@ -86,26 +86,36 @@ PART_KEYS = {"site": ("sites",), "joint": ("joints",), "any": ("sites", "joints"
 
 
 def part_problems(spec: TaskSpec, library: AssetLibrary) -> list[tuple[tuple[Any, ...], str]]:
-    """``(field path, message)`` for every ``object/part`` of the expert program that the object's
-    asset does not have (read from the asset's semantics, without compiling it)."""
+    """``(field path, message)`` for every ``object/part`` of the expert program or the success
+    criterion that the object's asset does not have (read from the asset's semantics, without
+    compiling it)."""
     assets = {o.name: o.asset for o in spec.scene.objects}
+    refs = [
+        (("expert", i, *loc), ref, kind) for i, step in enumerate(spec.expert or []) for loc, ref, kind in step.parts()
+    ]
+    refs += _criterion_parts(spec.success.model_dump(mode="json", exclude_none=True), ("success",), set(assets))
     out: list[tuple[tuple[Any, ...], str]] = []
-    for i, step in enumerate(spec.expert or []):
-        for loc, ref, kind in step.parts():
-            obj, _, part = ref.partition("/")
-            if obj not in assets:
-                continue  # reported by reference_problems
-            semantics = library.get(assets[obj]).semantics()
-            names = [str(n) for key in PART_KEYS[kind] for n in semantics.get(key, [])]
-            if part not in names:
-                what = "site" if kind == "site" else "joint" if kind == "joint" else "site, joint or body"
-                out.append(
-                    (
-                        ("expert", i, *loc),
-                        f"asset {assets[obj]!r} of {obj!r} has no {what} {part!r}; {suggest(part, names)}",
-                    )
-                )
+    for loc, ref, kind in refs:
+        obj, _, part = ref.partition("/")
+        if obj not in assets:
+            continue  # reported by reference_problems
+        semantics = library.get(assets[obj]).semantics()
+        names = [str(n) for key in PART_KEYS[kind] for n in semantics.get(key, [])]
+        if part not in names:
+            what = "site" if kind == "site" else "joint" if kind == "joint" else "site, joint or body"
+            out.append((loc, f"asset {assets[obj]!r} of {obj!r} has no {what} {part!r}; {suggest(part, names)}"))
     return out
+
+
+def _criterion_parts(node: Any, loc: tuple[Any, ...], objects: set[str]) -> list[tuple[tuple[Any, ...], str, str]]:
+    """``(field path, object/part, "any")`` for every value of a criterion that names a part of a
+    scene object ("balance/pan_center")."""
+    if isinstance(node, dict):
+        return [r for key, value in node.items() for r in _criterion_parts(value, (*loc, key), objects)]
+    if isinstance(node, list):
+        return [r for i, value in enumerate(node) for r in _criterion_parts(value, (*loc, i), objects)]
+    obj, _, part = node.partition("/") if isinstance(node, str) else ("", "", "")
+    return [(loc, node, "any")] if obj in objects and part else []
 
 
 def registry_dirs(extra: Iterable[Path] = ()) -> list[Path]:

@@ -34,7 +34,7 @@ def scene_problems(task: TaskSpec) -> list[tuple[Loc, str]]:
     except SimError as exc:
         return [_located(task, str(exc))]
     far = world.out_of_reach([obj.name for obj in task.scene.objects])
-    problems = world.interpenetrations() + far + _unknown_parts(world, task)
+    problems = world.interpenetrations() + far
     reported = {loc for loc, _ in far}
     index = {obj.name: i for i, obj in enumerate(task.scene.objects)}
     try:
@@ -47,29 +47,6 @@ def scene_problems(task: TaskSpec) -> list[tuple[Loc, str]]:
         loc: Loc = ("scene", "objects", index[name], "pose") if name in index else ("embodiment", "base")
         if loc not in reported:  # an object out of reach is said once
             problems.append((loc, message))
-    return problems
-
-
-def _unknown_parts(world: World, task: TaskSpec) -> list[tuple[Loc, str]]:
-    """The success criterion's references to a part of a scene object ("balance/pan_center") that
-    the scene lacks, each at its field (the evaluator would only find out in the first episode)."""
-    objects = {obj.name for obj in task.scene.objects}
-    problems: list[tuple[Loc, str]] = []
-
-    def walk(node: object, loc: Loc) -> None:
-        if isinstance(node, dict):
-            for key, value in node.items():
-                walk(value, (*loc, key))
-        elif isinstance(node, list):
-            for i, value in enumerate(node):
-                walk(value, (*loc, i))
-        elif isinstance(node, str) and node.partition("/")[0] in objects and node.partition("/")[2]:
-            try:
-                world.resolve(node)
-            except SimError as exc:
-                problems.append((loc, str(exc).removeprefix(f"{task.id}: ")))
-
-    walk(task.success.model_dump(mode="json", exclude_none=True), ("success",))
     return problems
 
 

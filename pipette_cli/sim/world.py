@@ -88,7 +88,7 @@ class World:
             raise SimError(f"{self.task.id}: the scene has no {kind.name.removeprefix('mjOBJ_').lower()} {name!r}")
         return index
 
-    def resolve(self, ref: str) -> tuple[str, int]:
+    def _resolve(self, ref: str) -> tuple[str, int]:
         """``object`` -> its root body; ``object/part`` -> the site, body or joint of that name."""
         if ref in self._refs:
             return self._refs[ref]
@@ -121,19 +121,19 @@ class World:
         return found
 
     def site_id(self, ref: str) -> int:
-        kind, index = self.resolve(ref)
+        kind, index = self._resolve(ref)
         if kind != "site":
             raise SimError(f"{self.task.id}: {ref!r} is a {kind}, expected a site")
         return index
 
     def joint_id(self, ref: str) -> int:
-        kind, index = self.resolve(ref)
+        kind, index = self._resolve(ref)
         if kind != "joint":
             raise SimError(f"{self.task.id}: {ref!r} is a {kind}, expected a joint")
         return index
 
     def body_id(self, ref: str) -> int:
-        kind, index = self.resolve(ref)
+        kind, index = self._resolve(ref)
         if kind == "site":
             return int(self.model.site_bodyid[index])
         if kind == "joint":
@@ -162,7 +162,7 @@ class World:
         return float(self.data.time)
 
     def position(self, ref: str) -> np.ndarray:
-        kind, index = self.resolve(ref)
+        kind, index = self._resolve(ref)
         if kind == "site":
             return self.data.site_xpos[index].copy()
         if kind == "joint":
@@ -170,7 +170,7 @@ class World:
         return self.data.xpos[index].copy()
 
     def rotation(self, ref: str) -> np.ndarray:
-        kind, index = self.resolve(ref)
+        kind, index = self._resolve(ref)
         if kind == "site":
             return self.data.site_xmat[index].reshape(3, 3).copy()
         return self.data.xmat[self.body_id(ref)].reshape(3, 3).copy()

@@ -175,9 +175,10 @@ def test_validate_names_a_criterion_part_the_scene_lacks_at_its_line(run_cli, tm
     said = " ".join(result.stderr.split())
     assert result.exit_code == 1 and "ok  " not in result.stderr
     assert (
-        f"error: {typo}:{_line(typo, 'center:')}: success.within.center: asset 'electronic_balance' has no site, "
-        "body or joint 'pan_centre'; did you mean 'balance/pan_center'" in said
+        f"error: {typo}:{_line(typo, 'center:')}: success.within.center: asset 'electronic_balance' of 'balance' "
+        "has no site, joint or body 'pan_centre'; did you mean 'pan_center'" in said
     )
+    assert run_cli("tasks", "validate", "--no-physics", typo).exit_code == 1  # read from the asset, no build
 
 
 def test_usage_error_exits_2(run_cli) -> None:
