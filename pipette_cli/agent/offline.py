@@ -75,6 +75,7 @@ class OfflineAgent:
         self.index = TaskIndex(registry, self.vocab)
         self.validator = Validator(catalog, registry, self.vocab, self.index)
         self.intents = Intents(self.vocab, catalog, registry.ids())
+        self.readers = self.vocab.readers()
 
     def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
         """The checked plan for ``text``.
@@ -235,7 +236,7 @@ class OfflineAgent:
         paths = mentions.paths
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
-        assign_paths(info, paths, args, self.catalog, self.vocab.readers())
+        assign_paths(info, paths, args, self.catalog, self.readers)
         saved = [m.path for m in paths]
         policy = self._policy(words)
         if policy:

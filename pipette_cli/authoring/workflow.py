@@ -174,10 +174,10 @@ def resolve_asset(words: str, vocab: Vocabulary) -> str:
     raise PlanError(f"unknown object '{words}'; nearest: {hint}")
 
 
-def screen(description: str, vocab: Vocabulary) -> tuple[set[str], dict[str, str], list[str]]:
+def screen(description: str, vocab: Vocabulary) -> tuple[dict[str, str], list[str]]:
     """Refuse what no plan can do before asking an LLM (liquids, caps...: final), and return the
-    kinds of object the description names (an LLM's plan may only use those), each kind's words
-    as written, and the words nothing in the lexicon explains (not understood, whatever the plan)."""
+    kinds of object the description names (an LLM's plan may only use those) with their words as
+    written, and the words nothing in the lexicon explains (not understood, whatever the plan)."""
     reader = ClauseReader(vocab)
     clauses = [reader.read(part) for part in split_steps(normalise(description, vocab.words), reader.is_verb, vocab)]
     refuse_unsupported(clauses, vocab)
@@ -188,7 +188,7 @@ def screen(description: str, vocab: Vocabulary) -> tuple[set[str], dict[str, str
         raise PlanError(
             "found no object of the asset library in the description; name one (see `pipette assets list`)", final=True
         )
-    return set(named), named, refuse_unknown(clauses, vocab, refuse=False)
+    return named, refuse_unknown(clauses, vocab, refuse=False)
 
 
 def unused_names(checked: CheckedPlan, named: dict[str, str]) -> list[str]:
@@ -274,11 +274,11 @@ def draft_task(
                 not_understood=tuple(parsed.not_understood),
             ),
         )
-    kinds, named, unknown = screen(description, vocab)
+    named, unknown = screen(description, vocab)
 
     def accept(plan: TaskPlanSpec) -> DraftedTask:
         checked = validate_plan(plan, vocab, partial(resolve_asset, vocab=vocab))
-        problems = grounding_problems(checked, kinds, vocab)
+        problems = grounding_problems(checked, set(named), vocab)
         if problems:
             raise PlanError(problems)
         unused = (*unknown, *unused_names(checked, named))
