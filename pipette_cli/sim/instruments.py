@@ -11,6 +11,9 @@ Built from :class:`~pipette_cli.specs.mechanisms.InstrumentSpec`; every part is 
 * **run** -- a start button starts a run of ``seconds`` only when closed and idle; otherwise the
   press is refused (``refused`` counts them). Opening during a run aborts it (``aborted``).
   Reports ``running``, ``run_time_s`` (of the current or last run), ``runs`` (completed).
+* **touch** -- a head worked by pressing on it (a vortex mixer in touch mode) runs while something
+  presses it down with at least ``force_n``; a press held ``seconds`` completes a run. Reports
+  ``running``, ``run_time_s`` (of the current or last press) and ``runs``, as a run does.
 * **contents** -- zones (wells, shelves, a block) report how many tracked objects are in them
   (``rotor``) and which (``rotor.tube``: 1 or 0).
 * **scale** -- a weighing pan reports ``mass_g``: the vertical contact force on the pan over g,
@@ -89,6 +92,7 @@ class Instrument:
         "tared",
         "raw_g",
         "tare_inside",
+        "touch_counted",
     )
 
     def __init__(self, spec: InstrumentSpec, world: World) -> None:
@@ -107,15 +111,21 @@ class Instrument:
         self.run_button = world.site_id(spec.run.button) if spec.run is not None else None
         self.zones = [Zone(zone, world) for zone in spec.contents]
         self.pan_bodies: set[int] = set()
+        self.head_bodies: set[int] = set()
         self.owner_bodies: set[int] = set()
         self.tare_button = None
+        pressed_on = spec.scale.pan if spec.scale is not None else spec.touch.head if spec.touch is not None else None
+        if pressed_on is not None:
+            owner = world.body_id(pressed_on.split("/", 1)[0])
+            self.owner_bodies = {b for b in range(m.nbody) if _descends(m, b, owner)}
         if spec.scale is not None:
             pan = world.body_id(spec.scale.pan)
             self.pan_bodies = {b for b in range(m.nbody) if _descends(m, b, pan)}
-            owner = world.body_id(spec.scale.pan.split("/", 1)[0])
-            self.owner_bodies = {b for b in range(m.nbody) if _descends(m, b, owner)}
             if spec.scale.tare_button is not None:
                 self.tare_button = world.site_id(spec.scale.tare_button)
+        if spec.touch is not None:
+            head = world.body_id(spec.touch.head)
+            self.head_bodies = {b for b in range(m.nbody) if _descends(m, b, head)}
         self._force = np.zeros(6)
         self.reset()
 
@@ -137,6 +147,8 @@ class Instrument:
             out.append("motor_target")
         if spec.run:
             out += ["running", "run_time_s", "runs", "refused", "aborted"]
+        if spec.touch:
+            out += ["running", "run_time_s", "runs"]
         for zone in self.zones:
             out += zone.names()
         if spec.scale:
@@ -152,6 +164,8 @@ class Instrument:
             values["motor_target"] = mem["motor_target"]
         if spec.run:
             values.update({key: mem[key] for key in ("running", "run_time_s", "runs", "refused", "aborted")})
+        if spec.touch:
+            values.update({key: mem[key] for key in ("running", "run_time_s", "runs")})
         for zone in self.zones:
             values.update(zone.values())
         if spec.scale:
@@ -183,6 +197,8 @@ class Instrument:
             self._update_motor()
         if self.spec.run is not None:
             self._update_run()
+        if self.spec.touch is not None:
+            self._update_touch()
         if self.spec.scale is not None:
             self._update_scale()
 
@@ -246,6 +262,19 @@ class Instrument:
             mem["running"] = 0.0
             mem["runs"] += 1.0
 
+    def _update_touch(self) -> None:
+        touch, mem, now = self.spec.touch, self.memory, self._world.time
+        assert touch is not None
+        if self._pressing(self.head_bodies) < touch.force_n:
+            mem["running"] = mem["touch_counted"] = 0.0
+            return
+        if not self.running:
+            mem["running"], mem["run_t0"] = 1.0, now
+        mem["run_time_s"] = now - mem["run_t0"]
+        if mem["run_time_s"] >= touch.seconds and mem["touch_counted"] < 0.5:
+            mem["runs"] += 1.0
+            mem["touch_counted"] = 1.0
+
     def _update_scale(self) -> None:
         scale, mem, world = self.spec.scale, self.memory, self._world
         assert scale is not None
@@ -257,20 +286,24 @@ class Instrument:
             mem["tared"] += 1.0
 
     def _weigh(self) -> float:
-        """Grams pressing down on the pan now: the vertical contact forces on it from anything
-        but the instrument itself."""
+        """Grams pressing down on the pan now."""
+        return 1000.0 * self._pressing(self.pan_bodies) / GRAVITY
+
+    def _pressing(self, bodies: set[int]) -> float:
+        """Newtons pressing down on ``bodies`` now: the vertical contact forces on them from
+        anything but the instrument itself."""
         m, d = self._world.model, self._world.data
         down = 0.0
         for i in range(d.ncon):
             contact = d.contact[i]
             b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
-            on1, on2 = b1 in self.pan_bodies, b2 in self.pan_bodies
+            on1, on2 = b1 in bodies, b2 in bodies
             if on1 == on2 or (b2 if on1 else b1) in self.owner_bodies:
                 continue
             mujoco.mj_contactForce(m, d, i, self._force)
             world_force = contact.frame.reshape(3, 3).T @ self._force[:3]  # on geom2, from geom1
             down += float(world_force[2]) if on1 else -float(world_force[2])
-        return 1000.0 * down / GRAVITY
+        return down
 
 
 def _descends(model: mujoco.MjModel, body: int, root: int) -> bool:

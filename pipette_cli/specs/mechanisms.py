@@ -85,6 +85,17 @@ class RunSpec(Spec):
     trigger_radius: float = Field(0.02, gt=0, description="metres around the button site")
 
 
+class TouchSpec(Spec):
+    """A head worked by pressing on it (a vortex mixer's cup in touch mode): it runs while something
+    other than the instrument presses it down with at least ``force_n``; a press held ``seconds``
+    counts as a completed run. Reports as the start button's run does (``running``, ``run_time_s``,
+    ``runs``)."""
+
+    head: Ref = ref_field("object/body pressed on (the cup)")
+    force_n: float = Field(1.0, gt=0, description="newtons down on the head that start it")
+    seconds: float = Field(2.0, gt=0, description="length of a press that counts as a run")
+
+
 class ZoneSpec(Spec):
     """A place in an instrument whose contents are reported (a rotor's wells, a shelf, a block).
 
@@ -116,14 +127,15 @@ class ScaleSpec(Spec):
 @register_mechanism
 class InstrumentSpec(MechanismSpec):
     """An instrument's state machine as data: what closed means, a button-driven motor on the lid,
-    door or drawer, a start button that runs it only when closed, zones whose contents it reports
-    and a weighing pan. Every part is optional; evaluators read the reported values
-    (``instrument_state``) and recordings store them per control step."""
+    door or drawer, a start button that runs it only when closed (or a head that runs while
+    pressed), zones whose contents it reports and a weighing pan. Every part is optional; evaluators
+    read the reported values (``instrument_state``) and recordings store them per control step."""
 
     type: Literal["instrument"] = "instrument"
     closure: ClosureSpec | None = None
     motor: MotorSpec | None = None
     run: RunSpec | None = None
+    touch: TouchSpec | None = None
     contents: list[ZoneSpec] = []
     scale: ScaleSpec | None = None
 
@@ -131,8 +143,10 @@ class InstrumentSpec(MechanismSpec):
     def _parts(self) -> InstrumentSpec:
         if self.motor is not None and self.closure is None:
             raise ValueError("a motor needs a 'closure' (the joint it drives and when it counts as closed)")
-        if not any((self.closure, self.run, self.contents, self.scale)):
-            raise ValueError("give at least one of 'closure', 'run', 'contents', 'scale'")
+        if not any((self.closure, self.run, self.touch, self.contents, self.scale)):
+            raise ValueError("give at least one of 'closure', 'run', 'touch', 'contents', 'scale'")
+        if self.run is not None and self.touch is not None:
+            raise ValueError("give 'run' (a start button) or 'touch' (a head run by pressing it), not both")
         names = [zone.name for zone in self.contents]
         if len(set(names)) != len(names):
             raise ValueError("zone names in 'contents' must be unique")
