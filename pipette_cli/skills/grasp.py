@@ -35,7 +35,7 @@ from pipette_cli.skills.grasp_candidates import (
     side_candidates,
     top_candidates,
 )
-from pipette_cli.skills.grip import FLAT, LONG, fits_gripper
+from pipette_cli.skills.grip import FLAT, LONG, fits_gripper, flat
 from pipette_cli.skills.moves import COMFORT, SkillFailure
 from pipette_cli.skills.runtime import SkillContext
 
@@ -50,7 +50,7 @@ def pinched(height: float, footprint: np.ndarray, mode: str = "auto", at: str | 
     """Whether an object ``height`` tall with ``footprint`` (its two horizontal sizes) is pinched at
     its rim, the hand pitched (a flat dish or plate), rather than taken from above."""
     short, long_ = sorted(float(v) for v in footprint)
-    return mode == "pinch" or (mode == "auto" and at is None and height < FLAT and long_ <= LONG * short)
+    return mode == "pinch" or (mode == "auto" and at is None and flat(height, footprint) and long_ <= LONG * short)
 
 
 def plan_grasp(

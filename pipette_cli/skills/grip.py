@@ -14,7 +14,8 @@ PALM_MARGIN = 0.008
 FINGERTIP_LIFT = 0.012
 """Lowest tcp height above the supporting surface for a straight-down grasp (fingertips' reach)."""
 FLAT = 0.03
-"""Objects lower than this are pinched at the rim rather than taken around an axis (unless long)."""
+"""Objects lower than this and than they are wide are pinched at the rim rather than taken around
+an axis (unless long; see :func:`flat`)."""
 LONG = 2.5
 """A low object whose footprint is this many times longer than wide (a syringe, tweezers, a rod
 lying on the bench) is taken across its long axis from above, not pinched at a rim."""
@@ -22,6 +23,13 @@ ROUND = 0.006
 """Metres within which a flat object's footprint sides count as equal: round (a dish), not a plate."""
 GRASP_SLAB = 0.008
 """Metres above and below the grasp height whose collision boxes count for the width held."""
+
+
+def flat(height: float, footprint: np.ndarray) -> bool:
+    """Whether an object ``height`` tall with ``footprint`` (its two horizontal sizes) is flat: lower
+    than :data:`FLAT` and than it is wide (a dish, a plate, a slide), not a small upright tube (a
+    0.2 mL PCR tube, 23 mm tall and 7 mm across, is taken around its axis)."""
+    return bool(height < FLAT and height < float(np.min(footprint)))
 
 
 def held_width(
@@ -39,8 +47,8 @@ def held_width(
     a slide) is pinched across a whole side, its narrower one at best; a lying object is taken
     across its long axis; an upright one around its axis at ``grasp_z`` (its grasp site's height,
     else 60 % up), kept within the fingers' reach of its top and above the fingertips' lift."""
-    if float(high[2] - low[2]) < FLAT:
-        footprint = high[:2] - low[:2]
+    footprint = high[:2] - low[:2]
+    if flat(float(high[2] - low[2]), footprint):
         return None if abs(float(footprint[0] - footprint[1])) < ROUND else float(min(footprint))
     if lying:
         return float(min(high[:2] - low[:2]))

@@ -31,7 +31,14 @@ from pipette_cli.skills.moves import (
     fmt,
 )
 from pipette_cli.skills.runtime import SkillContext
-from pipette_cli.skills.targets import base_offset, insertion, insertion_grasp, resolve_target, upright_rotations
+from pipette_cli.skills.targets import (
+    SLIP_ROOM,
+    base_offset,
+    insertion,
+    insertion_grasp,
+    resolve_target,
+    upright_rotations,
+)
 from pipette_cli.specs.expert import InsertIntoSpec, PositionOverSpec
 
 GRASP_SETTLE_S = 0.25
@@ -90,11 +97,23 @@ def grasp(
         # the servos stop a few millimetres short under gravity: centred between the fingers before
         # they close (or the first finger to arrive pushes a small object over); and where the sag
         # took the open fingertips down to what they close over (a rack's top, whose edges would
-        # stop them), up to the planned height too, which clears it
+        # stop them), or would leave it held too low for the hole it goes into next (let go above
+        # its seat there, it tips), up to the planned height too
         sunk = partial(_fingertips_sunk, ctx, name, plan)
-        yield from settle_hand(ctx, GRASP_SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=sunk)
+        low = partial(_held_too_low, ctx, name, above)
+        yield from settle_hand(
+            ctx, GRASP_SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=lambda: sunk() or low()
+        )
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.hand.attach(name)
+
+
+def _held_too_low(ctx: SkillContext, name: str, above: float | None) -> bool:
+    """Whether the tcp, as it stands, is less than ``above`` (less the slip room allowed) over
+    ``name``'s origin: the hole it goes into next would stop the fingers before it is seated."""
+    if above is None:
+        return False
+    return bool(ctx.world.tcp_position()[2] - ctx.world.position(name)[2] < above - SLIP_ROOM)
 
 
 def _fingertips_sunk(ctx: SkillContext, name: str, plan: Grasp) -> bool:

@@ -117,7 +117,7 @@ class SkillContext:
                 if solution.ok():
                     raise SkillFailure(
                         f"{what} {fmt(pos)}: no straight way there for the {self.robot.name} "
-                        "that touches nothing but what it works on"
+                        f"that touches nothing but what it works on (it would {plan.obstacle(hand.q, solution.qpos)})"
                     )
         elif rot is hand.rot:
             solution = plan.solve(pos, rot, hand.q, yaw_free=yaw_free)

@@ -130,8 +130,13 @@ def test_insert_into_a_rack_hole_and_a_pipette_stand() -> None:
         # a 16 x 150 mm test tube in an 18 mm hole of a 60 mm rack: seated, it may lean on the wall
         ("skills/TubeIntoRack-v1", "tube", "rack/slot_5", 0, 0.003),
         # a 1.5 mL microtube taken by its top out of a rotor well: the fingers would land on the rack's
-        # top grid 8 mm before it is seated, and it was let go 3 mm off its hole (it tipped)
-        ("protocols/UnloadMicrocentrifuge-v1", "tube", "rack/slot_9", 0, 0.001),
+        # top grid 8 mm before it is seated, and it was let go 3 mm off its hole (it tipped); within
+        # 2 mm its cone, in the hole first, centres it
+        ("protocols/UnloadMicrocentrifuge-v1", "tube", "rack/slot_9", 0, 0.002),
+        # the arm outstretched over the rotor sagged 4 mm as it closed: the tube, held that much lower
+        # than planned, was let go 9 mm over its seat with only its cone in the hole and tipped 22
+        # degrees; the hand is raised to its planned height before the fingers close
+        ("protocols/UnloadMicrocentrifuge-v1", "tube", "rack/slot_9", 2, 0.002),
     ],
 )
 def test_insert_into_is_measured_against_the_hole(task_id: str, tube: str, slot: str, seed: int, off: float) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from pipette_cli.authoring.backends import make_backend
@@ -230,3 +231,19 @@ def test_a_flat_plate_wider_than_the_gripper_is_refused_a_dish_is_pinched(robot:
     assert problem is not None and f"gripper opens {spec.gripper.max_opening * 1000:.0f} mm" in problem
     assert grip_width(measure_asset("petri_dish_90mm"), spec) is None  # round: a chord near the rim
     assert grip_problem(measure_asset("microscope_slide"), spec, "slide") is None  # 25 mm across
+
+
+def test_a_small_upright_tube_is_held_around_its_axis_not_pinched_like_a_dish() -> None:
+    """A 0.2 mL PCR tube is lower than FLAT but taller than wide: the grasp planner takes it around its
+    axis (pinching it at the rim, hand pitched, tipped it in its rack) and new-task's grip check
+    measures it across its body; a dish and a plate stay flat."""
+    from pipette_cli.skills.grasp import pinched
+    from pipette_cli.skills.grip import flat
+    from pipette_cli.specs.robot import robot_spec
+    from pipette_cli.taskgen.validate import grip_width
+
+    assert not flat(0.0226, np.array([0.0068, 0.0068])) and not pinched(0.0226, np.array([0.0068, 0.0068]))
+    assert flat(0.015, np.array([0.09, 0.09])) and pinched(0.015, np.array([0.09, 0.09]))  # a 90 mm dish
+    assert flat(0.0144, np.array([0.1278, 0.0855]))  # an SBS plate
+    width = grip_width(measure_asset("pcr_tube_0_2ml"), robot_spec("franka_panda"))
+    assert width is not None and width == pytest.approx(0.0068, abs=0.001)
