@@ -99,7 +99,8 @@ SECONDARY = [
 PILOT_STEPS = (500, 1000, 2000, 4000)
 PILOT_SEED, PILOT_EPISODES = 1000, 30
 BAND = (0.15, 0.85)
-HINGES = {"pipette/CloseCentrifugeLid-v1", "pipette/CloseSpectrophotometerLid-v1"}
+HINGES = {"pipette/CloseCentrifugeLid-v1", "pipette/CloseSpectrophotometerLid-v1", "pipette/OpenCentrifugeLid-v1"}
+"""The candidates whose success is a hinge angle (OpenCentrifugeLid: amendment 2)."""
 PLACEMENTS = {"pipette/PlaceTubeOnBalance-v1"}
 BATCH, TRAIN_SEED = 8, 1000
 T = TypeVar("T")
