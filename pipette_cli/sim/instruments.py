@@ -96,6 +96,8 @@ class Instrument:
     )
 
     def __init__(self, spec: InstrumentSpec, world: World) -> None:
+        from mink.utils import get_subtree_body_ids  # deferred: mink and scipy (`pipette --help` imports this)
+
         self.spec = spec
         self._world = world
         self.memory = world.mechanism_memory(spec.name, self.MEMORY)
@@ -117,15 +119,15 @@ class Instrument:
         pressed_on = spec.scale.pan if spec.scale is not None else spec.touch.head if spec.touch is not None else None
         if pressed_on is not None:
             owner = world.body_id(pressed_on.split("/", 1)[0])
-            self.owner_bodies = {b for b in range(m.nbody) if _descends(m, b, owner)}
+            self.owner_bodies = set(get_subtree_body_ids(m, owner))
         if spec.scale is not None:
             pan = world.body_id(spec.scale.pan)
-            self.pan_bodies = {b for b in range(m.nbody) if _descends(m, b, pan)}
+            self.pan_bodies = set(get_subtree_body_ids(m, pan))
             if spec.scale.tare_button is not None:
                 self.tare_button = world.site_id(spec.scale.tare_button)
         if spec.touch is not None:
             head = world.body_id(spec.touch.head)
-            self.head_bodies = {b for b in range(m.nbody) if _descends(m, b, head)}
+            self.head_bodies = set(get_subtree_body_ids(m, head))
         self._force = np.zeros(6)
         self.reset()
 
@@ -304,11 +306,3 @@ class Instrument:
             world_force = contact.frame.reshape(3, 3).T @ self._force[:3]  # on geom2, from geom1
             down += float(world_force[2]) if on1 else -float(world_force[2])
         return down
-
-
-def _descends(model: mujoco.MjModel, body: int, root: int) -> bool:
-    while body > 0:
-        if body == root:
-            return True
-        body = int(model.body_parentid[body])
-    return body == root
