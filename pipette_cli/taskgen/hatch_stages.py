@@ -13,7 +13,7 @@ from pipette_cli.taskgen.motors import SHUT_TOLERANCE, motor_button, motorised, 
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
 from pipette_cli.taskgen.scene import HANDLES, PART_JOINTS, hatch_joint, r
 from pipette_cli.taskgen.stage_base import Stage, StageBase
-from pipette_cli.taskgen.validate import separate_lid
+from pipette_cli.taskgen.validate import lid_travel, separate_lid
 
 RUN_SECONDS = 10.0
 """Length of a drafted instrument's run (its start button's)."""
@@ -146,7 +146,7 @@ class HatchStages(StageBase):
             }
             program: list[sk.StepSpec] = [
                 sk.PickSpec(object=lid, at=handle, lift=0.14),
-                sk.MoveSpec(by=(-(depth + 0.04), 0.0, 0.0), hold_s=1.0),
+                sk.MoveSpec(by=(-lid_travel(lid_geom), 0.0, 0.0), hold_s=1.0),
             ]
         else:
             z = self.placed[name].pos[2] + seat[2]

@@ -26,7 +26,7 @@ from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, me
 from pipette_cli.taskgen.motors import release_angle
 from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.taskgen.resolve import choose_pair, holders_that_fit
-from pipette_cli.taskgen.validate import CheckedPlan, separate_lid
+from pipette_cli.taskgen.validate import CheckedPlan, lid_points, separate_lid
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")
@@ -285,8 +285,7 @@ class SceneBuilder:
                 pressed = True
             elif step.action in ("open", "close") and step.object == name:
                 keys += [closed.sites[h][:2] for h in HANDLES if h in closed.sites]  # where the hand takes it shut
-                if "lid_seat" in geom.sites:
-                    keys.append(geom.sites["lid_seat"][:2])
+                keys += lid_points(geom, opening=step.action == "open")
             elif step.action == "press":
                 keys.append(geom.sites["button"][:2])
                 pressed = True

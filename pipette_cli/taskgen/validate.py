@@ -136,6 +136,26 @@ def separate_lid(geom: AssetGeometry) -> str | None:
     return m.group(1) if m else None
 
 
+LID_CLEAR = 0.04
+"""Metres beyond its own depth that a lift-off lid is drawn toward the robot (clear of the rim)."""
+
+
+def lid_travel(lid: AssetGeometry) -> float:
+    """How far a lift-off lid is drawn toward the robot once lifted: its own depth, to the
+    centimetre (paper A.8's criterion asks that much), and :data:`LID_CLEAR` more."""
+    return round(2 * lid.half_xy[0], 2) + LID_CLEAR
+
+
+def lid_points(geom: AssetGeometry, opening: bool) -> list[tuple[float, float]]:
+    """Where the hand works at an instrument's lift-off lid (its asset's ``lid_seat``): the seat and,
+    opening it, where the hand ends with the lid drawn off toward the robot (:func:`lid_travel`)."""
+    if "lid_seat" not in geom.sites:
+        return []
+    seat, lid = geom.sites["lid_seat"], separate_lid(geom)
+    end = [(seat[0] - lid_travel(measure_asset(lid)), seat[1])] if opening and lid else []
+    return [(seat[0], seat[1]), *end]
+
+
 def _asset_id(words: str, vocab: Vocabulary, resolve: Callable[[str], str] | None) -> str:
     if words in vocab.assets:
         return words
