@@ -114,11 +114,9 @@ def main() -> None:
             row = judge(case, backend, solve=not args.no_solve, episodes=args.episodes)
             rows.append(row)
             mark = "ok " if row["right"] else ("TB " if row["outcome"] == "traceback" else "-- ")
-            extra = (
-                ""
-                if "solvable" not in row
-                else ("  solved" if row["solvable"] else f"  UNSOLVED {row['check']['solve']['detail']}")
-            )
+            check = row.get("check", {})
+            why = "; ".join(check.get("problems", [])) or check.get("solve", {}).get("detail", "")
+            extra = "" if "solvable" not in row else ("  solved" if row["solvable"] else f"  UNSOLVED {why}")
             got = row.get("steps") or row.get("message", "")[:140]
             print(f"{mark}{row['seconds']:6.1f}s  {case['text'][:70]:70s} -> {got}{extra}", flush=True)
     n = len(rows)
