@@ -245,7 +245,8 @@ def pilot_rates(ex: Experiment, task: TaskSpec) -> dict[int, float]:
 def pilot(ex: Experiment, tasks: list[TaskSpec], docs: Path) -> dict[str, Any]:
     """The plan's pilot, steps 1-4: if no step count meets the rule, the tasks above the band at
     the chosen count are piloted again with half the demonstrations (their first ones), which
-    then become their ``raw`` for every setting, and the rule is applied again."""
+    then become their ``raw`` for every setting, and the rule is applied again; where still no
+    hinge is in the band, the fallback of amendments 2 and 3 (:func:`with_a_hinge`)."""
     rates = dict(zip([t.id for t in tasks], each_task(ex, pilot_rates, tasks), strict=True))
     choice = choose(rates, ex.pilot_steps)
     first = {"success": dict(rates), **choice}
@@ -256,6 +257,7 @@ def pilot(ex: Experiment, tasks: list[TaskSpec], docs: Path) -> dict[str, Any]:
     rates.update(zip([t.id for t in above], each_task(fewer, pilot_rates, above), strict=True))
     if above:
         choice = choose(rates, ex.pilot_steps)
+    choice = with_a_hinge(rates, choice, ex.pilot_steps)
     data = {
         "seeds": [PILOT_SEED, PILOT_SEED + ex.pilot_episodes - 1],
         "demos": ex.demos,
@@ -285,6 +287,23 @@ def choose(rates: dict[str, dict[int, float]], counts: tuple[int, ...] = PILOT_S
         steps = max(counts, key=lambda s: (len(band(s)), -s))
     tasks = band(steps)
     return {"steps": steps, "tasks": tasks, "rule_met": ok(tasks)}
+
+
+def with_a_hinge(
+    rates: dict[str, dict[int, float]], choice: dict[str, Any], counts: tuple[int, ...] = PILOT_STEPS
+) -> dict[str, Any]:
+    """Amendment 2's fallback as amendment 3 resolves it: where the rule is not met and no hinge is
+    in the band at S, the candidates below the band at the largest count are dropped first (step 4),
+    then the kept hinge with the lowest pilot success at S joins the tasks (ties: the lowest success
+    summed over the counts, then the id), marked ``ceiling``."""
+    if choice["rule_met"] or HINGES & set(choice["tasks"]):
+        return choice
+    steps = choice["steps"]
+    kept = [t for t in sorted(HINGES & set(rates)) if rates[t][max(counts)] >= BAND[0]]
+    if not kept:
+        return choice
+    hinge = min(kept, key=lambda t: (rates[t][steps], sum(rates[t][c] for c in counts), t))
+    return {**choice, "tasks": [*choice["tasks"], hinge], "ceiling": [hinge]}
 
 
 # --------------------------------------------------------------------------------------------- run

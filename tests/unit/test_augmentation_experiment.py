@@ -40,6 +40,29 @@ def test_without_a_qualifying_count_the_most_tasks_in_the_band_win_then_fewer_st
     assert experiment.choose(rates, (500, 1000)) == {"steps": 500, "tasks": [HINGE, PICK], "rule_met": False}
 
 
+def test_with_no_hinge_in_the_band_the_least_saturated_kept_hinge_joins_amendments_2_and_3() -> None:
+    close_spec, open_lid = "pipette/CloseSpectrophotometerLid-v1", "pipette/OpenCentrifugeLid-v1"
+    rates = {  # the pilot of 2026-11-27 (the closes re-piloted with 15 demonstrations)
+        PICK: {500: 6 / 30, 1000: 9 / 30, 2000: 13 / 30, 4000: 9 / 30},
+        PLACE: {500: 1 / 30, 1000: 0.0, 2000: 9 / 30, 4000: 8 / 30},
+        OTHER: {500: 0.0, 1000: 14 / 30, 2000: 20 / 30, 4000: 27 / 30},
+        HINGE: {500: 1.0, 1000: 28 / 30, 2000: 1.0, 4000: 1.0},
+        close_spec: {500: 1.0, 1000: 1.0, 2000: 1.0, 4000: 1.0},
+        open_lid: {500: 0.0, 1000: 0.0, 2000: 0.0, 4000: 2 / 30},
+    }
+    choice = experiment.choose(rates)
+    assert choice == {"steps": 2000, "tasks": [PICK, PLACE, OTHER], "rule_met": False}
+    # the open lid is below the band at 4000 (dropped, step 4); of the two closes at 30/30, the one
+    # with the lower success summed over the counts
+    assert experiment.with_a_hinge(rates, choice) == {
+        **choice,
+        "tasks": [PICK, PLACE, OTHER, HINGE],
+        "ceiling": [HINGE],
+    }
+    met = experiment.choose({**rates, HINGE: {500: 0.5, 1000: 0.5, 2000: 0.5, 4000: 0.5}})
+    assert met["rule_met"] and experiment.with_a_hinge(rates, met) == met  # the rule met: nothing added
+
+
 def outcomes(task: str, successes: list[int]) -> dict[tuple[str, int], bool]:
     return {(task, 100_000 + i): bool(s) for i, s in enumerate(successes)}
 
