@@ -40,6 +40,8 @@ if TYPE_CHECKING:
     from pipette_cli.sim.world import World
 
 GRAVITY = 9.81
+RUN_REPORTS = ("running", "run_time_s", "runs")
+"""What a run reports, whether started by a button or by pressing a head."""
 
 
 class Zone:
@@ -147,10 +149,7 @@ class Instrument:
         out = [spec.closure.report] if spec.closure else []
         if spec.motor:
             out.append("motor_target")
-        if spec.run:
-            out += ["running", "run_time_s", "runs", "refused", "aborted"]
-        if spec.touch:
-            out += ["running", "run_time_s", "runs"]
+        out += list(self._run_reports())
         for zone in self.zones:
             out += zone.names()
         if spec.scale:
@@ -164,10 +163,7 @@ class Instrument:
             values[spec.closure.report] = float(self.closed())
         if spec.motor:
             values["motor_target"] = mem["motor_target"]
-        if spec.run:
-            values.update({key: mem[key] for key in ("running", "run_time_s", "runs", "refused", "aborted")})
-        if spec.touch:
-            values.update({key: mem[key] for key in ("running", "run_time_s", "runs")})
+        values.update({key: mem[key] for key in self._run_reports()})
         for zone in self.zones:
             values.update(zone.values())
         if spec.scale:
@@ -178,6 +174,13 @@ class Instrument:
                 tared=mem["tared"],
             )
         return MechanismState(self.running, mem["motor_target"], mem["motor_target"], values)
+
+    def _run_reports(self) -> tuple[str, ...]:
+        """The values a run reports: a start button's, or a touch head's (no presses refused or runs
+        aborted: pressing is the run)."""
+        if self.spec.run is not None:
+            return (*RUN_REPORTS, "refused", "aborted")
+        return RUN_REPORTS if self.spec.touch is not None else ()
 
     # ------------------------------------------------------------------ episode
     def reset(self) -> None:

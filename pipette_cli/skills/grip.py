@@ -51,7 +51,7 @@ def held_width(
     if flat(float(high[2] - low[2]), footprint):
         return None if abs(float(footprint[0] - footprint[1])) < ROUND else float(min(footprint))
     if lying:
-        return float(min(high[:2] - low[:2]))
+        return float(min(footprint))
     top, bottom = float(high[2]), float(low[2])
     z = grasp_z if grasp_z is not None else bottom + 0.6 * (top - bottom)
     z = min(max(z, top - (finger_depth - PALM_MARGIN), bottom + FINGERTIP_LIFT), top - 0.004)

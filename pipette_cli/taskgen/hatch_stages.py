@@ -13,7 +13,7 @@ from pipette_cli.taskgen.motors import SHUT_TOLERANCE, motor_button, motorised, 
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
 from pipette_cli.taskgen.scene import HANDLES, PART_JOINTS, hatch_joint, r
 from pipette_cli.taskgen.stage_base import Stage, StageBase
-from pipette_cli.taskgen.validate import lid_travel, separate_lid
+from pipette_cli.taskgen.validate import lid_depth, lid_travel, separate_lid
 
 RUN_SECONDS = 10.0
 """Length of a drafted instrument's run (its start button's)."""
@@ -134,7 +134,7 @@ class HatchStages(StageBase):
         handle = f"{lid}/lid_handle" if "lid_handle" in lid_geom.sites else None
         seat = geom.sites["lid_seat"]
         if opening:
-            depth = r(2 * lid_geom.half_xy[0], 2)
+            depth = lid_depth(lid_geom)
             criterion: ev.EvaluatorSpec = ev.DisplacementSpec(
                 object=lid,
                 delta=ev.AxisDeltaSpec(x=BoundSpec(max=-depth), z=BoundSpec(min=0.10)),

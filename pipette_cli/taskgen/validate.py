@@ -140,10 +140,15 @@ LID_CLEAR = 0.04
 """Metres beyond its own depth that a lift-off lid is drawn toward the robot (clear of the rim)."""
 
 
+def lid_depth(lid: AssetGeometry) -> float:
+    """A lift-off lid's depth to the centimetre: how far paper A.8's criterion asks it drawn toward
+    the robot."""
+    return round(2 * lid.half_xy[0], 2) + 0.0
+
+
 def lid_travel(lid: AssetGeometry) -> float:
-    """How far a lift-off lid is drawn toward the robot once lifted: its own depth, to the
-    centimetre (paper A.8's criterion asks that much), and :data:`LID_CLEAR` more."""
-    return round(2 * lid.half_xy[0], 2) + LID_CLEAR
+    """How far a lift-off lid is drawn toward the robot once lifted: its depth and :data:`LID_CLEAR` more."""
+    return lid_depth(lid) + LID_CLEAR
 
 
 def lid_points(geom: AssetGeometry, opening: bool) -> list[tuple[float, float]]:
