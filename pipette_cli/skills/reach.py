@@ -70,10 +70,13 @@ class Reach:
         assert best_found is not None
         return best_found[1], best_found[2]
 
-    def straight_line(self, start: Leg, point: np.ndarray, rot: np.ndarray, tolerance: float) -> np.ndarray | None:
+    def straight_line(
+        self, start: Leg, point: np.ndarray, rot: np.ndarray, tolerance: float, room: float = 0.0
+    ) -> np.ndarray | None:
         """Joints at ``point``/``rot`` reached along a straight tool line from ``start`` (the way a straight
-        move is executed), checked for reach and collisions every 2 cm and every 8 degrees of turn (a
-        big turn on a short line is where the warm-started IK can wander off); ``None`` if it fails."""
+        move is executed), checked for reach and collisions (keeping ``room`` metres) every 2 cm and every
+        8 degrees of turn (a big turn on a short line is where the warm-started IK can wander off);
+        ``None`` if it fails."""
         point = np.asarray(point, float)
         steps = max(float(np.linalg.norm(point - start.pos)) / 0.02, rotation_angle(start.rot, rot) / np.deg2rad(8.0))
         n = max(2, int(np.ceil(steps)) + 1)
@@ -82,7 +85,7 @@ class Reach:
             p = (1 - t) * start.pos + t * point
             r = slerp(start.rot, rot, t)
             solution = self.ik.solve(p, r, q, iterations=15, dt=0.1, careful=True)
-            if not solution.ok(max(tolerance, 0.006)) or self.hits(solution.qpos):
+            if not solution.ok(max(tolerance, 0.006)) or self.hits(solution.qpos, room):
                 return None
             q = solution.qpos
         final = self.ik.reachable(point, rot, q)

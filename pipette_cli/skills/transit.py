@@ -196,11 +196,14 @@ class Planner(Reach):
         # higher over the top before round the side: the arm that cannot cross just over an obstacle
         # (an open lid standing up) often can higher up, and a detour is long and passes the base
         paths += [([goal], False, extra) for extra in (0.08, 0.16)]
-        paths += [
-            ([here_flat + s * d * side, goal + s * d * side, goal], True, 0.0) for d in (0.3, 0.42) for s in (1.0, -1.0)
+        # what the hand holds goes straight where an arc would swing it before the long way round the base
+        tries = [(path, False) for path in paths] + [(path, True) for path in paths if self.hand.held is not None]
+        detours = [
+            ([here_flat + s * d * side, goal + s * d * side, goal], True, 0.0) for d in (0.3, 0.42) for s in (1, -1)
         ]
+        tries += [(path, False) for path in detours]
         for room in (TRANSIT_ROOM, 0.0):
-            for path, low, extra in paths:
+            for (path, low, extra), carry in tries:
                 if low is None:  # straight there, where nothing is in the way (cramped spots near the base)
                     if self.hand.held is not None and self._sweeps_held(here, goal, rot, skip, radius):
                         continue
@@ -209,7 +212,7 @@ class Planner(Reach):
                     points = self._waypoints(here, path, goal, skip, radius, hang, low, extra)
                 if points is None:
                     continue
-                resolved = self._feasible(start, points, rot, precise, room)
+                resolved = self._feasible(start, points, rot, precise, room, carry)
                 if resolved is not None:
                     return resolved
         return None
@@ -277,11 +280,13 @@ class Planner(Reach):
         rot: np.ndarray,
         precise: bool = True,
         room: float = 0.0,
+        carry: bool = False,
     ) -> list[Leg] | None:
         """Legs through ``points`` when the arm reaches each in turn touching nothing (keeping ``room``
         on the fast legs), else ``None``. The hand keeps its rotation while climbing and crossing and
         turns on the last leg; it turns earlier where keeping it is out of reach up there, and arrives
-        unturned where turning is."""
+        unturned where turning is. With ``carry``, what the hand holds goes along a straight line to a
+        point its joint-space arc cannot reach without swinging it, dipping it or touching something."""
         q, current = start.q, start.rot
         out: list[Leg] = []
         turned = False
@@ -310,18 +315,27 @@ class Planner(Reach):
                 else:
                     target, solution = self.solve_flip(point, target, q, best=True)
                 slow = final and precise
-                if not solution.ok(tolerance) or not self.clear_path(q, solution.qpos, room=0.0 if slow else room):
+                if not solution.ok(tolerance):
                     continue
-                joints = False
-                if slow and self.hand.held is None:  # followed as a straight tool line where the arm can, else
+                here, qpos, joints, straight = out[-1].pos if out else start.pos, solution.qpos, False, False
+                if not self.clear_path(q, qpos, room=0.0 if slow else room):
+                    line = Leg(here, current, q, TRANSIT_SPEED)
+                    carried = (
+                        self.straight_line(line, point, target, tolerance, 0.0 if slow else room) if carry else None
+                    )
+                    if carried is None:
+                        continue
+                    qpos, straight = carried, True
+                elif slow and self.hand.held is None:  # followed as a straight tool line where the arm can, else
                     # through joint space (an empty hand only: what it holds would swing on the arc)
-                    begin = Leg(out[-1].pos if out else start.pos, current, q, APPROACH_SPEED)
-                    joints = self.straight_line(begin, point, target, tolerance) is None
-                    if joints and room > 0 and not self.clear_path(q, solution.qpos, room=room):
+                    joints = self.straight_line(Leg(here, current, q, APPROACH_SPEED), point, target, tolerance) is None
+                    if joints and room > 0 and not self.clear_path(q, qpos, room=room):
                         continue  # a joint-space leg keeps its room, slow or not
                 turned = turned or not keep
-                q, current = solution.qpos, target
-                out.append(Leg(point, target, q, APPROACH_SPEED if slow else TRANSIT_SPEED, joints=joints))
+                q, current = qpos, target
+                out.append(
+                    Leg(point, target, q, APPROACH_SPEED if slow else TRANSIT_SPEED, joints=joints, straight=straight)
+                )
                 break
             else:
                 return None

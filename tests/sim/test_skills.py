@@ -454,3 +454,24 @@ def test_the_planner_reads_the_hand_and_only_the_context_moves_it() -> None:
     height = float(hand.pos[2])
     lifted = list(lift_clear(ctx, 0.05))
     assert lifted and hand.pos[2] == pytest.approx(height + 0.05)
+
+
+def test_a_held_tube_is_carried_straight_where_the_arc_would_swing_it() -> None:
+    """VortexConicalTube seed 10: the 50 mL tube's way from the bench to over the vortex mixer (30 cm
+    sideways at its height) has no joint-space arc that keeps it level (the arcs sag or turn it), so
+    the planner had found no path ('the move: no path to ...'). Carried along straight lines instead,
+    it stays level, in the fingers, and the protocol completes."""
+    world = World(REGISTRY.get("protocols/VortexConicalTube-v1"))
+    world.reset(10)
+    expert = ProgramExpert(list(world.task.expert or []))
+    expert.reset(world, np.random.default_rng([10, 1]))
+    heights, offsets = [], []
+    while not world.verdict.done and not expert.failure:
+        world.step(expert.act(world))
+        if expert.step_index == 1:  # the move to over the cup
+            heights.append(world.tcp_position()[2])
+            offsets.append(world.tcp_rotation().T @ (world.position("tube") - world.tcp_position()))
+    assert expert.failure is None, expert.failure
+    assert world.verdict.success, world.verdict
+    assert min(heights) > min(heights[0], heights[-1]) - 0.02  # no sag on the way
+    assert np.ptp(np.array(offsets), axis=0).max() < 0.005  # nor a slip in the fingers
