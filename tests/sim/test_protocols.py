@@ -119,3 +119,59 @@ def test_the_second_tube_is_taken_out_of_the_rack_and_the_rotor_balanced() -> No
     assert verdict.success, verdict
     state = world.mechanism("centrifuge")
     assert state.values["opposite.tube_b"] == 1 and state.values["rotor_loaded"] == 2
+
+
+INSTRUMENT_RUNS = [
+    # (protocol, instrument, the values it must take in this order, values at the end)
+    (
+        "protocols/RunThermalCycler-v1",
+        "cycler",
+        [("lid_closed", 1), ("running", 1), ("runs", 1), ("lid_closed", 0)],
+        {"block_loaded.tube": 1, "refused": 0},
+    ),
+    (
+        "protocols/ReadPlate-v1",
+        "reader",
+        [("drawer_closed", 1), ("running", 1), ("runs", 1), ("drawer_closed", 0)],
+        {"carrier.plate": 1, "refused": 0},
+    ),
+    (
+        "protocols/ReadCuvette-v1",
+        "spectro",
+        [("lid_closed", 1), ("running", 1), ("runs", 1)],
+        {"holder.cuvette": 1, "aborted": 0},
+    ),
+    (
+        "protocols/SpinLoadedBenchtopCentrifuge-v1",
+        "centrifuge",
+        [("closed", 1), ("running", 1), ("runs", 1), ("closed", 0)],
+        {"rotor_loaded": 2, "aborted": 0},
+    ),
+    ("protocols/VortexConicalTube-v1", "vortex", [("running", 1), ("runs", 1), ("running", 0)], {"runs": 1}),
+]
+
+
+@pytest.mark.parametrize(
+    ("task_id", "instrument", "order", "end"), INSTRUMENT_RUNS, ids=[r[0] for r in INSTRUMENT_RUNS]
+)
+def test_an_instrument_run_goes_through_its_states_in_order(
+    task_id: str, instrument: str, order: list[tuple[str, float]], end: dict[str, float]
+) -> None:
+    """The skill program works the instrument's state machine: each value is reached after the one
+    before it (the lid shut before the run starts, the run over before the lid opens), and the
+    instrument ends with what it holds still in place."""
+    world = World(REGISTRY.get(task_id))
+    world.reset(0)
+    expert = find_expert(world.task)[1]
+    expert.reset(world, np.random.default_rng([0, 1]))
+    reached = 0
+    while not world.verdict.done:
+        world.step(expert.act(world))
+        state = world.mechanism(instrument)
+        if reached < len(order) and state.value(order[reached][0]) == order[reached][1]:
+            reached += 1
+    assert expert.failure is None, expert.failure
+    assert reached == len(order), f"stopped before {order[reached]}"
+    assert world.verdict.success and world.stage == len(stage_specs(world.task)), world.verdict
+    state = world.mechanism(instrument)
+    assert {key: state.value(key) for key in end} == end
