@@ -465,7 +465,7 @@ def test_cli_dry_run_shows_the_plan_and_runs_nothing(run_cli, tmp_path, monkeypa
 
 def test_cli_answers_questions_without_running_anything(run_cli) -> None:
     result = run_cli("agent", "which tasks involve the centrifuge?")
-    assert result.exit_code == 0 and result.stdout.startswith("8 tasks about centrifuge")  # a microcentrifuge is one
+    assert result.exit_code == 0 and result.stdout.startswith("9 tasks about centrifuge")  # a microcentrifuge is one
 
 
 def test_cli_runs_steps_and_stops_at_the_first_failure(run_cli, tmp_path, monkeypatch) -> None:
