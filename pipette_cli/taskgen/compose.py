@@ -19,10 +19,11 @@ from pipette_cli.specs.expert import StepSpec
 from pipette_cli.specs.mechanisms import InstrumentSpec, MechanismSpec
 from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 from pipette_cli.taskgen.layout import PlacedObject
+from pipette_cli.taskgen.measure import r
 from pipette_cli.taskgen.naming import stage_instruction, step_name
 from pipette_cli.taskgen.naming import task_id as derive_id
 from pipette_cli.taskgen.plan import PlanError
-from pipette_cli.taskgen.scene import SceneBuilder, r
+from pipette_cli.taskgen.scene import SceneBuilder
 from pipette_cli.taskgen.stages import Stage, StageBuilder
 from pipette_cli.taskgen.validate import CheckedPlan
 

@@ -8,10 +8,9 @@ refuses an object too wide for a rack's holes, naming the holders it does fit.
 from __future__ import annotations
 
 from pipette_cli.language.assets import Vocabulary
-from pipette_cli.taskgen.measure import AssetGeometry
+from pipette_cli.taskgen.measure import AssetGeometry, r
 from pipette_cli.taskgen.plan import PlanError
 from pipette_cli.taskgen.resolve import diameter, fits, holders_that_fit, hole
-from pipette_cli.taskgen.scene import r
 
 RECEPTACLES = ("cuvette_slot", "rotor_center", "cup_center", "block_center", "drawer_center")
 """Sites that hold an object with a little play (its radius may exceed the bare room by 1.5 mm)."""

@@ -8,10 +8,10 @@ from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
 from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, RunSpec
-from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, measure_asset
+from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, measure_asset, r
 from pipette_cli.taskgen.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
-from pipette_cli.taskgen.scene import HANDLES, PART_JOINTS, hatch_joint, r
+from pipette_cli.taskgen.scene import HANDLES, PART_JOINTS, hatch_joint
 from pipette_cli.taskgen.stage_base import Stage, StageBase
 from pipette_cli.taskgen.validate import lid_depth, lid_travel, separate_lid
 

@@ -23,6 +23,11 @@ from pipette_cli.specs.task import TimingSpec
 FREE_CATEGORIES = ("tools", "consumables")
 
 
+def r(value: float, nd: int = 3) -> float:
+    """``value`` rounded to ``nd`` places as a plain float (no -0.0), the way drafted YAML writes numbers."""
+    return round(float(value), nd) + 0.0
+
+
 @dataclass(frozen=True)
 class JointInfo:
     """A hinge (degrees) or slide (metres) with its limits."""

@@ -15,8 +15,8 @@ import numpy as np
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
+from pipette_cli.taskgen.measure import r
 from pipette_cli.taskgen.plan import PlanStepSpec
-from pipette_cli.taskgen.scene import r
 from pipette_cli.taskgen.stage_base import Stage, StageBase, reference_point
 
 REACH = 0.12

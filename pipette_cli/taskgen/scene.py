@@ -22,7 +22,7 @@ import numpy as np
 
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.taskgen.layout import Footprint, Layout, PlacedObject
-from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, measure_asset, stands_alone
+from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, measure_asset, r, stands_alone
 from pipette_cli.taskgen.motors import release_angle
 from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.taskgen.resolve import choose_pair, holders_that_fit
@@ -56,10 +56,6 @@ RELEASE_FAR = 0.98
 asset's release angle (protocols/SpinMicrotube-v1 opens the microcentrifuge to -98 of -100 deg)."""
 OPEN_FRACTION = 0.95
 """An opened lid or door starts at this fraction of its open limit."""
-
-
-def r(value: float, nd: int = 3) -> float:
-    return round(float(value), nd) + 0.0
 
 
 def open_value(joint: JointInfo) -> float:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pipette_cli.language.assets import AssetInfo, Vocabulary
 from pipette_cli.skills.grip import fits_gripper, held_width
 from pipette_cli.specs.robot import DEFAULT_ROBOT, RobotSpec, robot_spec
-from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset, r
 from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanObjectSpec, PlanStepSpec, TaskPlanSpec
 
 HINGED_PARTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
@@ -143,7 +143,7 @@ LID_CLEAR = 0.04
 def lid_depth(lid: AssetGeometry) -> float:
     """A lift-off lid's depth to the centimetre: how far paper A.8's criterion asks it drawn toward
     the robot."""
-    return round(2 * lid.half_xy[0], 2) + 0.0
+    return r(2 * lid.half_xy[0], 2)
 
 
 def lid_travel(lid: AssetGeometry) -> float:
