@@ -1,9 +1,9 @@
 """The cheap physical checks of a task file (``pipette tasks validate``): build its scene and reset it.
 
 What a task needs before any episode runs, checked in a fraction of a second per task without
-stepping the physics: the scene compiles; at reset (seed 0) no two of its objects, the bench and
-the robot interpenetrate; every object has collision geometry within the robot's reach from its
-base (:class:`~pipette_cli.sim.world.World`'s build checks, which look at the task's targets only);
+stepping the physics: the scene compiles; at reset (seeds 0-19: the randomised layouts too) no two
+of its objects, the bench and the robot interpenetrate; every object has collision geometry within
+the robot's reach from its base (:class:`~pipette_cli.sim.world.World`'s build checks, which look at the task's targets only);
 and every point its skill program works at lies between the robot's minimum reach and its reach
 (:func:`~pipette_cli.demos.embodiment.reach_problems`, over the work points that
 :func:`~pipette_cli.demos.embodiment.measure_workspace` reads). Problems come back as field paths,
@@ -29,13 +29,13 @@ def scene_problems(task: TaskSpec) -> list[tuple[Loc, str]]:
     try:
         world = World(task, meshes="decimated", check=False)
         world.reset(seed=0)  # the evaluator looks up the parts it reads
+        names = [obj.name for obj in task.scene.objects]
+        problems = world.initial_state_problems(names)
     except EvaluatorError as exc:  # a task pack's criterion type without its runtime
         return [(("success", "type"), str(exc))]
     except SimError as exc:
         return [_located(task, str(exc))]
-    far = world.out_of_reach([obj.name for obj in task.scene.objects])
-    problems = world.interpenetrations() + far
-    reported = {loc for loc, _ in far}
+    reported = {loc for loc, _ in world.out_of_reach(names)}
     index = {obj.name: i for i, obj in enumerate(task.scene.objects)}
     try:
         space = measure_workspace(task)

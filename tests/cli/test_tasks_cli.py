@@ -253,3 +253,20 @@ def test_registry_dir_option_adds_tasks(run_cli) -> None:
 def test_version(run_cli) -> None:
     result = run_cli("--version")
     assert result.exit_code == 0 and result.stdout.startswith("pipette ")
+
+
+def test_validate_names_the_seed_whose_randomised_layout_interpenetrates(run_cli, tmp_path: Path) -> None:
+    # seed 0's layout is clear; the centrifuge's randomised pose brings the open lid over the
+    # Panda's wrist from seed 1 on (the registry task before it moved out to 0.65 m)
+    near = tmp_path / "near_centrifuge.yaml"
+    near.write_text(
+        (REGISTRY / "close_centrifuge_lid.yaml")
+        .read_text()
+        .replace("pipette/CloseCentrifugeLid-v1", "mylab/NearCentrifuge-v1")
+        .replace("pos: [0.65, 0.0, 0.55]", "pos: [0.58, 0.0, 0.55]")
+    )
+    result = run_cli("tasks", "validate", near)
+    said = " ".join(result.stderr.split())
+    assert result.exit_code == 1
+    assert f"{near}:{_line(near, 'pose:')}: scene.objects.0.pose: centrifuge and robot interpenetrate by " in said
+    assert "on seed 1 (a randomised layout)" in said

@@ -178,3 +178,11 @@ def test_amendment_1_compares_clutter_augmentation_on_the_clutter_suite_in_its_o
     )
     assert experiment.SUITE_SETTINGS["clutter"] == ("raw", "aug_all", "aug_clutter")
     assert "aug_clutter" not in experiment.SUITE_SETTINGS["nominal"]  # the pre-registered families stay as they were
+
+
+def test_the_report_states_the_ceiling_and_the_faults_found_after_the_plan_was_frozen() -> None:
+    notes = experiment.task_notes([PICK, HINGE, PLACE], ceiling=[HINGE])
+    assert list(notes) == [HINGE]  # the others have nothing said beside them
+    ceiling, fault = notes[HINGE]
+    assert "amendment 3" in ceiling and "only a loss" in ceiling
+    assert "amendment 4" in fault and "45 of the 50 suite seeds" in fault
