@@ -27,19 +27,22 @@ import numpy as np
 
 from pipette_cli.augment.batch import can_batch, screen
 from pipette_cli.augment.clutter import Clutter, clutter_of, transfer_state
-from pipette_cli.augment.objectcentric import adapt_actions
+from pipette_cli.augment.objectcentric import adapt_actions, destination
 from pipette_cli.augment.perturb import VariantPlan, placed_object, plan_variant
 from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
 from pipette_cli.augment.simulate import Placement, Rollout, placement, replay_check, restore, settle_steps, simulate
 from pipette_cli.augment.specs import AugmentSpec
+from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter, compress_frame
 from pipette_cli.demos.store import EpisodeRef, read_episode
+from pipette_cli.errors import PipetteError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.distractors import ATTR as DISTRACTORS_ATTR
 from pipette_cli.sim.distractors import with_distractors
 from pipette_cli.sim.env import Observation
 from pipette_cli.sim.render import CameraRig, Profile, find_profile
 from pipette_cli.sim.world import World
+from pipette_cli.specs.expert import StepSpec
 from pipette_cli.specs.perturbations import DistractorSpec
 from pipette_cli.specs.task import TaskSpec
 
@@ -133,6 +136,16 @@ def _stage(verdict: Verdict) -> int | None:
     return None if stage is None else int(stage)
 
 
+def _program(task: TaskSpec) -> list[StepSpec]:
+    """The task's skill program, whose steps say which object's frame each part of a demo is in
+    (``[]`` for a task without one: a teleoperation-only task stays one object-centric segment)."""
+    try:
+        return expert_program(task)[0]
+    except PipetteError as exc:
+        log.debug("%s: no skill program; object variants stay one segment: %s", task.id, exc)
+        return []
+
+
 def _compress_views(views: dict[str, np.ndarray]) -> dict[str, bytes]:
     return {camera: compress_frame(frame) for camera, frame in views.items()}
 
@@ -151,6 +164,7 @@ class DemoAugmenter:
         profile: Profile = "fast",
     ) -> None:
         self.task, self.spec, self.info = task, spec, info
+        self.program = _program(task)
         self.profile = profile
         self.world = World(task, meshes=find_profile(profile).meshes if render else "full")
         self.render = render
@@ -231,7 +245,11 @@ class DemoAugmenter:
                 continue
             world, state0 = self._scene(plan, s.seed, original.states[0])
             if plan.offset is not None and plan.actions is not None:
-                plan.actions = adapt_actions(world, s.seed, state0, plan.actions, plan.offset, plan.object_ramp)
+                moved = plan.offset.name
+                hand_off = destination(self.program, moved) not in (None, moved)
+                plan.actions = adapt_actions(
+                    world, s.seed, state0, plan.actions, plan.offset, plan.object_ramp, hand_off=hand_off
+                )
             if plan.physics:
                 assert plan.actions is not None
                 rollout = simulate(world, s.seed, state0, plan.actions, settle_steps=self.settle, offset=plan.offset)
