@@ -41,10 +41,12 @@ ROOT = Path(__file__).resolve().parents[1]
 if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie").is_dir():
     os.environ["MENAGERIE_ROOT"] = str(ROOT.parent / "shared" / "menagerie")
 
+from pipette_cli.augment.objectcentric import destination  # noqa: E402
 from pipette_cli.augment.run import augment  # noqa: E402
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
 from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
+from pipette_cli.demos.experts.base import expert_program  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
 from pipette_cli.demos.store import scan  # noqa: E402
 from pipette_cli.evaluation.results import read_logs  # noqa: E402
@@ -80,15 +82,23 @@ VARIANTS = {
     "aug_visual": "original,light+cam+table*5",
     "aug_clutter": "original,clutter*5",
 }
+VARIANTS |= {"aug_all_seg": VARIANTS["aug_all"], "aug_object_seg": VARIANTS["aug_object"]}
+"""Amendment 5: the same variants built by the segmented retargeting (the code after 2740d3a)."""
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
+SEGMENTED = ("aug_all_seg", "aug_object_seg")
+"""Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
+tasks whose skill program hands the held object over to another object (:func:`hands_over`)."""
 SUITE_SETTINGS = {
-    "nominal": SETTINGS[:5],
-    "shifted": SETTINGS[:5],
-    "clutter": ("raw", "aug_all", "aug_clutter"),
+    "nominal": (*SETTINGS[:5], *SEGMENTED),
+    "shifted": (*SETTINGS[:5], *SEGMENTED),
+    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg"),
 }
-"""The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1)."""
+"""The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1; the
+segmented ones: amendment 5)."""
 PRIMARY = [("raw", "aug_all")]
 AMENDMENT_1 = [("raw", "aug_clutter"), ("raw", "aug_all"), ("aug_all", "aug_clutter")]
+AMENDMENT_5 = [("aug_all", "aug_all_seg"), ("raw", "aug_all_seg")]
+"""On every suite; and on the shifted suite ``aug_object_seg`` vs ``aug_object``."""
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -329,9 +339,18 @@ def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]
     return sources
 
 
+def hands_over(task: TaskSpec) -> bool:
+    """Whether the task's program takes its first target to another object's site, where the
+    segmented retargeting differs from one segment (amendment 5)."""
+    moved = task.targets[0] if task.targets else None
+    return moved is not None and destination(expert_program(task)[0], moved) not in (None, moved)
+
+
 def run_task(
     ex: Experiment, task: TaskSpec, steps: int, suites: dict[str, RegisteredSuite], settings: list[str]
 ) -> None:
+    if not hands_over(task):
+        settings = [s for s in settings if s not in SEGMENTED]
     sources = data(ex, task, settings)
     quarter = max(1, steps // 4)
     every = min(ex.pilot_steps)
@@ -418,9 +437,10 @@ def cell_text(o: dict[tuple[str, int], bool]) -> str:
 
 def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
     """The comparisons of a suite by family (amendment 1's on the clutter suite)."""
+    extra = AMENDMENT_5 + ([("aug_object", "aug_object_seg")] if suite == "shifted" else [])
     if suite == "clutter":
-        return [("amendment 1", AMENDMENT_1)]
-    return [("primary", PRIMARY), ("secondary", SECONDARY)]
+        return [("amendment 1", AMENDMENT_1), ("amendment 5", extra)]
+    return [("primary", PRIMARY), ("secondary", SECONDARY), ("amendment 5", extra)]
 
 
 def comparisons(cells: Cells, tasks: list[str], suite: str = "nominal") -> list[dict[str, Any]]:
@@ -507,7 +527,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
         for t in tasks
         for s in ("raw", "aug_all")
     }
-    loss = {f"{t.id} {s}": training_loss(ex, t, s, [*marks, steps]) for t in tasks for s in SETTINGS}
+    loss = {f"{t.id} {s}": training_loss(ex, t, s, [*marks, steps]) for t in tasks for s in (*SETTINGS, *SEGMENTED)}
     lines += [
         "### Learning curves (nominal suite; lerobot-train's loss beside each)",
         "",

@@ -176,7 +176,7 @@ def test_amendment_1_compares_clutter_augmentation_on_the_clutter_suite_in_its_o
     assert [r["p_holm"] for r in rows] == pytest.approx(holm) and rows[0]["p_holm"] == pytest.approx(
         4 * rows[0]["p_value"]
     )
-    assert experiment.SUITE_SETTINGS["clutter"] == ("raw", "aug_all", "aug_clutter")
+    assert experiment.SUITE_SETTINGS["clutter"][:3] == ("raw", "aug_all", "aug_clutter")  # then amendment 5
     assert "aug_clutter" not in experiment.SUITE_SETTINGS["nominal"]  # the pre-registered families stay as they were
 
 
@@ -186,3 +186,15 @@ def test_the_report_states_the_ceiling_and_the_faults_found_after_the_plan_was_f
     ceiling, fault = notes[HINGE]
     assert "amendment 3" in ceiling and "only a loss" in ceiling
     assert "amendment 4" in fault and "45 of the 50 suite seeds" in fault
+
+
+def test_amendment_5_runs_the_segmented_settings_only_where_the_program_hands_over() -> None:
+    from pipette_cli.registry import load_registry
+
+    registry = load_registry()
+    assert experiment.hands_over(registry.get(PLACE))  # place_on balance/pan_center
+    assert not any(experiment.hands_over(registry.get(t)) for t in (PICK, OTHER, HINGE))
+    assert experiment.VARIANTS["aug_all_seg"] == experiment.VARIANTS["aug_all"]  # same data spec, newer code
+    shifted = dict(experiment.families("shifted"))["amendment 5"]
+    assert ("aug_all", "aug_all_seg") in shifted and ("aug_object", "aug_object_seg") in shifted
+    assert ("aug_object", "aug_object_seg") not in dict(experiment.families("nominal"))["amendment 5"]
