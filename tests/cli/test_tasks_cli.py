@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 from pipette_cli.registry import load_registry, load_task_file
 
@@ -103,6 +104,17 @@ def _line(path: Path, start: str) -> int:
     return next(i for i, line in enumerate(path.read_text().splitlines(), 1) if line.lstrip().startswith(start))
 
 
+def _validate_edited(run_cli, tmp_path: Path, registry_file: str, old: str, new: str) -> tuple[Path, Any, str]:
+    """``tasks validate`` on a copy of a registry task file (id ``mylab/Edited-v1``) with ``old``
+    made ``new``: the copy, the result and its stderr on one line."""
+    text = (REGISTRY / registry_file).read_text()
+    assert old in text, old
+    path = tmp_path / "edited.yaml"
+    path.write_text(re.sub(r"(?m)^id: .*$", "id: mylab/Edited-v1", text.replace(old, new), count=1))
+    result = run_cli("tasks", "validate", path)
+    return path, result, " ".join(result.stderr.split())
+
+
 def test_validate_refuses_a_copy_whose_id_the_registry_has_naming_both_files(run_cli, tmp_path: Path) -> None:
     copy = tmp_path / "my_tube.yaml"
     copy.write_text(TUBE_YAML)
@@ -164,15 +176,8 @@ def test_validate_refuses_objects_that_interpenetrate_at_reset(run_cli, tmp_path
 
 
 def test_validate_names_a_criterion_part_the_scene_lacks_at_its_line(run_cli, tmp_path: Path) -> None:
-    typo = tmp_path / "pan_typo.yaml"
-    typo.write_text(
-        (REGISTRY / "place_tube_on_balance.yaml")
-        .read_text()
-        .replace("pipette/PlaceTubeOnBalance-v1", "mylab/PanTypo-v1")
-        .replace("center: balance/pan_center", "center: balance/pan_centre")
-    )
-    result = run_cli("tasks", "validate", typo)
-    said = " ".join(result.stderr.split())
+    edit = ("center: balance/pan_center", "center: balance/pan_centre")
+    typo, result, said = _validate_edited(run_cli, tmp_path, "place_tube_on_balance.yaml", *edit)
     assert result.exit_code == 1 and "ok  " not in result.stderr
     assert (
         f"error: {typo}:{_line(typo, 'center:')}: success.within.center: asset 'electronic_balance' of 'balance' "
@@ -258,15 +263,8 @@ def test_version(run_cli) -> None:
 def test_validate_names_the_seed_whose_randomised_layout_interpenetrates(run_cli, tmp_path: Path) -> None:
     # seed 0's layout is clear; the centrifuge's randomised pose brings the open lid over the
     # Panda's wrist from seed 1 on (the registry task before it moved out to 0.65 m)
-    near = tmp_path / "near_centrifuge.yaml"
-    near.write_text(
-        (REGISTRY / "close_centrifuge_lid.yaml")
-        .read_text()
-        .replace("pipette/CloseCentrifugeLid-v1", "mylab/NearCentrifuge-v1")
-        .replace("pos: [0.65, 0.0, 0.55]", "pos: [0.58, 0.0, 0.55]")
-    )
-    result = run_cli("tasks", "validate", near)
-    said = " ".join(result.stderr.split())
+    edit = ("pos: [0.65, 0.0, 0.55]", "pos: [0.58, 0.0, 0.55]")
+    near, result, said = _validate_edited(run_cli, tmp_path, "close_centrifuge_lid.yaml", *edit)
     assert result.exit_code == 1
     assert f"{near}:{_line(near, 'pose:')}: scene.objects.0.pose: centrifuge and robot interpenetrate by " in said
     assert "on seed 1 (a randomised layout)" in said
