@@ -13,6 +13,8 @@ Stages (each resumes: rerun the same command after an interruption and finished 
   report  the tables of the plan's analysis: Wilson intervals, McNemar's exact test per task and
           pooled over tasks, Holm-adjusted; learning curves, failure modes, augmentation yield;
           results.json and table.md in --docs.
+  diagnose  how much each trained policy's actions follow its images, on the first frames of the
+          raw demonstrations (no suite seed): diagnosis.json in --docs (plan.md, point 6).
 
     python benchmarks/augmentation_experiment.py data --work runs/augmentation
     python benchmarks/augmentation_experiment.py pilot --work runs/augmentation
@@ -36,6 +38,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TypeVar
 
+import numpy as np
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 ROOT = Path(__file__).resolve().parents[1]
 if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie").is_dir():
@@ -48,7 +52,7 @@ from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.experts.base import expert_program  # noqa: E402
 from pipette_cli.demos.provenance import git_state  # noqa: E402
-from pipette_cli.demos.store import scan  # noqa: E402
+from pipette_cli.demos.store import read_episode, scan  # noqa: E402
 from pipette_cli.evaluation.results import read_logs  # noqa: E402
 from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
 from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
@@ -378,6 +382,56 @@ def run_task(
                 evaluated(ex, task, checkpoint(run, step, total), label, into, plan, suites["nominal"])
 
 
+# --------------------------------------------------------------------------------------- diagnose
+RELIANCE_DEMOS, RELIANCE_STEP = 12, 30
+
+
+def final_checkpoint(ex: Experiment, task: TaskSpec, setting: str, steps: int) -> Path | None:
+    """The setting's policy at ``steps`` (the raw one may sit in the pilot's longer run)."""
+    found = sorted(ex.folder(task, setting).glob(f"train*/act/*/checkpoints/{steps:06d}/pretrained_model"))
+    return found[0] if found else None
+
+
+def image_reliance(ex: Experiment, task: TaskSpec, policy: Path) -> dict[str, float]:
+    """How much a policy's actions follow its images: the spread (mean over the arm joints of the
+    std across episodes) of the joint targets it predicts :data:`RELIANCE_STEP` steps ahead from
+    the first frames of the first :data:`RELIANCE_DEMOS` raw demonstrations (demonstration seeds,
+    each with the object elsewhere), beside the spread the demonstrations themselves have there. A
+    policy that ignores its images predicts one trajectory for every start (ratio near 0)."""
+    from pipette_cli.serving.server import LeRobotRunner  # deferred: torch, lerobot
+
+    runner = LeRobotRunner(policy, device="cpu")
+    predicted, recorded = [], []
+    for ref in scan(ex.folder(task, "raw.h5")).episodes[:RELIANCE_DEMOS]:
+        episode = read_episode(ref, images=True)
+        obs = {
+            f"observation.images.{c}": np.ascontiguousarray(v[0].transpose(2, 0, 1)) for c, v in episode.images.items()
+        }
+        obs["observation.state"] = episode.arrays["state"][0].astype(np.float32)
+        runner.reset()
+        chunk = runner.act(obs, task.instruction, chunk=True)
+        step = min(RELIANCE_STEP, len(chunk) - 1, len(episode.arrays["action"]) - 1)
+        predicted.append(chunk[step, :-1])
+        recorded.append(episode.arrays["action"][step, :-1])
+    spread, demos = float(np.std(predicted, axis=0).mean()), float(np.std(recorded, axis=0).mean())
+    return {"predicted_spread": round(spread, 4), "recorded_spread": round(demos, 4), "ratio": round(spread / demos, 3)}
+
+
+def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str:
+    """diagnosis.json in ``docs``: :func:`image_reliance` of every trained setting (no suite seed)."""
+    found: dict[str, dict[str, Any]] = {}
+    for task in tasks:
+        for setting in (*SETTINGS, *SEGMENTED):
+            policy = final_checkpoint(ex, task, setting, steps)
+            if policy is not None:
+                found[f"{task.id} {setting}"] = image_reliance(ex, task, policy)
+    docs.mkdir(parents=True, exist_ok=True)
+    (docs / "diagnosis.json").write_text(json.dumps(found, indent=2) + "\n")
+    lines = ["| task, setting | predicted spread | recorded spread | ratio |", "|---|---:|---:|---:|"]
+    lines += [f"| {k} | {v['predicted_spread']} | {v['recorded_spread']} | {v['ratio']} |" for k, v in found.items()]
+    return "\n".join(lines)
+
+
 # ------------------------------------------------------------------------------------------ report
 Cells = dict[tuple[str, str], dict[tuple[str, int], bool]]
 
@@ -584,7 +638,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("stage", choices=("data", "pilot", "run", "report"))
+    parser.add_argument("stage", choices=("data", "pilot", "run", "report", "diagnose"))
     parser.add_argument("--work", type=Path, default=Path("runs/augmentation"))
     parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction" / "augmentation")
     parser.add_argument(
@@ -632,6 +686,9 @@ def main() -> None:
     steps = args.steps or chosen.get("steps")
     if steps is None:
         raise SystemExit("no training steps: run the pilot first or pass --steps")
+    if args.stage == "diagnose":
+        print(diagnose(ex, tasks, args.docs, steps))
+        return
     if args.stage == "run":
         each_task(ex, run_task, tasks, steps, suites, [s for s in args.settings.split(",") if s])
     print(report(ex, tasks, args.docs, steps, chosen.get("ceiling", [])))
