@@ -8,7 +8,7 @@ saying where every derived number comes from.
 | place on a surface | ``region_hold`` disc on the site (0.5 x half the surface, the footprint fits), z band, tilt | ``pick`` + ``place_on`` |
 | place into a rack | ``region_hold`` over the slot grid, below 40 % of the rack | ``pick`` + ``insert_into`` a free slot |
 | place into a slot, rotor, cup | small disc on the site | ``pick`` + ``insert_into`` / ``place_on`` |
-| place into a deep bin | disc over the opening, below its rim | ``pick`` + ``move`` over it + ``retreat`` (let go) |
+| place into a deep bin | disc over the opening, below its rim | ``pick`` + ``move`` over it + ``retreat`` (let go); ``place_on`` its floor for an object taller than the bin is deep |
 | remove | ``displacement`` to a free bench spot (and down, off a raised source) | ``remove_from`` to that spot |
 | open / close a hinge or slide | ``joint_threshold`` past 75 % open / within 5 deg (1 cm) of shut | ``open_hinge`` / ``close_hinge`` / ``slide`` |
 | open a latched lid (a release ``button``) | ``joint_threshold`` past 75 % of the angle it pops to | ``press`` + ``wait`` |
@@ -207,6 +207,13 @@ class StageBuilder(HatchStages, RelationStages):
             "z": f"inside: below its rim at z = {rim:.3f} m",
             "within": "VERIFY: over the middle of its opening",
         }
+        depth = float(dgeom.high[2]) - float(dgeom.sites[site][2]) if site in dgeom.sites else 0.0
+        if site != "opening" and float(igeom.height) > depth:
+            # it stands out over the rim on the floor: set down there, held above the rim (a tube
+            # stood in an ice bucket), not let fall from over it to topple against a wall
+            return Stage(
+                step, criterion, [sk.PlaceOnSpec(object=item, target=f"{dest}/{site}")], comments, [item, dest]
+            )
         over = max(0.03, float(igeom.height)) + 0.03
         program: list[sk.StepSpec] = [
             sk.MoveSpec(

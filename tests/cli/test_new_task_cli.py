@@ -75,6 +75,16 @@ def test_check_gate_passes_a_solvable_task(run_cli, tmp_path) -> None:
     assert "nothing written" in text and not list(tmp_path.iterdir())
 
 
+def test_a_tube_put_on_ice_is_stood_in_the_bucket_not_dropped_into_it(run_cli, tmp_path) -> None:
+    # 150 mm of tube over a 130 mm deep bucket: let fall from over the rim it toppled against the
+    # wall (0/5); set down on the floor, held above the rim, it stands
+    out = tmp_path / "ice.yaml"
+    result = run_cli("new-task", "Put the tube on ice", "--check", "--episodes", "2", "-o", out, "--yes")
+    assert result.exit_code == 0, result.stderr
+    assert "expert 'program' solved 2/2 episodes" in " ".join(result.stderr.split())
+    assert "{skill: place_on, object: tube, target: bucket/center}" in out.read_text()
+
+
 def test_check_failure_names_the_stage_and_writes_nothing_without_force(run_cli, tmp_path, monkeypatch) -> None:
     from pipette_cli.taskgen import check
 
