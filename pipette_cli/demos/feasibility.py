@@ -3,11 +3,11 @@
 What a task needs before any episode runs, checked in a fraction of a second per task without
 stepping the physics: the scene compiles; at reset (seeds 0-19: the randomised layouts too) no two
 of its objects, the bench and the robot interpenetrate; every object has collision geometry within
-the robot's reach from its base (:class:`~pipette_cli.sim.world.World`'s build checks, which look at the task's targets only);
-and every point its skill program works at lies between the robot's minimum reach and its reach
-(:func:`~pipette_cli.demos.embodiment.reach_problems`, over the work points that
-:func:`~pipette_cli.demos.embodiment.measure_workspace` reads). Problems come back as field paths,
-for the caller to name ``file:line``.
+the robot's reach from its base (:class:`~pipette_cli.sim.world.World`'s build checks, which look
+at the task's targets only); and every point its skill program works at lies between the robot's
+minimum reach and its reach (:func:`~pipette_cli.demos.embodiment.reach_problems`, over the work
+points that :func:`~pipette_cli.demos.embodiment.measure_workspace` reads). Problems come back as
+field paths, for the caller to name ``file:line``.
 """
 
 from __future__ import annotations
