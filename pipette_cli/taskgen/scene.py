@@ -47,6 +47,9 @@ SURFACE_SITES = (
     "center",
     "opening",
 )
+FLAT_SITES = ("pan_center", "platform_center", "plate_center", "top_center", "drawer_center", "work_center")
+"""Surface sites (and every ``shelf_*_center``) that hold an object only if it stands by itself; the
+others (a rotor, a block, a cup, a ring, an inside bottom) hold it in a well or against a wall."""
 RELATION_START = {"left_of": (0.0, -0.5), "right_of": (0.0, 0.5), "behind": (-0.12, 0.0), "in_front_of": (0.2, 0.0)}
 """Where a relation's reference starts (x from the workspace's middle, m; y in lanes): room beside it."""
 BESIDE_CLEAR = 0.2

@@ -34,10 +34,11 @@ from pipette_cli.specs.mechanisms import ButtonReleaseSpec
 from pipette_cli.taskgen.fit import check_hole_fit, fit_radius
 from pipette_cli.taskgen.hatch_stages import HatchStages
 from pipette_cli.taskgen.layout import Footprint
-from pipette_cli.taskgen.measure import AssetGeometry, measure_asset
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset, stands_alone
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
 from pipette_cli.taskgen.relation_stages import RelationStages
 from pipette_cli.taskgen.scene import (
+    FLAT_SITES,
     hatch_joint,
     open_value,
     r,
@@ -108,6 +109,12 @@ class StageBuilder(HatchStages, RelationStages):
         ):
             stage = self._drop_in(step, igeom, dgeom, site)
         else:
+            flat = site in FLAT_SITES or (site.startswith("shelf_") and site.endswith("_center"))
+            if flat and not stands_alone(self.placed[item].asset):
+                raise PlanError(
+                    f"impossible request: the {self.human(item)} cannot stand on the {self.human(dest)} by itself "
+                    f"(it tips over or rolls away); put it in a rack or holder there, or use one that stands on its own"
+                )
             stage = self._onto(step, igeom, dgeom, site, insert=False)
         stage.program = take + stage.program
         self.held_at[item] = (dest, site)

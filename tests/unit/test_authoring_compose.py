@@ -12,8 +12,8 @@ from pipette_cli.authoring.parser import parse_description
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.llm import strict_json_schema
-from pipette_cli.taskgen.measure import measure_asset
-from pipette_cli.taskgen.plan import TaskPlanSpec, plan_json_schema
+from pipette_cli.taskgen.measure import measure_asset, stands_alone
+from pipette_cli.taskgen.plan import PlanError, TaskPlanSpec, plan_json_schema
 
 
 def drafted(text: str):
@@ -206,17 +206,15 @@ def test_no_room_for_an_added_rack_is_a_plan_error_naming_the_rack(monkeypatch) 
         drafted("Pick up the 15 mL falcon tube")
 
 
-def test_a_tube_that_starts_standing_in_a_rack_is_judged_standing_where_it_is_set_down() -> None:
-    # a 50 mL conical tube rests lying on a bench, so it starts standing in a rack; the expert carries
-    # it upright and stands it on the pan, so the criterion must not expect its lying middle there
-    d = drafted("Put the 50 mL conical tube on the balance")
-    assert d.spec.object("tube_rack") is not None
-    s = d.spec.success
-    standing = measure_asset("conical_tube_50ml", standing=True)
-    assert standing.height > 0.1 and standing.semantics["upright"]
-    assert s.object == "tube" and s.max_tilt_deg == 15.0
-    assert s.within.radius == pytest.approx(0.5 * 0.13 / 2)  # its 33 mm footprint leaves the paper's disc
-    assert s.z.max == pytest.approx(0.55 + 0.09 + 0.03)  # its base on the pan, not its middle 57 mm up
+def test_a_conical_tube_is_not_stood_on_a_flat_pan_it_cannot_stand_on() -> None:
+    # a conical bottom tips over on a flat surface (stands_alone, simulated): the pan criterion
+    # could never hold (0/5 by the experts), so the request is refused with what would work; in a
+    # rotor well or a rack hole it stands, and a skirted tube stands on the pan
+    assert not stands_alone("conical_tube_50ml") and stands_alone("conical_tube_50ml_skirted")
+    with pytest.raises(PlanError, match="cannot stand on the balance by itself .* put it in a rack or holder"):
+        drafted("Put the 50 mL conical tube on the balance")
+    assert drafted("Put the skirted 50 mL tube on the balance").spec.success.max_tilt_deg == 15.0
+    assert drafted("Put the 15 mL falcon tube in the conical tube rack").spec.expert is not None
 
 
 @pytest.mark.parametrize("robot", ["franka_panda", "ur5e_robotiq", "agilex_piper"])
