@@ -92,17 +92,22 @@ SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clu
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
 tasks whose skill program hands the held object over to another object (:func:`hands_over`)."""
+EPOCH_MATCHED = {"aug_all_ep": "aug_all", "more_demos_ep": "more_demos"}
+"""Amendment 6: the data of the setting named, trained for as many passes over it as ``raw`` gets in
+S steps (:func:`matched_steps`)."""
 SUITE_SETTINGS = {
-    "nominal": (*SETTINGS[:5], *SEGMENTED),
-    "shifted": (*SETTINGS[:5], *SEGMENTED),
-    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg"),
+    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED),
+    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED),
+    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg", "aug_all_ep"),
 }
 """The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1; the
-segmented ones: amendment 5)."""
+segmented ones: amendment 5; the epoch-matched ones: amendment 6)."""
 PRIMARY = [("raw", "aug_all")]
 AMENDMENT_1 = [("raw", "aug_clutter"), ("raw", "aug_all"), ("aug_all", "aug_clutter")]
 AMENDMENT_5 = [("aug_all", "aug_all_seg"), ("raw", "aug_all_seg")]
 """On every suite; and on the shifted suite ``aug_object_seg`` vs ``aug_object``."""
+AMENDMENT_6 = [("raw", "aug_all_ep"), ("aug_all", "aug_all_ep"), ("more_demos_ep", "aug_all_ep")]
+"""On every suite (the clutter suite has no ``more_demos_ep``: that pair is left out there)."""
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -186,9 +191,10 @@ def trained(
     ex: Experiment, task: TaskSpec, setting: str, source: Path, steps: int, save_freq: int, folder: str = "train"
 ) -> Path:
     """The run folder of ACT trained ``steps`` steps on ``source`` (checkpoints every ``save_freq``),
-    under ``<task>/<setting>/<folder>``."""
-    version = DatasetVersion.raw if setting in ("raw", "more_demos") else DatasetVersion.augmented
-    datasets = ex.folder(task, setting, "datasets")
+    under ``<task>/<setting>/<folder>`` (an epoch-matched setting reads its data setting's dataset)."""
+    data_setting = EPOCH_MATCHED.get(setting, setting)
+    version = DatasetVersion.raw if data_setting in ("raw", "more_demos") else DatasetVersion.augmented
+    datasets = ex.folder(task, data_setting, "datasets")
     slug = task.id.replace("/", "_")
     root = datasets / slug / version.value
     if not (root / "meta" / "info.json").is_file():
@@ -343,6 +349,13 @@ def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]
     return sources
 
 
+def matched_steps(ex: Experiment, task: TaskSpec, setting: str, steps: int, unit: int = 500) -> int:
+    """Training steps that give ``setting``'s data as many passes as ``raw``'s get in ``steps``: ``steps``
+    times the ratio of their control steps (frames), rounded up to ``unit`` (amendment 6)."""
+    frames = [sum(ref.summary.num_steps for ref in scan(ex.folder(task, f"{s}.h5")).episodes) for s in (setting, "raw")]
+    return max(steps, -(-steps * frames[0] // (frames[1] * unit)) * unit)
+
+
 def hands_over(task: TaskSpec) -> bool:
     """Whether the task's program takes its first target to another object's site, where the
     segmented retargeting differs from one segment (amendment 5)."""
@@ -355,7 +368,10 @@ def run_task(
 ) -> None:
     if not hands_over(task):
         settings = [s for s in settings if s not in SEGMENTED]
-    sources = data(ex, task, settings)
+    sources = data(ex, task, [*settings, *(EPOCH_MATCHED[s] for s in settings if s in EPOCH_MATCHED)])
+    for setting in settings:
+        if setting in EPOCH_MATCHED:
+            sources[setting] = sources[EPOCH_MATCHED[setting]]
     quarter = max(1, steps // 4)
     every = min(ex.pilot_steps)
     for setting in settings:
@@ -364,11 +380,14 @@ def run_task(
             # seed, its checkpoints at S/4, S/2 and S are those of an S-step run
             total = max(ex.pilot_steps)
             run = trained(ex, task, setting, sources[setting], total, every)
+        elif setting in EPOCH_MATCHED:
+            total = matched_steps(ex, task, EPOCH_MATCHED[setting], steps)
+            run = trained(ex, task, setting, sources[setting], total, total // 4)
         else:
             folder = "train" if setting != "raw" else f"train_{steps}"
             total = steps
             run = trained(ex, task, setting, sources[setting], total, quarter, folder)
-        final = checkpoint(run, steps, total)
+        final = checkpoint(run, total if setting in EPOCH_MATCHED else steps, total)
         for name, suite in suites.items():
             if setting not in SUITE_SETTINGS[name]:
                 continue
@@ -421,8 +440,12 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
     """diagnosis.json in ``docs``: :func:`image_reliance` of every trained setting (no suite seed)."""
     found: dict[str, dict[str, Any]] = {}
     for task in tasks:
-        for setting in (*SETTINGS, *SEGMENTED):
-            policy = final_checkpoint(ex, task, setting, steps)
+        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED):
+            base = EPOCH_MATCHED.get(setting)
+            if base is not None and not ex.folder(task, f"{base}.h5").is_file():
+                continue
+            at = steps if base is None else matched_steps(ex, task, base, steps)
+            policy = final_checkpoint(ex, task, setting, at)
             if policy is not None:
                 found[f"{task.id} {setting}"] = image_reliance(ex, task, policy)
     docs.mkdir(parents=True, exist_ok=True)
@@ -493,8 +516,8 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
     """The comparisons of a suite by family (amendment 1's on the clutter suite)."""
     extra = AMENDMENT_5 + ([("aug_object", "aug_object_seg")] if suite == "shifted" else [])
     if suite == "clutter":
-        return [("amendment 1", AMENDMENT_1), ("amendment 5", extra)]
-    return [("primary", PRIMARY), ("secondary", SECONDARY), ("amendment 5", extra)]
+        return [("amendment 1", AMENDMENT_1), ("amendment 5", extra), ("amendment 6", AMENDMENT_6[:2])]
+    return [("primary", PRIMARY), ("secondary", SECONDARY), ("amendment 5", extra), ("amendment 6", AMENDMENT_6)]
 
 
 def comparisons(cells: Cells, tasks: list[str], suite: str = "nominal") -> list[dict[str, Any]]:

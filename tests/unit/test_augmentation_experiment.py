@@ -198,3 +198,30 @@ def test_amendment_5_runs_the_segmented_settings_only_where_the_program_hands_ov
     shifted = dict(experiment.families("shifted"))["amendment 5"]
     assert ("aug_all", "aug_all_seg") in shifted and ("aug_object", "aug_object_seg") in shifted
     assert ("aug_object", "aug_object_seg") not in dict(experiment.families("nominal"))["amendment 5"]
+
+
+def test_amendment_6_trains_the_augmented_data_for_as_many_passes_as_raw_gets(tmp_path) -> None:
+    from pipette_cli.demos.recorder import EpisodeSummary
+    from pipette_cli.demos.store import EpisodeRef
+
+    ex = experiment.Experiment(tmp_path, 1, 64, "fast", 30, (500,), 30, None, 1)
+    lengths = {"raw": [134] * 30, "aug_all": [134] * 175}  # 5.8 times the frames
+
+    def scan(path):
+        refs = [
+            EpisodeRef(i, path, "", EpisodeSummary(i, i, "scripted", n, True, "", {}, ""), False)
+            for i, n in enumerate(lengths[path.stem])
+        ]
+        return type("Status", (), {"episodes": refs})()
+
+    task = type("Task", (), {"id": PICK})()
+    original, experiment.scan = experiment.scan, scan
+    try:
+        assert experiment.matched_steps(ex, task, "aug_all", 2000) == 12000  # 2000 x 5.83, up to 500s
+        assert experiment.matched_steps(ex, task, "raw", 2000) == 2000
+    finally:
+        experiment.scan = original
+    assert experiment.EPOCH_MATCHED["aug_all_ep"] == "aug_all"
+    pairs = dict(experiment.families("nominal"))["amendment 6"]
+    assert ("raw", "aug_all_ep") in pairs and ("more_demos_ep", "aug_all_ep") in pairs
+    assert ("more_demos_ep", "aug_all_ep") not in dict(experiment.families("clutter"))["amendment 6"]
