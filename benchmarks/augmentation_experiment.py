@@ -45,7 +45,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if "MENAGERIE_ROOT" not in os.environ and (ROOT.parent / "shared" / "menagerie").is_dir():
     os.environ["MENAGERIE_ROOT"] = str(ROOT.parent / "shared" / "menagerie")
 
-from pipette_cli.augment.objectcentric import destination  # noqa: E402
+from pipette_cli.augment.objectcentric import hands_over  # noqa: E402
 from pipette_cli.augment.run import augment  # noqa: E402
 from pipette_cli.augment.specs import AugmentSpec, default_atoms, make_variants  # noqa: E402
 from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
@@ -91,7 +91,7 @@ VARIANTS |= {"aug_all_seg": VARIANTS["aug_all"], "aug_object_seg": VARIANTS["aug
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
-tasks whose skill program hands the held object over to another object (:func:`hands_over`)."""
+tasks whose skill program hands the held object over to another object (:func:`segmented`)."""
 EPOCH_MATCHED = {"aug_all_ep": "aug_all", "more_demos_ep": "more_demos"}
 """Amendment 6: the data of the setting named, trained for as many passes over it as ``raw`` gets in
 S steps (:func:`matched_steps`)."""
@@ -356,17 +356,16 @@ def matched_steps(ex: Experiment, task: TaskSpec, setting: str, steps: int, unit
     return max(steps, -(-steps * frames[0] // (frames[1] * unit)) * unit)
 
 
-def hands_over(task: TaskSpec) -> bool:
+def segmented(task: TaskSpec) -> bool:
     """Whether the task's program takes its first target to another object's site, where the
     segmented retargeting differs from one segment (amendment 5)."""
-    moved = task.targets[0] if task.targets else None
-    return moved is not None and destination(expert_program(task)[0], moved) not in (None, moved)
+    return bool(task.targets) and hands_over(expert_program(task)[0], task.targets[0])
 
 
 def run_task(
     ex: Experiment, task: TaskSpec, steps: int, suites: dict[str, RegisteredSuite], settings: list[str]
 ) -> None:
-    if not hands_over(task):
+    if not segmented(task):
         settings = [s for s in settings if s not in SEGMENTED]
     sources = data(ex, task, [*settings, *(EPOCH_MATCHED[s] for s in settings if s in EPOCH_MATCHED)])
     for setting in settings:

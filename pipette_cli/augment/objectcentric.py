@@ -56,6 +56,11 @@ def destination(program: Sequence[StepSpec], name: str) -> str | None:
     return None
 
 
+def hands_over(program: Sequence[StepSpec], name: str) -> bool:
+    """Whether the program carries ``name``, once held, to another object's frame (a second segment)."""
+    return destination(program, name) not in (None, name)
+
+
 def handoff_weights(gripper: np.ndarray, lag: int) -> np.ndarray | None:
     """Per step, the share of the object's transform kept after the grasp: 1 until ``lag`` steps
     after the first close, then down to 0 over half the steps left until the fingers open again;

@@ -27,7 +27,7 @@ import numpy as np
 
 from pipette_cli.augment.batch import can_batch, screen
 from pipette_cli.augment.clutter import Clutter, clutter_of, transfer_state
-from pipette_cli.augment.objectcentric import adapt_actions, destination
+from pipette_cli.augment.objectcentric import adapt_actions, hands_over
 from pipette_cli.augment.perturb import VariantPlan, placed_object, plan_variant
 from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
 from pipette_cli.augment.simulate import Placement, Rollout, placement, replay_check, restore, settle_steps, simulate
@@ -245,8 +245,7 @@ class DemoAugmenter:
                 continue
             world, state0 = self._scene(plan, s.seed, original.states[0])
             if plan.offset is not None and plan.actions is not None:
-                moved = plan.offset.name
-                hand_off = destination(self.program, moved) not in (None, moved)
+                hand_off = hands_over(self.program, plan.offset.name)
                 plan.actions = adapt_actions(
                     world, s.seed, state0, plan.actions, plan.offset, plan.object_ramp, hand_off=hand_off
                 )

@@ -192,8 +192,8 @@ def test_amendment_5_runs_the_segmented_settings_only_where_the_program_hands_ov
     from pipette_cli.registry import load_registry
 
     registry = load_registry()
-    assert experiment.hands_over(registry.get(PLACE))  # place_on balance/pan_center
-    assert not any(experiment.hands_over(registry.get(t)) for t in (PICK, OTHER, HINGE))
+    assert experiment.segmented(registry.get(PLACE))  # place_on balance/pan_center
+    assert not any(experiment.segmented(registry.get(t)) for t in (PICK, OTHER, HINGE))
     assert experiment.VARIANTS["aug_all_seg"] == experiment.VARIANTS["aug_all"]  # same data spec, newer code
     shifted = dict(experiment.families("shifted"))["amendment 5"]
     assert ("aug_all", "aug_all_seg") in shifted and ("aug_object", "aug_object_seg") in shifted
