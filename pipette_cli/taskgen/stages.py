@@ -34,16 +34,10 @@ from pipette_cli.specs.mechanisms import ButtonReleaseSpec
 from pipette_cli.taskgen.fit import check_hole_fit, fit_radius
 from pipette_cli.taskgen.hatch_stages import HatchStages
 from pipette_cli.taskgen.layout import Footprint
-from pipette_cli.taskgen.measure import AssetGeometry, measure_asset, stands_alone
+from pipette_cli.taskgen.measure import AssetGeometry, measure_asset, r, stands_alone
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
 from pipette_cli.taskgen.relation_stages import RelationStages
-from pipette_cli.taskgen.scene import (
-    FLAT_SITES,
-    hatch_joint,
-    open_value,
-    r,
-    receiving_site,
-)
+from pipette_cli.taskgen.scene import FLAT_SITES, hatch_joint, open_value, receiving_site
 from pipette_cli.taskgen.stage_base import Stage, reference_point
 
 SLOTS = ("cuvette_slot",)
@@ -214,8 +208,7 @@ class StageBuilder(HatchStages, RelationStages):
             "z": f"inside: below its rim at z = {rim:.3f} m",
             "within": "VERIFY: over the middle of its opening",
         }
-        depth = float(dgeom.high[2]) - float(dgeom.sites[site][2]) if site in dgeom.sites else 0.0
-        if site != "opening" and float(igeom.height) > depth:
+        if site != "opening" and float(igeom.height) > float(dgeom.high[2]) - float(dgeom.sites[site][2]):
             # it stands out over the rim on the floor: set down there, held above the rim (a tube
             # stood in an ice bucket), not let fall from over it to topple against a wall
             return Stage(
