@@ -401,7 +401,7 @@ def run_task(
 
 
 # --------------------------------------------------------------------------------------- diagnose
-RELIANCE_DEMOS, RELIANCE_STEP = 12, 30
+RELIANCE_DEMOS = 12
 
 
 def final_checkpoint(ex: Experiment, task: TaskSpec, setting: str, steps: int) -> Path | None:
@@ -412,8 +412,8 @@ def final_checkpoint(ex: Experiment, task: TaskSpec, setting: str, steps: int) -
 
 def image_reliance(ex: Experiment, task: TaskSpec, policy: Path) -> dict[str, float]:
     """How much a policy's actions follow its images: the spread (mean over the arm joints of the
-    std across episodes) of the joint targets it predicts :data:`RELIANCE_STEP` steps ahead from
-    the first frames of the first :data:`RELIANCE_DEMOS` raw demonstrations (demonstration seeds,
+    std across episodes) of the joint targets at the end of the chunk it predicts from the first
+    frames of the first :data:`RELIANCE_DEMOS` raw demonstrations (demonstration seeds,
     each with the object elsewhere), beside the spread the demonstrations themselves have there. A
     policy that ignores its images predicts one trajectory for every start (ratio near 0)."""
     from pipette_cli.serving.server import LeRobotRunner  # deferred: torch, lerobot
@@ -428,7 +428,7 @@ def image_reliance(ex: Experiment, task: TaskSpec, policy: Path) -> dict[str, fl
         obs["observation.state"] = episode.arrays["state"][0].astype(np.float32)
         runner.reset()
         chunk = runner.act(obs, task.instruction, chunk=True)
-        step = min(RELIANCE_STEP, len(chunk) - 1, len(episode.arrays["action"]) - 1)
+        step = min(len(chunk), len(episode.arrays["action"])) - 1
         predicted.append(chunk[step, :-1])
         recorded.append(episode.arrays["action"][step, :-1])
     spread, demos = float(np.std(predicted, axis=0).mean()), float(np.std(recorded, axis=0).mean())
