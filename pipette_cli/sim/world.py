@@ -229,6 +229,18 @@ class World:
                     touched.add(other)
         return touched
 
+    def robot_force(self, bodies: Iterable[int]) -> float:
+        """Newtons the robot presses on ``bodies`` now (normal forces of their contacts, summed)."""
+        m, d, owners = self.model, self.data, self._owners
+        robot = ROBOT_PREFIX.rstrip("/")
+        wanted, force, total = set(bodies), np.zeros(6), 0.0
+        for i, contact in enumerate(d.contact[: d.ncon]):
+            b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
+            if (owners[b1] == robot and b2 in wanted) or (owners[b2] == robot and b1 in wanted):
+                mujoco.mj_contactForce(m, d, i, force)
+                total += abs(float(force[0]))
+        return total
+
     def robot_touches(self, ref: str) -> bool:
         if "/" not in ref and ref not in self.objects:
             raise SimError(f"{self.task.id}: {ref!r} names no scene object; {suggest(ref, self.objects)}")

@@ -17,6 +17,7 @@ import numpy as np
 from pipette_cli.skills.frames import UP, axis_rotation, horizontal
 from pipette_cli.skills.grasp import FollowThrough, plan_grasp, support_of
 from pipette_cli.skills.grasp_candidates import Grasp, closed_over
+from pipette_cli.skills.grip import FINGERTIP_LIFT
 from pipette_cli.skills.motions import back_off, settle_hand, transit
 from pipette_cli.skills.moves import (
     APPROACH_SPEED,
@@ -44,6 +45,12 @@ from pipette_cli.specs.expert import InsertIntoSpec, PositionOverSpec
 GRASP_SETTLE_S = 0.25
 """Seconds to let the arm's servos catch up with the grasp pose before closing."""
 CLOSE_S = 0.5
+TOUCH_FORCE = 2.0
+"""Newtons on the surface at which a fingertip counts as touching it (:func:`touch_down`)."""
+TOUCH_STEP = 0.0005
+TOUCH_ABOVE = 0.004
+"""Metres over a low grasp's plan where the hand stops before :func:`touch_down` (the servos sag onto it)."""
+TOUCH_HOLD_S = 0.05
 STRAIGHT_DOWN = 0.95
 """Cosine from the vertical within which a grasp counts as taken straight down."""
 DROP = 0.002
@@ -93,7 +100,9 @@ def grasp(
     with ctx.hand.touching(exclude | set(extra_touch) | support_of(ctx, name)):
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
-        yield ctx.move(plan.pos, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
+        guarded = _lying_low(ctx, name, plan)
+        stop = plan.pos + TOUCH_ABOVE * UP if guarded else plan.pos
+        yield ctx.move(stop, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
         # the servos stop a few millimetres short under gravity: centred between the fingers before
         # they close (or the first finger to arrive pushes a small object over); and where the sag
         # took the open fingertips down to what they close over (a rack's top, whose edges would
@@ -104,8 +113,38 @@ def grasp(
         yield from settle_hand(
             ctx, GRASP_SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=lambda: sunk() or low()
         )
+        if guarded:
+            yield from touch_down(ctx, name)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.hand.attach(name)
+
+
+def _lying_low(ctx: SkillContext, name: str, plan: Grasp) -> bool:
+    """Whether ``plan`` takes ``name`` straight down with the fingertips just over the surface it
+    lies on (a rod, a spatula): the grasp is made by :func:`touch_down`."""
+    lift = plan.pos[2] - ctx.scene.shape(name).bottom
+    return bool(plan.rot[2, 2] <= -STRAIGHT_DOWN and lift <= FINGERTIP_LIFT + TOUCH_ABOVE) and bool(
+        support_of(ctx, name)
+    )
+
+
+def touch_down(ctx: SkillContext, name: str) -> Iterator[Move]:
+    """Lower the hand in small steps until the fingertips touch the surface ``name`` lies on,
+    lightly: a guarded move, as a real arm makes with its force sensing. Short of the surface the
+    fingers close above a thin object's middle and squeeze it out; a servo that sagged onto it
+    presses too hard to close (friction there holds the fingers open)."""
+    support = support_of(ctx, name)
+    for _ in range(round((FINGERTIP_LIFT + 2 * TOUCH_ABOVE) / TOUCH_STEP)):
+        if ctx.world.robot_force(support) > TOUCH_FORCE:
+            return
+        try:
+            move = ctx.move(
+                ctx.hand.pos - TOUCH_STEP * UP, ctx.hand.rot, speed=FINE_SPEED, what=f"the grasp of {name!r}"
+            )
+        except SkillFailure:
+            return
+        yield move
+        yield ctx.hold(TOUCH_HOLD_S)
 
 
 def _held_too_low(ctx: SkillContext, name: str, above: float | None) -> bool:

@@ -475,3 +475,48 @@ def test_a_held_tube_is_carried_straight_where_the_arc_would_swing_it() -> None:
     assert world.verdict.success, world.verdict
     assert min(heights) > min(heights[0], heights[-1]) - 0.02  # no sag on the way
     assert np.ptp(np.array(offsets), axis=0).max() < 0.005  # nor a slip in the fingers
+
+
+def drafted_world(text: str) -> World:
+    from pipette_cli.authoring.backends import make_backend
+    from pipette_cli.authoring.workflow import draft_task
+
+    return World(draft_task(text, make_backend("offline")).spec)
+
+
+@pytest.mark.parametrize(
+    ("text", "name"),
+    [("Pick up the glass stirring rod", "rod"), ("Pick up the spatula", "spatula")],  # 6 mm round, 3 mm flat
+)
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_tool_lying_low_is_taken_with_the_fingertips_touched_down(text: str, name: str, seed: int) -> None:
+    """Servos sagging onto the bench pressed the fingertips on it at 50-80 N and friction held them
+    open (seeds 0 and 1 of both failed); stopped short, the pads close above a rod's middle and
+    squeeze it out. The hand goes down in steps until a fingertip touches, lightly."""
+    from pipette_cli.demos.check import run_expert_episode
+
+    world = drafted_world(text)
+    pressed: list[float] = []
+    bench = {b for b in range(world.model.nbody) if world.model.body(b).name.startswith("bench/")}
+    original = world.step
+
+    def step(action):
+        verdict = original(action)
+        if action[-1] < 0.5 and not world.robot_touches(name):  # closing, not yet on the tool
+            pressed.append(world.robot_force(bench))
+        return verdict
+
+    world.step = step  # type: ignore[method-assign]
+    verdict, failure = run_expert_episode(world, seed)
+    assert verdict.success, failure or verdict.reason
+    assert max(pressed, default=0.0) < 20.0, f"the fingertips pressed the bench at {max(pressed):.0f} N"
+
+
+def test_a_lift_off_lid_is_put_back_on_its_seat_from_beside_and_after_lifting_it_off() -> None:
+    from pipette_cli.demos.check import run_expert_episode
+
+    for text in ("Put the lid back on the water bath", "Lift the lid off the water bath, then put it back"):
+        world = drafted_world(text)
+        verdict, failure = run_expert_episode(world, 0)
+        assert verdict.success, f"{text}: {failure or verdict.reason}"
+        assert upright(world, "lid") < 5.0
