@@ -107,6 +107,10 @@ class Body:
     visuals: list[Visual] = field(default_factory=list)
     colliders: list[Collider] = field(default_factory=list)
     sites: list[Site] = field(default_factory=list)
+    condim: int = 3
+    """Contact dimensionality of its colliders (MuJoCo ``condim``): 6 adds rolling and torsional
+    friction, what keeps a round object lying on its side (a pipette tip) from rolling forever on
+    a perfectly flat bench, as real ones stop."""
 
     def mass_properties(self) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float, float]]:
         """Centre of mass, principal moments and principal-axes quaternion, from the colliders."""

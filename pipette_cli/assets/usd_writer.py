@@ -154,7 +154,7 @@ def _define_body(stage: Usd.Stage, root: Sdf.Path, body: Body, materials: dict[s
         UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(materials[visual.material.name])
         _set_group(mesh.GetPrim(), "MjcImageableAPI", VISUAL_GROUP)
     for collider in body.colliders:
-        _define_collider(stage, xform.GetPath(), collider)
+        _define_collider(stage, xform.GetPath(), collider, body.condim)
     for site in body.sites:
         sphere = UsdGeom.Sphere.Define(stage, xform.GetPath().AppendChild(site.name))
         sphere.CreateRadiusAttr(site.radius)
@@ -163,7 +163,7 @@ def _define_body(stage: Usd.Stage, root: Sdf.Path, body: Body, materials: dict[s
         _set_group(sphere.GetPrim(), "MjcSiteAPI", SITE_GROUP)
 
 
-def _define_collider(stage: Usd.Stage, parent: Sdf.Path, c: Collider) -> None:
+def _define_collider(stage: Usd.Stage, parent: Sdf.Path, c: Collider, condim: int = 3) -> None:
     path = parent.AppendChild(c.name)
     if c.kind == "box":
         gprim = UsdGeom.Cube.Define(stage, path)
@@ -190,6 +190,10 @@ def _define_collider(stage: Usd.Stage, parent: Sdf.Path, c: Collider) -> None:
     gprim.CreateDisplayColorAttr([Gf.Vec3f(0.9, 0.4, 0.1)])
     UsdPhysics.CollisionAPI.Apply(gprim.GetPrim())
     _set_group(gprim.GetPrim(), "MjcCollisionAPI", COLLISION_GROUP)
+    if condim != 3:
+        gprim.GetPrim().CreateAttribute(
+            "mjc:condim", Sdf.ValueTypeNames.Int, custom=False, variability=Sdf.VariabilityUniform
+        ).Set(condim)
 
 
 def _axis(axis: str) -> tuple[str, Gf.Quatf]:

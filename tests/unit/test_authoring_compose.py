@@ -147,8 +147,9 @@ def test_the_llm_schema_names_only_library_assets() -> None:
 def test_a_tube_that_cannot_stand_starts_in_a_rack_that_fits_it_and_a_beaker_on_the_bench() -> None:
     from pipette_cli.taskgen.measure import stands_alone
 
-    assert not stands_alone("conical_tube_15ml") and not stands_alone("pipette_tip_200ul")  # tips over, rolls
+    assert not stands_alone("conical_tube_15ml") and not stands_alone("microtube_1_5ml")  # tip over
     assert stands_alone("beaker_250ml") and stands_alone("petri_dish_90mm")
+    assert stands_alone("pipette_tip_200ul")  # lying on its side, nudged: its rolling friction stops it
     tube = drafted("Pick up the 15 mL falcon tube").spec
     rack = tube.object("tube_rack")
     assert rack.asset == "conical_tube_rack_15ml"
@@ -262,3 +263,4 @@ def test_a_lift_off_lid_drawn_toward_the_robot_has_room_to_get_there() -> None:
     end = np.hypot(lid.pose.pos[0] - travel, lid.pose.pos[1])
     assert end >= Workspace.of("franka_panda").min_reach - 1e-6  # the lid stands on the bath's seat
     assert d.spec.success.delta.x.max == pytest.approx(-(travel - 0.04))
+

@@ -326,7 +326,7 @@ register("coverslip_22mm", CATEGORY, partial(flat_piece, "coverslip_22mm", "Glas
 
 
 def pipette_tip(asset_id: str, volume_ul: float, length: float, top_r: float, tip_r: float, mass: float, material: Material) -> AssetDef:
-    body = Body("body", mass)
+    body = Body("body", mass, condim=6)  # a cone on its side: rolling friction, or it circles on the bench for ever
     collar = length * 0.18
     outer = [(tip_r, 0.0), (top_r * 0.75, length - collar), (top_r, length - collar + 0.002), (top_r, length)]
     p.visual(body, "tip", g.revolve(p.vessel_profile(outer, 0.0004, 0.003), 20), material)
