@@ -69,6 +69,12 @@ class Composite(ConditionEvaluator[CompositeSpec]):
         for child in self.children:
             child.reset(state)
 
+    def prime(self, state: WorldState) -> None:
+        for child in self.children:
+            prime = getattr(child, "prime", None)
+            if prime is not None:
+                prime(state)
+
     def _metrics(self) -> dict[str, float]:
         metrics: dict[str, float] = {}
         for i, verdict in enumerate(self._last):
@@ -129,6 +135,7 @@ class Sequence(Composite):
         self._last = [None] * len(self.children)
         self._stage = 0
         self._done = False
+        self.prime(state)
         self.children[0].reset(state)
 
     def check(self, state: WorldState) -> Check:

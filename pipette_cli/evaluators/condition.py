@@ -82,6 +82,10 @@ class ConditionEvaluator(ABC, Generic[S]):
         """Reason the criterion was not satisfied on the last update (None when it was)."""
         return self._unmet
 
+    def prime(self, state: WorldState) -> None:
+        """At the episode's start, for a stage of a sequence that starts later: take the references
+        that belong to the episode, not to the stage's start (an object's upright)."""
+
     def reset(self, state: WorldState) -> None:
         """Forget everything and take the references (initial pose, clock) from ``state``."""
         self._started = True

@@ -13,7 +13,8 @@ Unmet reasons (reported at the timeout): ``"out_of_region"`` (outside the x/y bo
 disc), else ``"too_low"`` / ``"too_high"`` (only the z bound), else ``"unstable"``
 (stable_placement moving). ``max_tilt_deg`` fails at once with ``"tilted"``. With ``released``, the
 region counts only while the robot touches the object nowhere (``"held"``): an object carried
-through the region, or held where it goes, is not yet placed.
+through the region, or held where it goes, is not yet placed; nor is one carried tilted (a lid
+by its handle) fallen: the tilt fails only once the robot has let go.
 """
 
 from __future__ import annotations
@@ -53,10 +54,19 @@ class RegionHold(ConditionEvaluator[RegionHoldSpec]):
 
     spec_type = RegionHoldSpec
 
+    _rest_up: np.ndarray | None = None
+
+    def prime(self, state: WorldState) -> None:
+        # upright is how the object stood at the episode's start, not as a stage before left it
+        # (a lid still hanging tilted from the hand that lifted it off)
+        self._rest_up = up_axis(state.rotation(self.spec.object)) if self.spec.max_tilt_deg is not None else None
+
     def start(self, state: WorldState) -> None:
         spec = self.spec
         self._radius = disc_radius(spec, state) if spec.within is not None else 0.0
-        self._up0 = up_axis(state.rotation(spec.object)) if spec.max_tilt_deg is not None else None
+        self._up0 = None
+        if spec.max_tilt_deg is not None:
+            self._up0 = self._rest_up if self._rest_up is not None else up_axis(state.rotation(spec.object))
 
     def check(self, state: WorldState) -> Check:
         spec = self.spec
@@ -72,10 +82,13 @@ class RegionHold(ConditionEvaluator[RegionHoldSpec]):
             center = position(state, spec.within.center)
             metrics["xy_error"] = float(np.linalg.norm(pos[:2] - center[:2]))
             metrics["radius"] = self._radius
+        held = spec.released and state.robot_touches(spec.object)
         if spec.max_tilt_deg is not None and metrics["tilt_deg"] > spec.max_tilt_deg:
+            if held:  # carried tilted (a lid by its handle): not yet placed, not yet fallen
+                return Check(False, metrics, unmet="held")
             return Check(False, metrics, fail="tilted")
         unmet = self._region_unmet(pos, metrics)
-        if unmet is None and spec.released and state.robot_touches(spec.object):
+        if unmet is None and held:
             unmet = "held"
         return Check(unmet is None, metrics, unmet=unmet)
 

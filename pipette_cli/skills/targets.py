@@ -29,6 +29,11 @@ SLIP_ROOM = 0.003
 up in the fingers on the way)."""
 
 
+SEAT = "_seat"
+"""Sites named ``*_seat`` (a water bath's ``lid_seat``) are where what goes there rests, its base on
+the site: no surface is looked for under them (under a lid's seat is the open tank)."""
+
+
 def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool = True) -> np.ndarray:
     """The world point ``target`` names; with ``surface``, dropped onto the surface under it."""
     if isinstance(target, str):
@@ -47,7 +52,7 @@ def resolve_target(ctx: SkillContext, target: str | TargetSpec, *, surface: bool
         else:
             point = top_of(ctx, spec.at)
         point = point + np.asarray(spec.offset)
-    if surface:
+    if surface and not (spec.at and spec.at.endswith(SEAT)):  # a seat is where the base goes itself
         skip = ctx.hand.held_bodies()
         point = point.copy()
         point[2] = ctx.scene.surface_below(point[0], point[1], skip, from_z=point[2] + 0.03)

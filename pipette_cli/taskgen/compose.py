@@ -9,13 +9,13 @@ step specs, so what reaches the template has already been validated field by fie
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from pipette_cli.specs import evaluators as ev
-from pipette_cli.specs.expert import StepSpec
+from pipette_cli.specs.expert import InsertIntoSpec, PickSpec, PlaceOnSpec, RemoveFromSpec, StepSpec
 from pipette_cli.specs.mechanisms import InstrumentSpec, MechanismSpec
 from pipette_cli.specs.robot import DEFAULT_ROBOT, robot_spec
 from pipette_cli.taskgen.layout import PlacedObject
@@ -89,6 +89,32 @@ def merge_instruments(instruments: list[InstrumentSpec]) -> list[InstrumentSpec]
     return list(merged.values())
 
 
+def held_after(program: list[StepSpec], held: str | None = None) -> str | None:
+    """The object in the hand after ``program`` runs (starting with ``held`` in it)."""
+    for step in program:
+        if isinstance(step, PickSpec):
+            held = step.object
+        elif isinstance(step, RemoveFromSpec):
+            held = step.object if step.to == "hold" else None
+        elif isinstance(step, PlaceOnSpec | InsertIntoSpec):
+            held = None
+    return held
+
+
+def continue_holding(stages: list[Stage]) -> list[Stage]:
+    """Stages whose program starts by picking what the stage before left in the hand (a lid lifted
+    off, then put back) start with the step after that pick: the hand holds it already."""
+    out: list[Stage] = []
+    held: str | None = None
+    for stage in stages:
+        program = stage.program
+        if held is not None and program and isinstance(program[0], PickSpec) and program[0].object == held:
+            stage = replace(stage, program=program[1:])
+        held = held_after(stage.program, held)
+        out.append(stage)
+    return out
+
+
 def compose(
     checked: CheckedPlan,
     *,
@@ -108,7 +134,7 @@ def compose(
     layout = scene.build()
     multi = len(steps) > 1
     builder = StageBuilder(scene, plan.thresholds, multi)
-    stages = [builder.build(step) for step in steps]
+    stages = continue_holding([builder.build(step) for step in steps])
     comments: dict[str, str] = {}
     if multi:
         total = sum(s.criterion.timeout_s or 10.0 for s in stages)

@@ -21,12 +21,12 @@ from typing import Any
 import numpy as np
 
 from pipette_cli.language.assets import load_vocabulary
-from pipette_cli.taskgen.layout import Footprint, Layout, PlacedObject
+from pipette_cli.taskgen.layout import BESIDE_GAP, Footprint, Layout, PlacedObject
 from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, measure_asset, r, stands_alone
 from pipette_cli.taskgen.motors import release_angle
 from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.taskgen.resolve import choose_pair, holders_that_fit
-from pipette_cli.taskgen.validate import CheckedPlan, lid_points, separate_lid
+from pipette_cli.taskgen.validate import CheckedPlan, lid_beside, lid_points, separate_lid
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")
@@ -59,6 +59,10 @@ RELEASE_FAR = 0.98
 asset's release angle (protocols/SpinMicrotube-v1 opens the microcentrifuge to -98 of -100 deg)."""
 OPEN_FRACTION = 0.95
 """An opened lid or door starts at this fraction of its open limit."""
+START_XY = 0.02
+"""Metres an instrument (and a lid beside it) is randomised by along x and y at reset."""
+LID_GAP = BESIDE_GAP + 2 * START_XY
+"""Metres between an instrument and its lift-off lid beside it, however both are randomised."""
 
 
 def open_value(joint: JointInfo) -> float:
@@ -338,12 +342,15 @@ class SceneBuilder:
             0.0 if alone else lane,
         )
         lid = separate_lid(geom) if not geom.joints else None
-        if lid and any(s.object == name and s.action in ("open", "close") for s in self.checked.steps):
+        hatch = [s.action for s in self.checked.steps if s.object == name and s.action in ("open", "close")]
+        if lid and hatch:
             lid_geom = measure_asset(lid)
             seat = geom.sites.get("lid_seat", (0.0, 0.0, float(geom.high[2])))
-            shifted = lid_geom.boxes.copy()
-            shifted[:, [2, 5]] += seat[2]
-            boxes.append(shifted)
+            boxes.append(lid_geom.boxes + np.array([0.0, 0.0, seat[2], 0.0, 0.0, seat[2]]))  # on its seat
+            if hatch[0] == "close":  # the lid starts beside it, on the robot's right: room and reach for both
+                beside = lid_beside(geom, lid_geom, LID_GAP)
+                boxes.append(lid_geom.boxes + np.array([*beside, 0.0, *beside, 0.0]))
+                keys.append(beside)
         spot = self.layout.place(
             Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed, start_boxes=geom.boxes),
             self.ws.bench_z,
@@ -354,7 +361,7 @@ class SceneBuilder:
             name,
             asset,
             (spot[0], spot[1], self.ws.bench_z),
-            randomize={"xy": (0.02, 0.02)},
+            randomize={"xy": (START_XY, START_XY)},
             comment="VERIFY the layout (pipette sim render): placed within reach by pipette new-task",
         )
         self.geoms[name] = geom
@@ -378,17 +385,12 @@ class SceneBuilder:
                 lid_name, lid, pos, comment=f"on {name}/lid_seat; VERIFY it rests on the rim"
             )
             return
-        spot = self.layout.place(
-            Footprint(lid_geom.boxes, [(0.0, 0.0)], (self.ws.center_x - 0.05, -self.ws.lane_y - 0.05), margin=0.02),
-            self.ws.bench_z,
-        )
-        if spot is None:
-            raise self._no_room(name)
+        base, (dx, dy) = self.out.placed[name].pos, lid_beside(geom, lid_geom, LID_GAP)  # room kept for it
         self.out.placed[lid_name] = PlacedObject(
             lid_name,
             lid,
-            (spot[0], spot[1], r(self.ws.bench_z + lid_geom.origin_height + 0.001, 4)),
-            randomize={"xy": (0.02, 0.02), "yaw_deg": 5},
+            (r(base[0] + dx), r(base[1] + dy), r(self.ws.bench_z + lid_geom.origin_height + 0.001, 4)),
+            randomize={"xy": (START_XY, START_XY), "yaw_deg": 5},
             comment="lid beside it; VERIFY reachable",
         )
 

@@ -161,6 +161,14 @@ def lid_points(geom: AssetGeometry, opening: bool) -> list[tuple[float, float]]:
     return [(seat[0], seat[1]), *end]
 
 
+def lid_beside(geom: AssetGeometry, lid: AssetGeometry, gap: float) -> tuple[float, float]:
+    """Where a lift-off lid set down beside its instrument lies, from the instrument's origin: on
+    the robot's right (-y), ``gap`` from it, their centres level in x."""
+    x = 0.5 * float(geom.low[0] + geom.high[0]) - 0.5 * float(lid.low[0] + lid.high[0])
+    y = float(geom.low[1]) - gap - float(lid.high[1])
+    return r(x), r(y)
+
+
 def _asset_id(words: str, vocab: Vocabulary, resolve: Callable[[str], str] | None) -> str:
     if words in vocab.assets:
         return words

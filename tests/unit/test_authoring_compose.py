@@ -264,3 +264,20 @@ def test_a_lift_off_lid_drawn_toward_the_robot_has_room_to_get_there() -> None:
     assert end >= Workspace.of("franka_panda").min_reach - 1e-6  # the lid stands on the bath's seat
     assert d.spec.success.delta.x.max == pytest.approx(-(travel - 0.04))
 
+
+def test_a_lid_put_back_starts_beside_its_bath_within_reach_on_the_room_kept_for_it() -> None:
+    from pipette_cli.taskgen.layout import Workspace
+
+    d = drafted("Put the lid back on the water bath")
+    bath, lid = d.spec.object("bath"), d.spec.object("lid")
+    bath_geom, lid_geom = measure_asset("water_bath"), measure_asset("water_bath_lid")
+    gap = (bath.pose.pos[1] + bath_geom.low[1]) - (lid.pose.pos[1] + lid_geom.high[1])
+    assert gap >= 0.03 + 2 * 0.02 - 1e-6  # clear of the bath on the robot's right, however both are randomised (2 cm)
+    handle = np.hypot(lid.pose.pos[0], lid.pose.pos[1])
+    assert handle <= Workspace.of("franka_panda").max_reach  # at 0.80 m behind the bath no seed reached it
+
+
+def test_a_stage_does_not_pick_again_what_the_stage_before_left_in_the_hand() -> None:
+    expert = drafted("Lift the lid off the water bath, then put it back").spec.expert
+    assert [s.skill for s in expert] == ["pick", "move", "place_on"]  # not a second pick of the held lid
+    assert expert[2].target == "bath/lid_seat"

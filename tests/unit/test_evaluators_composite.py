@@ -10,7 +10,7 @@ from pytest import approx
 from pipette_cli.evaluators import make_evaluator
 from pipette_cli.evaluators.base import Evaluator
 from pipette_cli.evaluators.testing import ScriptedWorld, first_done, rotation_x, run
-from pipette_cli.specs.evaluators import AllOfSpec, AnyOfSpec, EvaluatorSpec, SequenceSpec
+from pipette_cli.specs.evaluators import AllOfSpec, AnyOfSpec, EvaluatorSpec, RegionHoldSpec, SequenceSpec
 
 LID = {"type": "joint_threshold", "joint": "box/lid_hinge", "bound": {"min": 80}, "hold_s": 0.1}  # 3 steps
 LIFT = {"type": "lift_and_hold", "object": "tube", "min_height_gain": 0.02, "hold_s": 0.2, "max_tilt_deg": 30}  # 6
@@ -191,3 +191,44 @@ def test_nested_composites() -> None:
     verdicts = run(started(spec, w), w, 20, lid_open(from_step=2))
     assert first_done(verdicts) == 7  # inner any at 4 (lid 2..4), outer lid child 2..7
     assert verdicts[6].metrics["0.1.joint_deg"] == 90.0
+
+
+SEATED = {
+    "type": "region_hold",
+    "object": "tube",
+    "z": {"min": 0.59, "max": 0.61},
+    "max_tilt_deg": 5.0,
+    "released": True,
+    "hold_s": 0.0,
+}
+
+
+def test_sequence_takes_upright_from_the_episode_start_not_the_stage_start() -> None:
+    # stage 0 leaves the object tilted 20 deg in the hand; stage 1 wants it set back level: level
+    # is how it stood as the episode began, so set down level it succeeds, set down as held it fails
+    def carried_then(level: bool):
+        def script(w: ScriptedWorld, k: int) -> None:
+            w.touched = {"tube"} if k < 10 else set()
+            w.move("tube", (0.5, 0.0, 0.63 if k < 8 else 0.6))
+            w.rotations["tube"] = rotation_x(0.0 if level and k >= 8 else 20.0)
+
+        return script
+
+    spec = SequenceSpec(of=[{**LIFT, "hold_s": 0.0}, SEATED])
+    w = world()
+    verdicts = run(started(spec, w), w, 15, carried_then(level=True))
+    assert first_done(verdicts) == 10 and verdicts[9].success
+    w = world()
+    verdicts = run(started(spec, w), w, 15, carried_then(level=False))
+    assert first_done(verdicts) == 10 and verdicts[9].reason == "tilted"
+
+
+def test_a_released_placement_carried_tilted_is_held_not_failed() -> None:
+    w = world()
+    evaluator = started(RegionHoldSpec(**SEATED), w)
+    w.touched = {"tube"}
+    w.rotations["tube"] = rotation_x(30.0)
+    verdicts = run(evaluator, w, 5)
+    assert first_done(verdicts) is None and evaluator.unmet == "held"
+    w.touched = set()  # let go tilted: fallen
+    assert run(evaluator, w, 1)[0].reason == "tilted"

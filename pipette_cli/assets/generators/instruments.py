@@ -161,7 +161,7 @@ def water_bath_lid() -> AssetDef:
     for k, y in enumerate((-0.05, 0.05)):
         p.solid_box(body, f"handle_post_{k}", (0.012, 0.012, 0.03), (0, y, top + 0.015), p.DARK_PLASTIC)
     p.solid_box(body, "handle_bar", (0.02, 0.13, 0.012), (0, 0, top + 0.036), p.DARK_PLASTIC, 0.004)
-    p.site(body, "lid_handle", (0, 0, top + 0.042))
+    p.site(body, "lid_handle", (0, 0, top + 0.036))  # the bar's middle: the pads take its whole height
     return AssetDef("water_bath_lid", CATEGORY, "Lift-off stainless lid of water_bath with a top handle; its lip sits inside the tank rim.",
                     [body], graspable=True, static=False, extra={"plate_size": (d + 0.01, w + 0.01), "lip_height": lip})
 
