@@ -174,11 +174,17 @@ class StageBuilder(HatchStages, RelationStages):
         height = float(dgeom.high[2])
         slot = self.scene.pick_slot(dest, dgeom)
         comments = {"x": f"VERIFY: the slot grid of {dest} plus half a {pitch * 1000:.0f} mm pitch"}
+        hang = igeom.semantics.get("hang_height")
         if slot_z > 0.05:  # hanging holders (pipette stands): the item is off the bench
             x = BoundSpec(min=r(px + dgeom.low[0] - 0.03), max=r(px + dgeom.high[0] + 0.03))
             y = BoundSpec(min=r(py + dgeom.low[1] - 0.03), max=r(py + dgeom.high[1] + 0.03))
-            z = BoundSpec(min=r(pz + igeom.origin_height + 0.025))
-            comments["z"] = "VERIFY: hung, its origin is 25 mm above where it lies on the bench"
+            if hang:  # by its collar: where its origin hangs, not lying on the bench nor across the stand's top
+                hung = pz + slot_z - float(hang)
+                z = BoundSpec(min=r(hung - 0.01), max=r(hung + 0.02))
+                comments["z"] = f"VERIFY: hung by its collar, its origin {float(hang) * 1000:.0f} mm below the slot"
+            else:
+                z = BoundSpec(min=r(pz + igeom.origin_height + 0.025))
+                comments["z"] = "VERIFY: hung, its origin is 25 mm above where it lies on the bench"
         else:
             x = BoundSpec(min=r(px + lo[0] - pitch / 2), max=r(px + hi[0] + pitch / 2))
             y = BoundSpec(min=r(py + lo[1] - pitch / 2), max=r(py + hi[1] + pitch / 2))

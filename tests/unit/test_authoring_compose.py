@@ -281,3 +281,17 @@ def test_a_stage_does_not_pick_again_what_the_stage_before_left_in_the_hand() ->
     expert = drafted("Lift the lid off the water bath, then put it back").spec.expert
     assert [s.skill for s in expert] == ["pick", "move", "place_on"]  # not a second pick of the held lid
     assert expert[2].target == "bath/lid_seat"
+
+
+def test_a_pipette_hung_in_a_stand_counts_where_its_collar_holds_it() -> None:
+    """Hung by its collar the P1000's origin is 112 mm below the slot, 22 mm above where it lies on
+    the bench: the band is read off that, not off a fixed 25 mm rise (every hung P1000 was too_low)."""
+    spec = drafted("Hang the P1000 in the linear pipette stand").spec
+    stand, pipette = spec.object("stand"), measure_asset("pipette_single_channel")
+    geom = measure_asset(stand.asset)
+    slot_z = stand.pose.pos[2] + geom.sites[spec.expert[-1].target.split("/")[1]][2]
+    hung = slot_z - pipette.semantics["hang_height"]
+    z = spec.success.z
+    assert z.min <= hung <= z.max
+    assert z.min > stand.pose.pos[2] + pipette.origin_height  # lying on the bench
+    assert z.max < stand.pose.pos[2] + geom.high[2]  # lying across the stand's top
