@@ -58,6 +58,8 @@ DROP = 0.002
 YAWS = (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0, 135.0, -135.0, 180.0)
 """Degrees the held object may be turned about the vertical when set down, in the order tried."""
 RELEASE_S = 0.4
+LEVEL_TOLERANCE_DEG = 3.0
+"""Degrees a held object may lean from how it stood before it is levelled to be set down."""
 SET_DOWN_SETTLE_S = 0.2
 """Seconds the arm holds still where it sets an object down before its tcp is corrected."""
 
@@ -263,10 +265,12 @@ def _reachable_spot(
         point = surface_point + k * SHIFT_STEP * toward
         if k and not _same_surface(ctx, point, surface_point[2], half, skip):
             break
+        held = ctx.hand.held
+        assert held is not None
+        level = leveled(ctx, name, ctx.hand.rot @ held.rot)
         for yaw in YAWS:  # turning about the vertical keeps the object level
-            held = ctx.hand.held
-            assert held is not None
-            obj_rot = axis_rotation(UP, np.deg2rad(yaw)) @ ctx.hand.rot @ held.rot
+            turn = axis_rotation(UP, np.deg2rad(yaw))
+            obj_rot = turn @ ctx.hand.rot @ held.rot if level is None else turn @ level
             tool_pos, tool_rot = ctx.hand.tool_for(name, point + lift * UP, obj_rot)
             above = tool_pos + (0.012 if covered else 0.05) * UP
             if ctx.plan.margin(
@@ -274,6 +278,18 @@ def _reachable_spot(
             ) is not None and ctx.plan.can_reach(above, tool_rot):
                 return tool_pos, tool_rot, above
     return None
+
+
+def leveled(ctx: SkillContext, name: str, rot: np.ndarray) -> np.ndarray | None:
+    """``name``'s rotation ``rot`` (as held) turned to stand as it stood at the start, where it is
+    held tilted by more than :data:`LEVEL_TOLERANCE_DEG` (a dish pinched at its rim, the near side
+    lifted): set down as held, it lands on an edge. None when it is held level enough."""
+    up = rot @ ctx.start_up[name]
+    tilt = float(np.degrees(np.arccos(np.clip(up @ UP, -1.0, 1.0))))
+    if tilt <= LEVEL_TOLERANCE_DEG:
+        return None
+    axis = np.cross(up, UP)
+    return axis_rotation(axis / np.linalg.norm(axis), np.deg2rad(tilt)) @ rot
 
 
 def _same_surface(ctx: SkillContext, point: np.ndarray, height: float, half: float, skip: set[int]) -> bool:

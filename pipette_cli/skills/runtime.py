@@ -24,7 +24,7 @@ import numpy as np
 
 from pipette_cli.plugins import Plugins
 from pipette_cli.sim.world import World
-from pipette_cli.skills.frames import rotation_angle
+from pipette_cli.skills.frames import UP, rotation_angle
 from pipette_cli.skills.hand import Hand
 from pipette_cli.skills.ik import ArmIK, IKSolution
 from pipette_cli.skills.moves import (
@@ -82,6 +82,8 @@ class SkillContext:
         self.next_step: Any = None
         """The program's step after the running one (a pick looks ahead to where the object goes)."""
         self.start = {name: world.position(name) for name in world.objects}
+        self.start_up = {name: world.rotation(name).T @ UP for name in world.objects}
+        """Each object's up at the episode's start, in its own frame (how it stands at rest)."""
         self.base = self.plan.base
         self.joint_speed = joint_speeds(world)
 

@@ -520,3 +520,15 @@ def test_a_lift_off_lid_is_put_back_on_its_seat_from_beside_and_after_lifting_it
         verdict, failure = run_expert_episode(world, 0)
         assert verdict.success, f"{text}: {failure or verdict.reason}"
         assert upright(world, "lid") < 5.0
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_dish_pinched_at_its_rim_is_set_down_level(seed: int) -> None:
+    """The pinch lifts the dish's near side (3-9 deg in the hand); set down as held it landed on its
+    edge and tipped past 15 deg (seeds 0 and 1 failed 'tilted'). The hand now turns it level first."""
+    from pipette_cli.demos.check import run_expert_episode
+
+    world = drafted_world("Put the petri dish right of the hot plate")
+    verdict, failure = run_expert_episode(world, seed)
+    assert verdict.success, failure or verdict.reason
+    assert upright(world, "dish") < 3.0
