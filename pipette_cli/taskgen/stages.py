@@ -37,6 +37,7 @@ from pipette_cli.taskgen.layout import Footprint
 from pipette_cli.taskgen.measure import AssetGeometry, measure_asset, r, stands_alone
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
 from pipette_cli.taskgen.relation_stages import RelationStages
+from pipette_cli.taskgen.resolve import FIT_PLAY, diameter
 from pipette_cli.taskgen.scene import FLAT_SITES, hatch_joint, open_value, receiving_site
 from pipette_cli.taskgen.stage_base import Stage, reference_point
 
@@ -96,6 +97,8 @@ class StageBuilder(HatchStages, RelationStages):
         take = self._take(item)
         if site == "slot_grid":
             stage = self._into_rack(step, igeom, dgeom)
+        elif site == "rotor_center" and "rotor_wells" in dgeom.semantics:
+            stage = self._into_well(step, dgeom)
         elif site in SLOTS:
             stage = self._onto(step, igeom, dgeom, site, insert=True)
         elif site == "opening" or (
@@ -156,6 +159,39 @@ class StageBuilder(HatchStages, RelationStages):
             else sk.PlaceOnSpec(object=item, target=f"{dest}/{site}")
         )
         return Stage(step, criterion, [skill], comments, [item, dest])
+
+    def _into_well(self, step: PlanStepSpec, dgeom: AssetGeometry) -> Stage:
+        """Into a centrifuge's rotor: ``insert_into`` the well nearest the robot; done when it stands
+        in any well (its base at a well's floor, leaning or not), not lying across the rotor."""
+        item, dest = step.object, step.required_target()
+        width, d = (
+            float(dgeom.semantics.get("well_diameter", 0.0)),
+            diameter(load_vocabulary(), self.placed[item].asset),
+        )
+        if width and d is not None and d + FIT_PLAY > width:
+            raise PlanError(
+                f"impossible request: the {self.human(item)} ({d * 1000:.0f} mm across) does not fit the "
+                f"{self.human(dest)}'s {width * 1000:.0f} mm rotor wells"
+            )
+        wells = {k: np.asarray(v) for k, v in dgeom.sites.items() if k.startswith("well_")}
+        px, py, pz = self.placed[dest].pos
+        well = min(wells, key=lambda k: (float(np.hypot(px + wells[k][0], py + wells[k][1])), k))
+        floor, center = np.array(list(wells.values())), np.asarray(dgeom.sites["rotor_center"])
+        ring = float(np.max(np.hypot(*(floor[:, :2] - center[:2]).T))) + 0.5 * width + 0.005
+        z = BoundSpec(min=r(pz + floor[:, 2].min() - 0.01), max=r(pz + floor[:, 2].max() + 0.01))
+        comments = {
+            "within": "the ring of wells and half a well more, round the rotor (it moves with the instrument)",
+            "z": "VERIFY: its base at a rotor well's floor (lying across the rotor it is higher)",
+        }
+        criterion = ev.RegionHoldSpec(
+            object=item,
+            within=ev.CircleSpec(center=f"{dest}/rotor_center", radius=r(ring)),
+            z=z,
+            hold_s=self.hold(1.0),
+            timeout_s=self.timeout(15),
+            released=True,
+        )
+        return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{well}")], comments, [item, dest])
 
     def _into_rack(self, step: PlanStepSpec, igeom: AssetGeometry, dgeom: AssetGeometry) -> Stage:
         item, dest = step.object, step.required_target()

@@ -295,3 +295,21 @@ def test_a_pipette_hung_in_a_stand_counts_where_its_collar_holds_it() -> None:
     assert z.min <= hung <= z.max
     assert z.min > stand.pose.pos[2] + pipette.origin_height  # lying on the bench
     assert z.max < stand.pose.pos[2] + geom.high[2]  # lying across the stand's top
+
+
+def test_a_tube_put_in_a_centrifuge_goes_into_a_rotor_well_and_one_too_wide_is_refused() -> None:
+    """Set on the rotor's middle a microtube fell into a well leaning and failed 'tilted'; it is
+    inserted into the well nearest the robot, and counts standing in any well, not lying across."""
+    spec = drafted("Move the Eppendorf tube into the microfuge").spec
+    rotor = spec.object("microcentrifuge")
+    geom = measure_asset("microcentrifuge")
+    insert = spec.expert[-1]
+    assert insert.skill == "insert_into" and insert.target.startswith("microcentrifuge/well_")
+    wells = {k: v for k, v in geom.sites.items() if k.startswith("well_")}
+    nearest = min(wells, key=lambda k: np.hypot(rotor.pose.pos[0] + wells[k][0], rotor.pose.pos[1] + wells[k][1]))
+    assert insert.target == f"microcentrifuge/{nearest}"
+    z = spec.success.z
+    floor = rotor.pose.pos[2] + wells[nearest][2]
+    assert z.min <= floor <= z.max < rotor.pose.pos[2] + geom.sites["rotor_center"][2]  # lying on the rotor: higher
+    with pytest.raises(PlanError, match="does not fit the microcentrifuge's 13 mm rotor wells"):
+        drafted("Put the 50 mL tube in the microcentrifuge")
