@@ -9,7 +9,7 @@ nothing; see :mod:`.render`.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from functools import cached_property
 
 import mujoco
@@ -217,27 +217,26 @@ class World:
         """Each body's owner: the scene object (or ``robot``) whose name prefixes it."""
         return [self.model.body(b).name.split("/", 1)[0] for b in range(self.model.nbody)]
 
-    def robot_contacts(self) -> set[int]:
-        """The bodies, other than the robot's own, that the robot touches now."""
+    def _robot_contacts(self) -> Iterator[tuple[int, int]]:
+        """``(contact index, other body)`` for each contact between the robot and a body not its own."""
         m, d, owners = self.model, self.data, self._owners
         robot = ROBOT_PREFIX.rstrip("/")
-        touched = set()
-        for contact in d.contact[: d.ncon]:
+        for i, contact in enumerate(d.contact[: d.ncon]):
             b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
             for mine, other in ((b1, b2), (b2, b1)):
                 if owners[mine] == robot and owners[other] != robot:
-                    touched.add(other)
-        return touched
+                    yield i, other
+
+    def robot_contacts(self) -> set[int]:
+        """The bodies, other than the robot's own, that the robot touches now."""
+        return {other for _, other in self._robot_contacts()}
 
     def robot_force(self, bodies: Iterable[int]) -> float:
         """Newtons the robot presses on ``bodies`` now (normal forces of their contacts, summed)."""
-        m, d, owners = self.model, self.data, self._owners
-        robot = ROBOT_PREFIX.rstrip("/")
         wanted, force, total = set(bodies), np.zeros(6), 0.0
-        for i, contact in enumerate(d.contact[: d.ncon]):
-            b1, b2 = int(m.geom_bodyid[contact.geom1]), int(m.geom_bodyid[contact.geom2])
-            if (owners[b1] == robot and b2 in wanted) or (owners[b2] == robot and b1 in wanted):
-                mujoco.mj_contactForce(m, d, i, force)
+        for i, other in self._robot_contacts():
+            if other in wanted:
+                mujoco.mj_contactForce(self.model, self.data, i, force)
                 total += abs(float(force[0]))
         return total
 

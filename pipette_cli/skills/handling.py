@@ -99,10 +99,11 @@ def grasp(
         yield ctx.grip(OPEN, 0.3)
     yield from transit(ctx, plan.approach[0], plan.rot, exclude=exclude, what=f"the approach to {name!r}")
 
-    with ctx.hand.touching(exclude | set(extra_touch) | support_of(ctx, name)):
+    support = support_of(ctx, name)
+    with ctx.hand.touching(exclude | set(extra_touch) | support):
         for point in plan.approach[1:]:
             yield ctx.move(point, plan.rot, speed=APPROACH_SPEED, what=f"the approach to {name!r}")
-        guarded = _lying_low(ctx, name, plan)
+        guarded = bool(support) and _lying_low(ctx, name, plan)
         stop = plan.pos + TOUCH_ABOVE * UP if guarded else plan.pos
         yield ctx.move(stop, plan.rot, speed=APPROACH_SPEED, what=f"the grasp of {name!r}")
         # the servos stop a few millimetres short under gravity: centred between the fingers before
@@ -116,7 +117,7 @@ def grasp(
             ctx, GRASP_SETTLE_S, what=f"the grasp of {name!r}", required=False, vertical=lambda: sunk() or low()
         )
         if guarded:
-            yield from touch_down(ctx, name)
+            yield from touch_down(ctx, name, support)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.hand.attach(name)
 
@@ -125,17 +126,14 @@ def _lying_low(ctx: SkillContext, name: str, plan: Grasp) -> bool:
     """Whether ``plan`` takes ``name`` straight down with the fingertips just over the surface it
     lies on (a rod, a spatula): the grasp is made by :func:`touch_down`."""
     lift = plan.pos[2] - ctx.scene.shape(name).bottom
-    return bool(plan.rot[2, 2] <= -STRAIGHT_DOWN and lift <= FINGERTIP_LIFT + TOUCH_ABOVE) and bool(
-        support_of(ctx, name)
-    )
+    return bool(plan.rot[2, 2] <= -STRAIGHT_DOWN and lift <= FINGERTIP_LIFT + TOUCH_ABOVE)
 
 
-def touch_down(ctx: SkillContext, name: str) -> Iterator[Move]:
-    """Lower the hand in small steps until the fingertips touch the surface ``name`` lies on,
+def touch_down(ctx: SkillContext, name: str, support: AbstractSet[int]) -> Iterator[Move]:
+    """Lower the hand in small steps until the fingertips touch ``support`` (what ``name`` lies on),
     lightly: a guarded move, as a real arm makes with its force sensing. Short of the surface the
     fingers close above a thin object's middle and squeeze it out; a servo that sagged onto it
     presses too hard to close (friction there holds the fingers open)."""
-    support = support_of(ctx, name)
     for _ in range(round((FINGERTIP_LIFT + 2 * TOUCH_ABOVE) / TOUCH_STEP)):
         if ctx.world.robot_force(support) > TOUCH_FORCE:
             return

@@ -164,10 +164,8 @@ class StageBuilder(HatchStages, RelationStages):
         """Into a centrifuge's rotor: ``insert_into`` the well nearest the robot; done when it stands
         in any well (its base at a well's floor, leaning or not), not lying across the rotor."""
         item, dest = step.object, step.required_target()
-        width, d = (
-            float(dgeom.semantics.get("well_diameter", 0.0)),
-            diameter(load_vocabulary(), self.placed[item].asset),
-        )
+        width = float(dgeom.semantics.get("well_diameter", 0.0))
+        d = diameter(load_vocabulary(), self.placed[item].asset)
         if width and d is not None and d + FIT_PLAY > width:
             raise PlanError(
                 f"impossible request: the {self.human(item)} ({d * 1000:.0f} mm across) does not fit the "
