@@ -237,7 +237,15 @@ def put_down(
             return
         # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
         # the air, the fingers springing open throw a light object
-        yield from settle_hand(ctx, SET_DOWN_SETTLE_S, what=f"setting {name!r} down")
+        # the fingers pressing on what the object is set on (the arm sagged below the plan, its
+        # fingertips reach below the object's base): raised to the plan, the height kept over that
+        held = ctx.scene.bodies(name)
+        yield from settle_hand(
+            ctx,
+            SET_DOWN_SETTLE_S,
+            what=f"setting {name!r} down",
+            vertical=lambda: bool(ctx.world.robot_contacts() - held),
+        )
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.hand.held = None
         with ctx.hand.touching(ctx.scene.bodies(name)):

@@ -532,3 +532,29 @@ def test_a_dish_pinched_at_its_rim_is_set_down_level(seed: int) -> None:
     verdict, failure = run_expert_episode(world, seed)
     assert verdict.success, failure or verdict.reason
     assert upright(world, "dish") < 3.0
+
+
+def test_an_object_is_let_go_with_the_fingertips_off_what_it_is_set_on() -> None:
+    """The arm sags 5 mm below its plan over the 90 mm dish; the fingertips, level with the small
+    dish's base, pressed the big one into the bench (6.6-10.4 N as they opened, seeds 0, 2, 3), and
+    opening flung the small one off where the press was harder. Before the fingers open, a hand that
+    touches more than what it sets down is raised to its plan."""
+    from pipette_cli.demos.check import run_expert_episode
+
+    world = drafted_world("Put the 35 mm petri dish on the 90 mm petri dish")
+    below = {b for b in range(world.model.nbody) if world.model.body(b).name.startswith("dish_2/")}
+    pressed: list[float] = []
+    closed = [False]
+    original = world.step
+
+    def step(action):
+        closed[0] = closed[0] or action[-1] < 0.5
+        if action[-1] >= 0.5 and closed[0] and not pressed:  # the fingers open on the dish they carried
+            pressed.append(world.robot_force(below))
+        return original(action)
+
+    world.step = step  # type: ignore[method-assign]
+    verdict, failure = run_expert_episode(world, 0)
+    assert verdict.success, failure or verdict.reason
+    assert pressed and pressed[0] < 1.0, f"the fingers pressed the dish under it at {pressed[0]:.1f} N"
+    assert upright(world, "dish") < 5.0
