@@ -30,23 +30,9 @@ from pipette_cli.taskgen.validate import CheckedPlan, lid_beside, lid_points, se
 
 PART_JOINTS = {"lid": ("lid_hinge",), "door": ("door_hinge",), "drawer": ("drawer_slide",), "sash": ("sash_slide",)}
 HANDLES = ("lid_handle", "door_handle", "drawer_handle", "sash_handle")
-SURFACE_SITES = (
-    "pan_center",
-    "platform_center",
-    "plate_center",
-    "shelf_0_center",
-    "top_center",
-    "drawer_center",
-    "block_center",
-    "cuvette_slot",
-    "rotor_center",
-    "cup_center",
-    "work_center",
-    "ring_center",
-    "inside_bottom",
-    "center",
-    "opening",
-)
+SURFACE_SITES: tuple[str, ...] = ("pan_center", "platform_center", "plate_center", "shelf_0_center", "top_center")
+SURFACE_SITES += ("drawer_center", "block_center", "cuvette_slot", "rotor_center", "cup_center", "work_center")
+SURFACE_SITES += ("ring_center", "inside_bottom", "center", "opening")
 FLAT_SITES = ("pan_center", "platform_center", "plate_center", "top_center", "drawer_center", "work_center")
 """Surface sites (and every ``shelf_*_center``) that hold an object only if it stands by itself; the
 others (a rotor, a block, a cup, a ring, an inside bottom) hold it in a well or against a wall."""
@@ -245,8 +231,10 @@ class SceneBuilder:
 
     def _reserve_beside(self, item: str, ref: str, relation: str) -> None:
         """Place the reference of a relation (if not yet) and keep a free spot beside it for ``item``."""
-        if ref not in self.out.placed:
+        if ref not in self.out.placed:  # off the holder the item starts in (inside the region: trivial)
+            before, self.clear_of = self.clear_of, self._holder_clear(item, ref)
             self._place_free(ref, self._relation_start(ref) or (self.ws.center_x, 0.0))
+            self.clear_of = before
         placed = self.out.placed[ref]
         placed.randomize = None  # the region beside it is fixed in the bench frame
         boxes = self.geoms.get(ref, self.geom(ref)).boxes + np.array([*placed.pos, *placed.pos])
@@ -261,6 +249,16 @@ class SceneBuilder:
         ref_boxes = self.geoms.get(ref, self.geom(ref)).boxes
         reach = float(np.hypot(*(0.5 * (ref_boxes[:, 3:5].max(axis=0) - ref_boxes[:, :2].min(axis=0)))))
         self.clear_of = ((placed.pos[0], placed.pos[1]), reach + BESIDE_CLEAR)
+
+    def _holder_clear(self, item: str, ref: str) -> tuple[tuple[float, float], float] | None:
+        """``(place, distance)`` the reference of a relation keeps from the holder ``item`` starts in."""
+        first = next((s for s in self._steps_on(item) if s.object == item), None)
+        holder = first.source if first is not None else None
+        if holder is None or holder not in self.out.placed:
+            return None
+        pos = self.out.placed[holder].pos
+        reach = float(np.hypot(*self.geom(ref).half_xy) + np.hypot(*self.geom(holder).half_xy))
+        return (pos[0], pos[1]), reach + BESIDE_CLEAR
 
     def _relation_start(self, name: str) -> tuple[float, float] | None:
         """Where the reference of a relation ("left of the beaker") starts: room on that side within reach."""

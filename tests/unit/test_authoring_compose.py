@@ -313,3 +313,15 @@ def test_a_tube_put_in_a_centrifuge_goes_into_a_rotor_well_and_one_too_wide_is_r
     assert z.min <= floor <= z.max < rotor.pose.pos[2] + geom.sites["rotor_center"][2]  # lying on the rotor: higher
     with pytest.raises(PlanError, match="does not fit the microcentrifuge's 13 mm rotor wells"):
         drafted("Put the 50 mL tube in the microcentrifuge")
+
+
+def test_an_item_taken_out_of_a_holder_starts_outside_the_region_it_goes_to() -> None:
+    """"Take the tube out of the rack and put it next to the beaker": the beaker was laid out 17 cm
+    from the tube standing in its rack, inside the 18 cm region beside it (in the band of the
+    bench), so the criterion held before the robot moved and the check refused the task as trivial.
+    The reference keeps away from the holder the item starts in."""
+    spec = drafted("Take the tube out of the rack and put it next to the beaker").spec
+    pos = {o.name: np.asarray(o.pose.pos) for o in spec.scene.objects}
+    within = spec.success.within
+    assert within is not None and within.center == "beaker"
+    assert np.hypot(*(pos["tube"][:2] - pos["beaker"][:2])) > within.radius + 0.05
