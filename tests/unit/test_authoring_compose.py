@@ -316,7 +316,7 @@ def test_a_tube_put_in_a_centrifuge_goes_into_a_rotor_well_and_one_too_wide_is_r
 
 
 def test_an_item_taken_out_of_a_holder_starts_outside_the_region_it_goes_to() -> None:
-    """"Take the tube out of the rack and put it next to the beaker": the beaker was laid out 17 cm
+    """For "Take the tube out of the rack and put it next to the beaker" the beaker was laid out 17 cm
     from the tube standing in its rack, inside the 18 cm region beside it (in the band of the
     bench), so the criterion held before the robot moved and the check refused the task as trivial.
     The reference keeps away from the holder the item starts in."""
