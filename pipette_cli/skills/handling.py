@@ -235,10 +235,9 @@ def put_down(
         yield ctx.move(tool_pos, tool_rot, speed=FINE_SPEED, what=f"setting {name!r} down")
         if not release:
             return
-        # over the spot planned; not lifted off the surface the servo's sag presses it on: let go in
-        # the air, the fingers springing open throw a light object
-        # the fingers pressing on what the object is set on (the arm sagged below the plan, its
-        # fingertips reach below the object's base): raised to the plan, the height kept over that
+        # over the spot planned; left pressed on the surface by the servo's sag (let go in the air,
+        # the fingers springing open throw a light object), unless the fingers press on something
+        # too (its fingertips reach below the object's base): then raised to the plan
         held = ctx.scene.bodies(name)
         yield from settle_hand(
             ctx,
@@ -248,7 +247,7 @@ def put_down(
         )
         yield ctx.grip(OPEN, RELEASE_S)
         ctx.hand.held = None
-        with ctx.hand.touching(ctx.scene.bodies(name)):
+        with ctx.hand.touching(held):
             yield from back_off(ctx, retreat)
 
 

@@ -232,9 +232,8 @@ class SceneBuilder:
     def _reserve_beside(self, item: str, ref: str, relation: str) -> None:
         """Place the reference of a relation (if not yet) and keep a free spot beside it for ``item``."""
         if ref not in self.out.placed:  # off the holder the item starts in (inside the region: trivial)
-            before, self.clear_of = self.clear_of, self._holder_clear(item, ref)
-            self._place_free(ref, self._relation_start(ref) or (self.ws.center_x, 0.0))
-            self.clear_of = before
+            start = self._relation_start(ref) or (self.ws.center_x, 0.0)
+            self._place_free(ref, start, away=self._holder_clear(item, ref) or self.clear_of)
         placed = self.out.placed[ref]
         placed.randomize = None  # the region beside it is fixed in the bench frame
         boxes = self.geoms.get(ref, self.geom(ref)).boxes + np.array([*placed.pos, *placed.pos])
@@ -417,7 +416,9 @@ class SceneBuilder:
         preferred: tuple[float, float],
         asset: str | None = None,
         comment: str = "VERIFY reachable: placed by pipette new-task",
+        away: tuple[tuple[float, float], float] | None = None,
     ) -> None:
+        """Place ``name`` near ``preferred``, off ``away`` (a relation's region by default)."""
         asset = asset or self.checked.asset(name)
         geom = measure_asset(asset)
         amp = 0.02 if self.ws.max_reach < 0.6 else 0.03
@@ -426,7 +427,7 @@ class SceneBuilder:
         randomize: dict[str, Any] = {"xy": (amp, amp), "yaw_deg": 180 if round_ else 15}
         key = [geom.sites["grasp"][:2]] if "grasp" in geom.sites else [(0.0, 0.0)]
         footprint = Footprint(geom.boxes, key, preferred, margin=amp)
-        spot = self.layout.place(footprint, self.ws.bench_z, away=self.clear_of)  # off a relation's region
+        spot = self.layout.place(footprint, self.ws.bench_z, away=away or self.clear_of)
         if spot is None:
             raise self._no_room(name)
         z = r(self.ws.bench_z + geom.origin_height + 0.001, 4)
