@@ -16,12 +16,14 @@ import mujoco
 import numpy as np
 
 from pipette_cli.errors import SimError, SpecError
-from pipette_cli.specs.robot import MenagerieRef, RobotSpec, robot_spec
+from pipette_cli.specs.robot import MenagerieRef, PadSpec, RobotSpec, robot_spec
 
 log = logging.getLogger(__name__)
 
 FINGER_SOLREF = (0.005, 1.0)
 FINGER_SOLIMP = (0.95, 0.99, 0.001, 0.5, 2.0)
+FINGER_FRICTION = 1.5
+"""Sliding friction of the gripper's contacts (they win over the touched object's)."""
 
 
 def robot_config(name: str) -> RobotSpec:
@@ -96,6 +98,13 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         if drive.kp is not None:
             act.gainprm[0] = drive.kp
             act.biasprm[:3] = [0.0, -drive.kp, -(drive.kv or 0.0)]
+            tendon = spec.tendon(act.target) if act.trntype == mujoco.mjtTrn.mjTRN_TENDON else None
+            if drive.kv and tendon is not None:
+                # the damping on the tendon, not in the servo: a servo's damping stops counting in
+                # the implicit integration once its force saturates, and the stiff, light fingers
+                # chatter (they stalled half open, touching nothing, after closing fast)
+                act.biasprm[2] = 0.0
+                tendon.damping = [drive.kv, 0.0, 0.0]
         lo, hi = sorted((config.gripper.closed_ctrl, config.gripper.open_ctrl))
         if not config.arm.limit_ctrl_to_joint_range:
             act.ctrlrange = [lo, hi]
@@ -105,6 +114,8 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
         raise SimError(
             f"robot {name!r}: end-effector body {config.end_effector.body!r} not found in the menagerie model"
         )
+    if config.gripper.pad is not None:
+        _flat_pads(spec, config.gripper.pad, name)
     _stiffen_fingers(ee, config.gripper.torsional_friction)
     _stiffen_finger_coupling(spec, ee)
     tcp = config.end_effector.tcp
@@ -136,6 +147,28 @@ def _mat_quat(mat: np.ndarray) -> np.ndarray:
     return quat
 
 
+def _flat_pads(spec: mujoco.MjSpec, pad: PadSpec, robot: str) -> None:
+    """Each finger of ``pad.bodies`` gets one flat face in ``pad.rows`` boxes; the model's own pad
+    boxes stop colliding (the finger's mesh still does)."""
+    hx, hy, hz = pad.half
+    for finger in pad.bodies:
+        body = spec.body(finger)
+        if body is None:
+            raise SimError(f"robot {robot!r}: finger body {finger!r} (gripper.pad) not found in the menagerie model")
+        for geom in body.geoms:
+            if geom.type == mujoco.mjtGeom.mjGEOM_BOX:
+                geom.contype = geom.conaffinity = 0
+        for row in range(pad.rows):
+            z = pad.pos[2] - hz + (2 * row + 1) * hz / pad.rows
+            body.add_geom(
+                name=f"{finger}_pad_{row}",
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                pos=[pad.pos[0], pad.pos[1], z],
+                size=[hx, hy, hz / pad.rows],
+                group=3,
+            )
+
+
 def _stiffen_fingers(ee: mujoco.MjsBody, torsional: float) -> None:
     """Stiff, high-friction contacts on the gripper so a grasp holds without sinking in, resisting
     twist about their normal by ``torsional`` metres (the robot's ``gripper.torsional_friction``).
@@ -150,7 +183,7 @@ def _stiffen_fingers(ee: mujoco.MjsBody, torsional: float) -> None:
             if geom.contype or geom.conaffinity:
                 geom.solref = list(FINGER_SOLREF)
                 geom.solimp = list(FINGER_SOLIMP)
-                geom.friction = [1.5, torsional, 0.001]
+                geom.friction = [FINGER_FRICTION, torsional, 0.001]
                 geom.condim = 4
                 geom.priority = 1  # these parameters win over the touched object's (no averaging)
         stack.extend(body.bodies)

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pipette_cli.sim.robots import FINGER_FRICTION
 from pipette_cli.skills.frames import UP, axis_rotation, down_frame, horizontal, pitched_frame, tool_frame
 from pipette_cli.skills.grip import FINGERTIP_LIFT, GRIP_MARGIN, PALM_MARGIN, ROUND
 from pipette_cli.skills.moves import SkillFailure
@@ -23,6 +24,8 @@ PINCH_PITCHES = (30.0, 20.0, 40.0, 10.0)
 """Degrees below the horizon a pinching hand points, in the order tried (low fits under a shelf)."""
 PINCH_TURNS = (35.0, -35.0)
 """Degrees the pinch direction turns from facing the robot, in the order tried."""
+CORNER_ROOM = 0.001
+"""Metres a pinching hand's lowest fingertip corner keeps over what the object stands on."""
 PINCH_DROP = 0.08
 """Metres above the rim a pinch from straight above starts."""
 TOP_PITCHES = (90.0, 75.0, 60.0, 50.0, 40.0)
@@ -287,6 +290,21 @@ def pinch_candidates(
     return out
 
 
+def _corner_drop(ctx: SkillContext, rot: np.ndarray) -> float:
+    """How far below the tcp the open fingertips' lowest corner reaches with the hand turned ``rot``."""
+    gripper = ctx.robot.gripper
+    approach, across = rot[:, 2], rot[:, 0]
+    return float(-(gripper.fingertip * approach[2]) + abs(across[2]) * gripper.finger_thickness / 2)
+
+
+def _reach_in(ctx: SkillContext, rot: np.ndarray) -> float:
+    """How far beyond the tcp, horizontally along the approach's heading, the fingers reach with the
+    hand turned ``rot``: their tips and corners as the model has them (the Panda's 14 mm at 30 deg
+    below the horizon; none for the Piper, whose tcp is at its fingertips)."""
+    heading = horizontal(rot[:, 2])
+    return max(0.0, float(np.max((ctx.hand.finger_corners @ rot.T) @ heading)))
+
+
 def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, above: bool = False) -> list[Grasp]:
     """Pinches facing ``radial``: over the rim from behind it, or (``above``) from straight above it."""
     opening = ctx.robot.gripper.max_opening
@@ -311,11 +329,23 @@ def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, abo
     out = []
     for rise in (height * 0.5 + 0.015,) if above else (height * 0.5 + 0.015, 0.004):
         for pitch in PINCH_PITCHES:
-            pinch = np.array([center[0], center[1], shape.bottom]) - depth * radial + 0.63 * height * UP
             rot = pitched_frame(radial, pitch)
+            at, width = depth, c
+            if round_ and depth > 0.0:
+                # the chord where the fingers close, so the open fingers clear the wider chords their
+                # tips and corners reach further in (the disc wedged between them, fully open); but no
+                # nearer the rim than where its wall meets the fingers inside their friction cone (there
+                # the squeeze pushes the disc out: a 150 mm dish taken that way, 0/5)
+                held = r * float(np.sin(np.arctan(FINGER_FRICTION)))
+                at = max(depth, min(depth + _reach_in(ctx, rot), held))
+                width = 2.0 * float(np.sqrt(max(0.0, r * r - at * at)))
+            pinch = np.array([center[0], center[1], shape.bottom]) - at * radial + 0.63 * height * UP
+            # no lower than keeps the fingertips' lower corners over what it stands on: planned into the
+            # bench, the arm pressed them on it at 80-100 N and friction held the fingers open
+            pinch[2] = max(pinch[2], shape.bottom + _corner_drop(ctx, rot) + CORNER_ROOM)
             # over the rim and down onto the chord; or (under a shelf) level, where the open fingers slide
             # in until the rim itself stops them at the chord
             over = pinch + rise * UP
             start = over + PINCH_DROP * UP if above else over - 0.12 * radial
-            out.append(Grasp("pinch", pinch, rot, [start, over], c))
+            out.append(Grasp("pinch", pinch, rot, [start, over], width))
     return out

@@ -9,15 +9,20 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import cached_property
 
 import numpy as np
+from mink.utils import get_subtree_body_ids
 
+from pipette_cli.sim.scene import ROBOT_PREFIX
 from pipette_cli.sim.world import World
 from pipette_cli.skills.moves import CLOSED, OPEN, Held, SkillFailure
 from pipette_cli.skills.scene import SceneQuery
 
 FINGERTIP = 0.012
 """Metres the fingertips reach below the tcp (an empty hand's hang over a surface)."""
+FINGER_BEYOND = 0.001
+"""Metres past the tcp along the approach from which the hand's geometry counts as reaching beyond it."""
 
 
 class Hand:
@@ -43,6 +48,28 @@ class Hand:
             yield
         finally:
             self.allowed = before
+
+    @cached_property
+    def finger_corners(self) -> np.ndarray:
+        """Corners of the boxes round the hand's colliding geoms that lie beyond the tcp along the
+        approach, in the tool frame (n, 3): the fingers as the model has them (measured once, at the
+        episode's start; the fingers slide along the closing axis, which moves no corner along the
+        other two)."""
+        m, d = self.world.model, self.world.data
+        hand = set(get_subtree_body_ids(m, m.body(ROBOT_PREFIX + self.world.robot.end_effector.body).id))
+        tcp, rot = self.world.tcp_position(), self.world.tcp_rotation()
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        out = []
+        for g in range(m.ngeom):
+            if m.geom_bodyid[g] not in hand or not (m.geom_contype[g] or m.geom_conaffinity[g]):
+                continue
+            center, half = m.geom_aabb[g, :3], m.geom_aabb[g, 3:]
+            local = center + signs * half
+            world = d.geom_xpos[g] + local @ d.geom_xmat[g].reshape(3, 3).T
+            out.append((world - tcp) @ rot)
+        corners = np.concatenate(out) if out else np.zeros((1, 3))
+        beyond = corners[corners[:, 2] > FINGER_BEYOND]
+        return beyond if len(beyond) else np.zeros((1, 3))
 
     # ------------------------------------------------------------------ holding
     def attach(self, name: str) -> Held:

@@ -51,6 +51,11 @@ TOUCH_STEP = 0.0005
 TOUCH_ABOVE = 0.004
 """Metres over a low grasp's plan where the hand stops before :func:`touch_down` (the servos sag onto it)."""
 TOUCH_HOLD_S = 0.05
+PRESS_LIMIT = 10.0
+"""Newtons the open fingers may press on what the object stands on when they close (:func:`ease_off`)."""
+EASE_STEP = 0.001
+EASE_STEPS = 10
+"""Steps of :data:`EASE_STEP` the hand rises at most to ease off what the object stands on."""
 STRAIGHT_DOWN = 0.95
 """Cosine from the vertical within which a grasp counts as taken straight down."""
 DROP = 0.002
@@ -118,6 +123,8 @@ def grasp(
         )
         if guarded:
             yield from touch_down(ctx, name, support)
+        else:
+            yield from ease_off(ctx, name, support)
         yield ctx.grip(CLOSED, CLOSE_S)
     ctx.hand.attach(name)
 
@@ -140,6 +147,23 @@ def touch_down(ctx: SkillContext, name: str, support: AbstractSet[int]) -> Itera
         try:
             move = ctx.move(
                 ctx.hand.pos - TOUCH_STEP * UP, ctx.hand.rot, speed=FINE_SPEED, what=f"the grasp of {name!r}"
+            )
+        except SkillFailure:
+            return
+        yield move
+        yield ctx.hold(TOUCH_HOLD_S)
+
+
+def ease_off(ctx: SkillContext, name: str, support: AbstractSet[int]) -> Iterator[Move]:
+    """Raise the hand in small steps while its fingers press on ``support`` (what ``name`` stands on)
+    harder than :data:`PRESS_LIMIT`: a tilted hand's fingertip corners planned just over the bench
+    sag onto it, and friction there at 80-100 N holds the fingers open."""
+    for _ in range(EASE_STEPS):
+        if ctx.world.robot_force(support) <= PRESS_LIMIT:
+            return
+        try:
+            move = ctx.move(
+                ctx.hand.pos + EASE_STEP * UP, ctx.hand.rot, speed=FINE_SPEED, what=f"the grasp of {name!r}"
             )
         except SkillFailure:
             return

@@ -25,7 +25,7 @@ from pipette_cli.skills.handling import RELEASE_S, grasp
 from pipette_cli.skills.motions import back_off
 from pipette_cli.skills.moves import FINE_SPEED, OPEN, Move, fmt
 from pipette_cli.skills.runtime import SkillContext
-from pipette_cli.skills.targets import finger_floor, seat_gap
+from pipette_cli.skills.targets import finger_floor, opening_floor, seat_gap
 
 log = logging.getLogger(__name__)
 
@@ -34,6 +34,8 @@ LINE_UP_TOLERANCE = 0.0007
 LINE_UP_TRIES = 3
 EASE_OFF = 0.001
 """Metres over where the tcp stands that the hand is commanded to before the fingers open."""
+MAX_OPENING_RISE = 0.006
+"""Metres at most the hand lifts what it holds in a hole for its fingers to open clear of the hole's surround."""
 REGRASP_RETREAT = 0.02
 """Metres the empty hand lifts after letting go of an object it will take again higher up."""
 
@@ -67,6 +69,14 @@ def let_go(ctx: SkillContext, name: str, offset: np.ndarray | None, retreat: flo
     brought to where the tcp stands, so the hand no longer pushes the fingertips down and they open
     freely; without, the sag keeps pressing the object onto its seat, which holds it as they open."""
     eased = None if offset is None else ctx.world.tcp_position() + offset + EASE_OFF * UP
+    stands = ctx.world.tcp_position()
+    rise = opening_floor(ctx, name, stands, ctx.hand.rot) - float(stands[2])
+    if rise > 0.0:
+        # the opening fingertips would land on what surrounds the hole (pressed there at 50-70 N they
+        # stall): lifted clear first, what they hold with them, no more than it can drop back in
+        log.debug("letting go of %s: the hand raised %.1f mm for the fingers to open", name, rise * 1000)
+        base = ctx.hand.pos if eased is None else eased
+        eased = base + min(rise, MAX_OPENING_RISE) * UP
     if eased is not None and np.linalg.norm(eased - ctx.hand.pos) > 0.0005:
         yield ctx.move(eased, ctx.hand.rot, speed=FINE_SPEED, what=f"easing off {name!r}", check=False)
     yield ctx.grip(OPEN, RELEASE_S)

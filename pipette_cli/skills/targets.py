@@ -142,6 +142,29 @@ def finger_floor(ctx: SkillContext, name: str, tcp: np.ndarray, rot: np.ndarray)
     return float(top + FINGER_ROOM - tip[2])
 
 
+def opening_floor(ctx: SkillContext, name: str, tcp: np.ndarray, rot: np.ndarray) -> float:
+    """The lowest height the tcp may take at ``tcp``, turned ``rot``, for the fingers to open off
+    ``name`` without landing on what surrounds it: their tips sweep out from the object to the full
+    opening and their outer edges beyond it (a microtube rack's end wall stands 3 mm over its grid,
+    and a hand tilted 5 degrees dips an opening fingertip 4 mm more)."""
+    gripper = ctx.robot.gripper
+    approach, closing = rot[:, 2], rot[:, 1]
+    across = np.cross(approach, closing)
+    held = float(np.abs(closing @ ctx.scene.shape(name).axes) @ ctx.scene.shape(name).half)
+    corners = np.abs(ctx.hand.finger_corners[:, 1])
+    outer = gripper.max_opening / 2 + max(PAD_REACH, float(corners.max() - corners.min()))
+    skip = ctx.hand.held_bodies() | ctx.scene.bodies(name)
+    floor = -np.inf
+    for side in (-1.0, 1.0):
+        for reach in np.linspace(held + 0.001, outer, 8):
+            for off in (-0.5, 0.0, 0.5):
+                tip = side * reach * closing + off * gripper.finger_thickness * across + gripper.fingertip * approach
+                p = tcp + tip
+                surface = ctx.scene.surface_below(p[0], p[1], skip, from_z=float(p[2] + 0.05))
+                floor = max(floor, surface + FINGER_ROOM - float(tip[2]))
+    return float(floor)
+
+
 def seat_gap(ctx: SkillContext, name: str, site: np.ndarray) -> float:
     """Metres the object's mating point (its base, or where it hangs from) stands above ``site``."""
     mate = ctx.world.position(name) + ctx.world.rotation(name) @ mating_point(ctx, name)

@@ -109,6 +109,24 @@ class GripperSpec(Spec):
         "a cylinder is a line that lets a pinched pipette turn in the fingers",
     )
     drive: DriveSpec | None = None
+    pad: PadSpec | None = None
+
+
+class PadSpec(Spec):
+    """A flat box added to each finger over its contact face: where menagerie's fingertip is a row of
+    small boxes with grooves between them (the Panda's: 5 mm wide, 1.5 mm deep), a 10-15 mm neck or
+    tube nests in a groove, pinched from both sides of it, and stays stuck when the fingers open."""
+
+    bodies: list[str] = Field(min_length=1, description="the finger bodies (each gets the box in its own frame)")
+    pos: Vec3 = Field(description="the box's centre in each finger body's frame (metres)")
+    half: Vec3 = Field(description="the box's half sizes (metres)")
+    rows: int = Field(
+        3,
+        ge=1,
+        le=8,
+        description="boxes the face is split into along the finger's length (z): MuJoCo gives a cylinder "
+        "touching a box one contact point, about which a held tube or neck pivots; a row each makes a line",
+    )
 
 
 class TcpSpec(Spec):

@@ -52,7 +52,7 @@ class RelationStages(StageBase):
                 within=ev.CircleSpec(center=ref, radius=radius),
                 z=z,
                 hold_s=self.hold(1.0),
-                timeout_s=self.timeout(15),
+                timeout_s=self.carry_timeout(item, spot),
                 released=True,
             )
             comments = {"within": f"VERIFY: {human}: within {radius * 1000:.0f} mm of it, set down on the bench"}
@@ -70,7 +70,12 @@ class RelationStages(StageBase):
                 ),
             }
             criterion = ev.RegionHoldSpec(
-                object=ref_point, **bounds, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15), released=True
+                object=ref_point,
+                **bounds,
+                z=z,
+                hold_s=self.hold(1.0),
+                timeout_s=self.carry_timeout(item, spot),
+                released=True,
             )
             comments = {
                 "xy"[axis]: f"VERIFY: {human}: beside its side, at most {REACH * 1000:.0f} mm past the object's width"

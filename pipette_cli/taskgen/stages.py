@@ -138,7 +138,7 @@ class StageBuilder(HatchStages, RelationStages):
             z=BoundSpec(min=r(surface - 0.01), max=r(surface + lift + 0.03)),
             max_tilt_deg=tilt,
             hold_s=self.hold(1.0),
-            timeout_s=self.timeout(15),
+            timeout_s=self.carry_timeout(item, self.placed[dest].pos),
             released=True,
         )
         comments = {
@@ -186,7 +186,7 @@ class StageBuilder(HatchStages, RelationStages):
             within=ev.CircleSpec(center=f"{dest}/rotor_center", radius=r(ring)),
             z=z,
             hold_s=self.hold(1.0),
-            timeout_s=self.timeout(15),
+            timeout_s=self.carry_timeout(item, self.placed[dest].pos),
             released=True,
         )
         return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{well}")], comments, [item, dest])
@@ -228,7 +228,13 @@ class StageBuilder(HatchStages, RelationStages):
                 f"{height * 1000:.0f} mm holder, so lying on top does not count"
             )
         criterion = ev.RegionHoldSpec(
-            object=item, x=x, y=y, z=z, hold_s=self.hold(1.0), timeout_s=self.timeout(15), released=True
+            object=item,
+            x=x,
+            y=y,
+            z=z,
+            hold_s=self.hold(1.0),
+            timeout_s=self.carry_timeout(item, (px, py)),
+            released=True,
         )
         return Stage(step, criterion, [sk.InsertIntoSpec(object=item, target=f"{dest}/{slot}")], comments, [item, dest])
 
@@ -241,7 +247,7 @@ class StageBuilder(HatchStages, RelationStages):
             within=ev.CircleSpec(center=f"{dest}/{site}", radius=max(radius, 0.01)),
             z=BoundSpec(max=r(rim)),
             hold_s=self.hold(0.5),
-            timeout_s=self.timeout(15),
+            timeout_s=self.carry_timeout(item, self.placed[dest].pos),
             released=True,
         )
         comments = {
@@ -304,7 +310,7 @@ class StageBuilder(HatchStages, RelationStages):
             delta=ev.AxisDeltaSpec(**delta),
             hold_s=self.hold(0.5),
             max_tilt_deg=(self.th.max_tilt_deg or 30.0) if upright else None,
-            timeout_s=self.timeout(15),
+            timeout_s=self.carry_timeout(item, spot),
         )
         target = sk.TargetSpec(point=(spot[0], spot[1], r(self.bench + 0.02)))
         program: list[sk.StepSpec] = [sk.RemoveFromSpec(object=item, source=source, to=target, hold_s=0.2)]

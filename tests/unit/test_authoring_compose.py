@@ -12,6 +12,7 @@ from pipette_cli.authoring.parser import parse_description
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.llm import strict_json_schema
+from pipette_cli.skills.moves import HELD_SPEED
 from pipette_cli.taskgen.measure import measure_asset, stands_alone
 from pipette_cli.taskgen.plan import PlanError, TaskPlanSpec, plan_json_schema
 
@@ -83,6 +84,22 @@ def test_a_longer_hold_asked_for_lengthens_the_time_limit_by_as_much() -> None:
     longer = drafted("Hold the pipette over the petri dish and keep it there for 3 seconds").spec.success
     assert longer.hold_s == 3.0
     assert longer.timeout_s == pytest.approx(plain.timeout_s + 3.0)
+
+
+def test_a_long_carry_gets_the_time_it_takes() -> None:
+    """Round a shaker to behind it, the beaker is carried 66 cm: the expert took 16.5 s of the 15 s
+    the stage had, and its 1 s hold after. The limit grows with the carry, from 15 s."""
+
+    def carry(spec, item: str, to) -> float:
+        return float(np.linalg.norm(np.subtract(spec.object(item).pose.pos[:2], to[:2])))
+
+    far = drafted("Put the beaker behind the shaker").spec
+    far_carry = carry(far, "beaker", far.expert[-1].target.point)
+    assert far_carry > 0.5
+    assert far.success.timeout_s >= 15.0 + (far_carry - 0.3) / HELD_SPEED + far.success.hold_s
+    near = drafted("Put the tube in the rack").spec
+    near_carry = carry(near, "tube", near.object("rack").pose.pos)
+    assert near_carry < far_carry and 15.0 <= near.success.timeout_s < far.success.timeout_s
 
 
 def test_removal_from_the_balance_must_come_down_to_the_bench() -> None:
