@@ -82,6 +82,20 @@ def judge(case: dict, backend, solve: bool, episodes: int) -> dict:
     return row
 
 
+def failure_summary(rows: list[dict]) -> dict[str, dict]:
+    """The unsolved sentences' failed seeds by class (``check.solve.failure_classes``), most first."""
+    out: dict[str, dict] = {}
+    for row in rows:
+        solve = row.get("check", {}).get("solve", {})
+        if row.get("solvable") is not False:
+            continue
+        for name, seeds in solve.get("failure_classes", {}).items():
+            entry = out.setdefault(name, {"seeds": 0, "sentences": []})
+            entry["seeds"] += len(seeds)
+            entry["sentences"].append(row["text"])
+    return dict(sorted(out.items(), key=lambda kv: -kv[1]["seeds"]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--set", type=Path, action="append", required=True, help="A YAML file with `cases:`.")
@@ -138,6 +152,7 @@ def main() -> None:
         "solvable": solvable if not args.no_solve else None,
         "solvable_share": solvable / max(1, len(expected_tasks)) if not args.no_solve else None,
         "tracebacks": tracebacks,
+        "failure_classes": failure_summary(rows),
         "episodes": args.episodes,
         "wall_s": round(time.perf_counter() - started, 1),
         "rows": rows,

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -45,6 +46,8 @@ class SolveReport:
     episodes: int = 0
     reasons: list[str] = field(default_factory=list)
     """One line per failed seed: the stage not reached and the expert step that stopped."""
+    classes: dict[str, list[int]] = field(default_factory=dict)
+    """The failed seeds by :func:`failure_class`."""
     detail: str = ""
 
     @property
@@ -95,9 +98,25 @@ class CheckReport:
                 "successes": self.solve.successes,
                 "episodes": self.solve.episodes,
                 "detail": self.solve.summary(),
+                "failure_classes": self.solve.classes,
             },
             "seconds": round(self.seconds, 2),
         }
+
+
+def failure_class(failure: str | None, reason: str | None) -> str:
+    """A failed episode's class, the same for every object and place: the skill that stopped and why
+    (``"pick: the grasp on X did not hold"``, ``"insert_into: no reachable way to hold X upright"``),
+    or the criterion's unmet reason (``"evaluator: tilted"``)."""
+    if not failure:
+        return f"evaluator: {reason or 'not done'}"
+    skill = re.match(r"step \d+ \((\w+)", failure)
+    message = failure.split("): ", 1)[-1]
+    message = message.rsplit(": ", 1)[-1] if re.search(r"\): ", message) else message
+    message = re.sub(r"'[^']*'", "X", message)
+    message = re.sub(r"\([^()]*\)", "", message)
+    message = re.sub(r"\s+", " ", re.sub(r"-?\d+(\.\d+)?\s*(mm|m|deg|N|s|%)?", "", message)).strip(" ,;:")
+    return f"{skill.group(1) if skill else 'expert'}: {message}"
 
 
 def _idle_action(world: World) -> np.ndarray:
@@ -193,6 +212,7 @@ def solve_check(task_spec: TaskSpec, episodes: int, stage_names: list[str] | Non
             report.successes += 1
         else:
             why = f"expert stopped at {failure}" if failure else f"evaluator: {verdict.reason or 'not done'}"
+            report.classes.setdefault(failure_class(failure, verdict.reason), []).append(seed)
             report.reasons.append(f"seed {seed}: {_stage_line(task_spec, verdict, stage_names)}; {why}")
     if report.successes >= report.required:
         report.status = "solved"

@@ -9,7 +9,7 @@ from pipette_cli.authoring.backends import make_backend
 from pipette_cli.authoring.workflow import draft_task
 from pipette_cli.demos.experts import base as experts
 from pipette_cli.specs.task import TaskSpec
-from pipette_cli.taskgen.check import SolveReport, check_task, solve_check
+from pipette_cli.taskgen.check import SolveReport, check_task, failure_class, solve_check
 
 TEXT = "Put the 90 mm petri dish on the orbital shaker"
 
@@ -77,11 +77,31 @@ def test_solve_check_runs_the_tasks_expert(dish_task, monkeypatch) -> None:
         "seed 1: the criterion not met; evaluator: out_of_region",
     ]
     assert "seeds 0, 1: the criterion not met" in report.summary()
+    assert report.classes == {"evaluator: out_of_region": [0, 1]}
     easy = with_changes(
         dish_task, {"type": "region_hold", "object": "dish", "z": {"min": 0.5}, "hold_s": 0.2, "timeout_s": 3}
     )
     solved = solve_check(easy, episodes=2)
     assert solved.status == "solved" and solved.successes == 2
+
+
+def test_a_failure_is_named_by_a_class_free_of_objects_and_numbers() -> None:
+    """The development set's failures are counted by class (benchmarks/bench_new_task.py): the
+    skill and why it stopped, whatever object, place or distance, or the criterion's reason."""
+    pick = [
+        "step 1 (pick dish): the grasp on 'dish' did not hold (it is 353 mm from where it was held)",
+        "step 2 (pick tube): the grasp on 'tube' did not hold (it is 75 mm from where it was held)",
+    ]
+    assert {failure_class(f, None) for f in pick} == {"pick: the grasp on X did not hold"}
+    line_up = (
+        "step 4 (insert_into tube): lining 'tube' up with 'rack/slot_9' (0.464, 0.299, 0.576): no straight "
+        "way there for the franka_panda that touches nothing but what it works on (it would hit bench/base)"
+    )
+    assert failure_class(line_up, None) == (
+        "insert_into: no straight way there for the franka_panda that touches nothing but what it works on"
+    )
+    assert failure_class(None, "tilted") == "evaluator: tilted"
+    assert failure_class(None, None) == "evaluator: not done"
 
 
 def test_four_of_five_seeds_pass_the_gate() -> None:
