@@ -301,8 +301,7 @@ def _reach_in(ctx: SkillContext, rot: np.ndarray) -> float:
     """How far beyond the tcp, horizontally along the approach's heading, the fingers reach with the
     hand turned ``rot``: their tips and corners as the model has them (the Panda's 14 mm at 30 deg
     below the horizon; none for the Piper, whose tcp is at its fingertips)."""
-    heading = horizontal(rot[:, 2])
-    return max(0.0, float(np.max((ctx.hand.finger_corners @ rot.T) @ heading)))
+    return max(0.0, float(np.max((ctx.hand.finger_corners @ rot.T) @ horizontal(rot[:, 2]))))
 
 
 def _pinches(ctx: SkillContext, name: str, shape: Shape, radial: np.ndarray, above: bool = False) -> list[Grasp]:
