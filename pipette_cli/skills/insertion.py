@@ -68,8 +68,8 @@ def let_go(ctx: SkillContext, name: str, offset: np.ndarray | None, retreat: flo
     standing error ``offset`` (the fingertips over what surrounds the hole), the command is first
     brought to where the tcp stands, so the hand no longer pushes the fingertips down and they open
     freely; without, the sag keeps pressing the object onto its seat, which holds it as they open."""
-    eased = None if offset is None else ctx.world.tcp_position() + offset + EASE_OFF * UP
     stands = ctx.world.tcp_position()
+    eased = None if offset is None else stands + offset + EASE_OFF * UP
     rise = opening_floor(ctx, name, stands, ctx.hand.rot) - float(stands[2])
     if rise > 0.0:
         # the opening fingertips would land on what surrounds the hole (pressed there at 50-70 N they

@@ -150,7 +150,8 @@ def opening_floor(ctx: SkillContext, name: str, tcp: np.ndarray, rot: np.ndarray
     gripper = ctx.robot.gripper
     approach, closing = rot[:, 2], rot[:, 1]
     across = np.cross(approach, closing)
-    held = float(np.abs(closing @ ctx.scene.shape(name).axes) @ ctx.scene.shape(name).half)
+    shape = ctx.scene.shape(name)
+    held = float(np.abs(closing @ shape.axes) @ shape.half)
     corners = np.abs(ctx.hand.finger_corners[:, 1])
     outer = gripper.max_opening / 2 + max(PAD_REACH, float(corners.max() - corners.min()))
     skip = ctx.hand.held_bodies() | ctx.scene.bodies(name)
