@@ -20,6 +20,10 @@ Stages (each resumes: rerun the same command after an interruption and finished 
     python benchmarks/augmentation_experiment.py pilot --work runs/augmentation
     python benchmarks/augmentation_experiment.py run --work runs/augmentation
     python benchmarks/augmentation_experiment.py report --work runs/augmentation
+
+With ``--keep docs/reproduction/augmentation/episodes`` every finished evaluation's episode logs (with
+the yield reports and training logs) are copied there as they come and restored at start, so a new
+machine goes on from the first unfinished setting (plan amendment 7).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import json
 import multiprocessing
 import os
 import re
+import shutil
 import sys
 import time
 from collections import Counter
@@ -150,6 +155,10 @@ class Experiment:
     """Tasks run at once, each in its own process (training uses one thread per run)."""
     fewer: tuple[tuple[str, int], ...] = ()
     """Tasks that use fewer demonstrations than ``demos`` (the pilot's step 4), with their count."""
+    keep: Path | None = None
+    """Where what the report reads is copied as it finishes (plan amendment 7): every evaluation's
+    episode logs, the yield reports and lerobot-train's logs, by their path under ``work``. A new
+    machine restores them into ``work`` and goes on from the first unfinished setting."""
 
     def demos_of(self, task: TaskSpec) -> int:
         return dict(self.fewer).get(task.id, self.demos)
@@ -161,6 +170,31 @@ class Experiment:
         for part in parts:
             path = path / part
         return path
+
+
+def kept(ex: Experiment, *paths: Path) -> None:
+    """Copy ``paths`` (files, or folders' files) under ``ex.work`` to the same place under ``ex.keep``."""
+    if ex.keep is None:
+        return
+    for path in paths:
+        for file in [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file()):
+            into = ex.keep / file.relative_to(ex.work)
+            into.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(file, into)
+
+
+def restore(ex: Experiment) -> int:
+    """Copy into ``ex.work`` every kept file it lacks, training logs aside (a training run on this
+    machine writes its own; :func:`training_loss` reads the kept one where there is none); the number
+    copied."""
+    copied = 0
+    for file in sorted(p for p in ex.keep.rglob("*") if p.is_file()) if ex.keep and ex.keep.is_dir() else []:
+        into = ex.work / file.relative_to(ex.keep)
+        if file.suffix != ".log" and not into.exists():
+            into.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(file, into)
+            copied += 1
+    return copied
 
 
 def each_task(ex: Experiment, work: Callable[..., T], tasks: list[TaskSpec], *args: Any) -> list[T]:
@@ -218,7 +252,9 @@ def trained(
         extra=(*SMALL_ACT, f"--save_freq={save_freq}", f"--seed={TRAIN_SEED}"),
     )
     last = train_checkpoint(task.id, options, on_train=lambda job: say(f"{task.id} {setting}: training {steps} steps"))
-    return last.parents[2]  # <run>/checkpoints/last/pretrained_model -> <run>
+    run = last.parents[2]  # <run>/checkpoints/last/pretrained_model -> <run>
+    kept(ex, *run.parent.glob("*.log"))
+    return run
 
 
 def checkpoint(run: Path, step: int, total: int) -> Path:
@@ -250,6 +286,7 @@ def evaluated(
         [TaskRun(task, folder, tuple(episodes))], PolicySource(checkpoint=policy), settings, workers=ex.workers
     )
     summary = done.summaries[task.id]
+    kept(ex, folder)
     say(f"{task.id} {label} -> {folder.name}: {summary['successes']}/{summary['episodes']}")
     return summary
 
@@ -344,6 +381,7 @@ def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]
         if setting in settings or (setting == "aug_all" and "more_demos" in settings):
             sources[setting], reports[setting] = augmented(ex, task, raw, setting)
     path.write_text(json.dumps(reports, indent=2) + "\n")
+    kept(ex, path)
     if "more_demos" in settings:
         sources["more_demos"] = demonstrations(ex, task, len(scan(sources["aug_all"]).episodes), "more_demos")
     return sources
@@ -362,19 +400,56 @@ def segmented(task: TaskSpec) -> bool:
     return bool(task.targets) and hands_over(expert_program(task)[0], task.targets[0])
 
 
+Evaluation = tuple[str, Path, int | None, list[EpisodePlan], RegisteredSuite]
+"""(label, folder, checkpoint step or None for the setting's last, episodes, suite)."""
+
+
+def evaluations(
+    ex: Experiment, task: TaskSpec, setting: str, steps: int, suites: dict[str, RegisteredSuite]
+) -> list[Evaluation]:
+    """What ``setting`` is evaluated on: each suite that evaluates it and, for raw and aug_all, the
+    learning-curve points S/4 and S/2 on the nominal suite."""
+    out: list[Evaluation] = []
+    for name, suite in suites.items():
+        if setting in SUITE_SETTINGS[name]:
+            plan = episode_plan(suite.spec, [task.id])[task.id]
+            out.append((setting, ex.folder(task, "eval", name, setting), None, plan, suite))
+    if setting in ("raw", "aug_all"):
+        plan = episode_plan(suites["nominal"].spec, [task.id])[task.id]
+        for step in sorted({steps // 4, steps // 2} - {0}):
+            label = f"{setting}@{step}"
+            out.append((label, ex.folder(task, "eval", "curve", label), step, plan, suites["nominal"]))
+    return out
+
+
+def finished(ex: Experiment, folder: Path, plan: list[EpisodePlan]) -> bool:
+    """Whether ``folder`` holds a log for every planned episode (restored ones included)."""
+    count = min(len(plan), ex.max_episodes or len(plan))
+    return folder.is_dir() and len(list(folder.glob("episode_*.json"))) >= count
+
+
 def run_task(
     ex: Experiment, task: TaskSpec, steps: int, suites: dict[str, RegisteredSuite], settings: list[str]
 ) -> None:
     if not segmented(task):
         settings = [s for s in settings if s not in SEGMENTED]
-    sources = data(ex, task, [*settings, *(EPOCH_MATCHED[s] for s in settings if s in EPOCH_MATCHED)])
+    pending = []
     for setting in settings:
+        if all(finished(ex, f, plan) for _, f, _, plan, _ in evaluations(ex, task, setting, steps, suites)):
+            say(f"{task.id} {setting}: every evaluation finished before (kept episode logs)")
+        else:
+            pending.append(setting)
+    if not pending:
+        return
+    sources = data(ex, task, [*pending, *(EPOCH_MATCHED[s] for s in pending if s in EPOCH_MATCHED)])
+    for setting in pending:
         if setting in EPOCH_MATCHED:
             sources[setting] = sources[EPOCH_MATCHED[setting]]
     quarter = max(1, steps // 4)
     every = min(ex.pilot_steps)
-    for setting in settings:
-        if setting == "raw" and quarter % every == 0 and steps <= max(ex.pilot_steps):
+    for setting in pending:
+        pilot_run = ex.folder(task, setting, "train")
+        if setting == "raw" and quarter % every == 0 and any(pilot_run.glob(f"act/*/checkpoints/{steps:06d}")):
             # the pilot's run: without a learning-rate schedule (ACT has none) and with the same
             # seed, its checkpoints at S/4, S/2 and S are those of an S-step run
             total = max(ex.pilot_steps)
@@ -382,22 +457,13 @@ def run_task(
         elif setting in EPOCH_MATCHED:
             total = matched_steps(ex, task, EPOCH_MATCHED[setting], steps)
             run = trained(ex, task, setting, sources[setting], total, total // 4)
-        else:
+        else:  # a new machine has no pilot run: raw's own S-step run (amendment 7)
             folder = "train" if setting != "raw" else f"train_{steps}"
             total = steps
             run = trained(ex, task, setting, sources[setting], total, quarter, folder)
-        final = checkpoint(run, total if setting in EPOCH_MATCHED else steps, total)
-        for name, suite in suites.items():
-            if setting not in SUITE_SETTINGS[name]:
-                continue
-            plan = episode_plan(suite.spec, [task.id])[task.id]
-            evaluated(ex, task, final, setting, ex.folder(task, "eval", name, setting), plan, suite)
-        if setting in ("raw", "aug_all"):
-            plan = episode_plan(suites["nominal"].spec, [task.id])[task.id]
-            for step in sorted({steps // 4, steps // 2} - {0}):
-                label = f"{setting}@{step}"
-                into = ex.folder(task, "eval", "curve", label)
-                evaluated(ex, task, checkpoint(run, step, total), label, into, plan, suites["nominal"])
+        last = total if setting in EPOCH_MATCHED else steps
+        for label, into, step, plan, suite in evaluations(ex, task, setting, steps, suites):
+            evaluated(ex, task, checkpoint(run, step or last, total), label, into, plan, suite)
 
 
 # --------------------------------------------------------------------------------------- diagnose
@@ -486,6 +552,8 @@ def training_loss(ex: Experiment, task: TaskSpec, setting: str, marks: list[int]
     run ``setting`` used; None where the log does not reach it or the run was resumed (its lines
     then no longer say their step)."""
     logs = sorted(ex.folder(task, setting).glob("train*/act/*.log"))
+    if not logs and ex.keep is not None:
+        logs = sorted((ex.keep / ex.folder(task, setting).relative_to(ex.work)).glob("train*/act/*.log"))
     text = logs[-1].read_text(errors="replace") if logs else ""
     if "--resume=true" in text:
         return {str(m): None for m in marks}
@@ -670,6 +738,12 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=None, help="Training steps (default: the pilot's S).")
     parser.add_argument("--workers", type=int, default=1, help="Processes per collection, augmentation, evaluation.")
     parser.add_argument("--jobs", type=int, default=1, help="Tasks run at once (pilot and run stages).")
+    parser.add_argument(
+        "--keep",
+        type=Path,
+        default=None,
+        help="Copy finished episode logs, yield reports and training logs here, and restore them at start.",
+    )
     smoke = parser.add_argument_group("smoke runs only (never for results)")
     smoke.add_argument("--demos", type=int, default=DEMOS)
     smoke.add_argument("--pilot-steps", default=",".join(map(str, PILOT_STEPS)))
@@ -690,6 +764,7 @@ def main() -> None:
         args.pilot_episodes,
         args.max_episodes,
         args.jobs,
+        keep=args.keep,
     )
     pilot_file = args.docs / "pilot.json"
     chosen = json.loads(pilot_file.read_text()) if pilot_file.is_file() else {}
@@ -711,6 +786,8 @@ def main() -> None:
     if args.stage == "diagnose":
         print(diagnose(ex, tasks, args.docs, steps))
         return
+    if ex.keep is not None:
+        say(f"restored {restore(ex)} kept files from {ex.keep} into {ex.work}")
     if args.stage == "run":
         each_task(ex, run_task, tasks, steps, suites, [s for s in args.settings.split(",") if s])
     print(report(ex, tasks, args.docs, steps, chosen.get("ceiling", [])))

@@ -225,3 +225,54 @@ def test_amendment_6_trains_the_augmented_data_for_as_many_passes_as_raw_gets(tm
     pairs = dict(experiment.families("nominal"))["amendment 6"]
     assert ("raw", "aug_all_ep") in pairs and ("more_demos_ep", "aug_all_ep") in pairs
     assert ("more_demos_ep", "aug_all_ep") not in dict(experiment.families("clutter"))["amendment 6"]
+
+
+def test_amendment_7_a_new_machine_restores_the_kept_logs_and_runs_only_unfinished_settings(
+    tmp_path, monkeypatch
+) -> None:
+    from pipette_cli.evaluation.suites import load_suites
+    from pipette_cli.registry import load_registry
+
+    registry = load_registry()
+    found = load_suites(registry)
+    names = {"nominal": experiment.NOMINAL, "shifted": experiment.SHIFTED, "clutter": experiment.CLUTTER}
+    suites = {name: found.get(suite) for name, suite in names.items()}
+    task = registry.get(PICK)
+    ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast", keep=tmp_path / "keep")
+    raw = experiment.evaluations(ex, task, "raw", 2000, suites)
+    # raw: the three suites and its learning curve at S/4 and S/2, each of the suite's 50 episodes
+    assert [label for label, *_ in raw] == ["raw", "raw", "raw", "raw@500", "raw@1000"]
+    assert [step for _, _, step, _, _ in raw] == [None, None, None, 500, 1000]
+    for _, folder, _, plan, _ in raw:
+        folder.mkdir(parents=True)
+        for i in range(len(plan)):
+            (folder / f"episode_{i:04d}.json").write_text(
+                f'{{"episode": {i}, "seed": {plan[i].seed}, "success": true}}'
+            )
+        experiment.kept(ex, folder)
+    log = ex.folder(task, "raw", "train_2000", "act", "run.log")
+    log.parent.mkdir(parents=True)
+    log.write_text("INFO step:20 smpl:160 ep:1 epch:0.1 loss:0.5000 grdn:1.0\n")
+    experiment.kept(ex, log)
+    half = ex.folder(task, "eval", "nominal", "aug_object")  # an evaluation stopped half way: not kept
+    half.mkdir(parents=True)
+    (half / "episode_0000.json").write_text("{}")
+
+    experiment.shutil.rmtree(ex.work)  # a new machine: only the kept files are left
+    assert experiment.restore(ex) == sum(len(plan) for _, _, _, plan, _ in raw)  # the logs, not the training log
+    assert not log.exists() and experiment.training_loss(ex, task, "raw", [20]) == {"20": 0.5}
+    assert all(experiment.finished(ex, folder, plan) for _, folder, _, plan, _ in raw)
+    assert not experiment.finished(ex, half, raw[0][3])
+
+    built: list[list[str]] = []
+
+    def data(ex, task, settings):
+        built.append(settings)
+        raise RuntimeError("stop before recording")
+
+    monkeypatch.setattr(experiment, "data", data)
+    experiment.run_task(ex, task, 2000, suites, ["raw"])  # finished: nothing recorded, nothing trained
+    assert built == []
+    with pytest.raises(RuntimeError, match="stop before recording"):
+        experiment.run_task(ex, task, 2000, suites, ["raw", "aug_object"])
+    assert built == [["aug_object"]]
