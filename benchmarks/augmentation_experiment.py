@@ -441,13 +441,11 @@ def run_task(
             pending.append(setting)
     if not pending:
         return
-    sources = data(ex, task, [*pending, *(EPOCH_MATCHED[s] for s in pending if s in EPOCH_MATCHED)])
-    for setting in pending:
-        if setting in EPOCH_MATCHED:
-            sources[setting] = sources[EPOCH_MATCHED[setting]]
     quarter = max(1, steps // 4)
     every = min(ex.pilot_steps)
-    for setting in pending:
+    for setting in pending:  # each setting's data just before it trains: a lost machine loses one setting
+        base = EPOCH_MATCHED.get(setting, setting)
+        sources = {setting: data(ex, task, [base])[base]}
         pilot_run = ex.folder(task, setting, "train")
         if setting == "raw" and quarter % every == 0 and any(pilot_run.glob(f"act/*/checkpoints/{steps:06d}")):
             # the pilot's run: without a learning-rate schedule (ACT has none) and with the same
