@@ -28,8 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
+from mink import SO3
 
 from pipette_cli.demos.collect import CollectResult, check_target, plan_seeds, step_cap
 from pipette_cli.demos.provenance import model_sha256, provenance
@@ -116,21 +116,6 @@ DEFAULT_KEYS = KeyMap(
 )
 
 
-def quat_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of the rotation vector ``rotvec`` (axis * angle, rad)."""
-    angle = float(np.linalg.norm(rotvec))
-    quat = np.array([1.0, 0.0, 0.0, 0.0])
-    if angle > 0.0:
-        mujoco.mju_axisAngle2Quat(quat, np.asarray(rotvec, float) / angle, angle)
-    return quat
-
-
-def quat_to_mat(quat: np.ndarray) -> np.ndarray:
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, quat)
-    return mat.reshape(3, 3)
-
-
 class KeyboardTeleop:
     """Keyboard SE(3) teleoperation of a world's arm: target pose, IK, gripper, episode events.
 
@@ -157,8 +142,7 @@ class KeyboardTeleop:
         self.world = world
         self.joint_targets = world.data.ctrl[world.arm_actuator_ids].copy()
         self.target_pos, rot = self.ik.tcp_pose(self.joint_targets)
-        self.target_quat = np.zeros(4)
-        mujoco.mju_mat2Quat(self.target_quat, rot.flatten())
+        self.target_quat = SO3.from_matrix(rot).wxyz
         self.gripper = 1.0 if world.task.embodiment.gripper == "open" else 0.0
         while not self._pressed.empty():
             self._pressed.get_nowait()
@@ -199,14 +183,12 @@ class KeyboardTeleop:
     # ------------------------------------------------------------------ motion
     def _move(self, dp: np.ndarray, dphi: np.ndarray) -> None:
         pos = self.target_pos + dp
-        quat = np.zeros(4)
-        mujoco.mju_mulQuat(quat, self.target_quat, quat_from_rotvec(dphi))
-        quat /= np.linalg.norm(quat)
-        result = self.ik.solve(pos, quat_to_mat(quat), q_start=self.joint_targets, tolerance=IK_TOLERANCE)
+        turned = (SO3(wxyz=self.target_quat) @ SO3.exp(dphi)).normalize()
+        result = self.ik.solve(pos, turned.as_matrix(), q_start=self.joint_targets, tolerance=IK_TOLERANCE)
         if result.position_error > REACH_TOLERANCE:
             log.info("target out of reach (IK error %.1f mm); increment ignored", result.position_error * 1000)
             return
-        self.target_pos, self.target_quat, self.joint_targets = pos, quat, result.qpos
+        self.target_pos, self.target_quat, self.joint_targets = pos, turned.wxyz, result.qpos
 
 
 @dataclass

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from pipette_cli.sim.world import World
 
@@ -24,11 +25,7 @@ DAMPING = 0.05
 
 def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     """Axis-angle vector (world frame) rotating ``current`` onto ``target`` (3x3 matrices)."""
-    quat_err = np.zeros(4)
-    mujoco.mju_mat2Quat(quat_err, (target @ current.T).flatten())
-    axis_angle = np.zeros(3)
-    mujoco.mju_quat2Vel(axis_angle, quat_err, 1.0)
-    return axis_angle
+    return Rotation.from_matrix(target @ current.T).as_rotvec()
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Frames for skills: the canonical tool frame, rotations and interpolation.
+"""Frames for skills: the canonical tool frame, rotations and interpolation (scipy's ``Rotation``).
 
 Every robot's ``tcp`` site has the same frame (:mod:`pipette_cli.specs.robot`): z is the direction
 the fingers point (the approach axis), y the direction they close along. A grasp is therefore
@@ -7,8 +7,8 @@ an approach vector and a closing vector, whatever the robot.
 
 from __future__ import annotations
 
-import mujoco
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -47,39 +47,19 @@ def pitched_frame(toward: np.ndarray, pitch_deg: float) -> np.ndarray:
 
 
 def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
-    """Rotation matrix of ``angle`` radians about unit ``axis`` (Rodrigues)."""
-    a = unit(axis)
-    k = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+    """Rotation matrix of ``angle`` radians about ``axis``."""
+    return Rotation.from_rotvec(unit(axis) * angle).as_matrix()
 
 
 def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
     """Angle in radians of the rotation taking ``r0`` to ``r1``."""
-    c = (np.trace(r0.T @ r1) - 1.0) / 2.0
-    return float(np.arccos(np.clip(c, -1.0, 1.0)))
-
-
-def mat_to_quat(mat: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.asarray(mat, dtype=float).flatten())
-    return quat
-
-
-def quat_to_mat(quat: np.ndarray) -> np.ndarray:
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
-    return mat.reshape(3, 3)
+    return float(Rotation.from_matrix(r0.T @ r1).magnitude())
 
 
 def slerp(r0: np.ndarray, r1: np.ndarray, t: float) -> np.ndarray:
-    q0, q1 = mat_to_quat(r0), mat_to_quat(r1)
-    if np.dot(q0, q1) < 0:
-        q1 = -q1
-    omega = np.arccos(np.clip(np.dot(q0, q1), -1.0, 1.0))
-    if omega < 1e-6:
-        return r1.copy()
-    q = (np.sin((1 - t) * omega) * q0 + np.sin(t * omega) * q1) / np.sin(omega)
-    return quat_to_mat(q / np.linalg.norm(q))
+    """The rotation ``t`` (0 to 1) of the way from ``r0`` to ``r1`` along the shorter arc."""
+    start = Rotation.from_matrix(r0)
+    return (start * Rotation.from_rotvec(t * (start.inv() * Rotation.from_matrix(r1)).as_rotvec())).as_matrix()
 
 
 def min_jerk(t: float) -> float:

@@ -12,7 +12,7 @@ import pytest
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import pack, part_path, scan
-from pipette_cli.demos.teleop import KeyboardTeleop, glfw_key, quat_from_rotvec, require_display, teleop_episode
+from pipette_cli.demos.teleop import KeyboardTeleop, glfw_key, require_display, teleop_episode
 from pipette_cli.errors import PipetteError
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.controllers import rotation_error
@@ -65,7 +65,9 @@ def test_rotation_key_turns_the_target_by_0_04_rad_about_the_tool_axis(env: Pipe
     q0 = teleop.target_quat.copy()
     action = _press(teleop, env, "O")
     expected = np.zeros(4)
-    mujoco.mju_mulQuat(expected, q0, quat_from_rotvec(np.array([0.0, 0.0, 0.04])))
+    turn_about_z = np.zeros(4)
+    mujoco.mju_axisAngle2Quat(turn_about_z, np.array([0.0, 0.0, 1.0]), 0.04)
+    mujoco.mju_mulQuat(expected, q0, turn_about_z)
     np.testing.assert_allclose(teleop.target_quat, expected, atol=1e-12)
     assert np.linalg.norm(teleop.target_quat) == pytest.approx(1.0, abs=1e-12)
     _, rot0 = teleop.ik.tcp_pose(env.world.data.ctrl[env.world.arm_actuator_ids])
