@@ -18,6 +18,9 @@ from pipette_cli.skills.hand import Hand
 from pipette_cli.skills.ik import ArmIK, IKSolution
 from pipette_cli.skills.moves import APPROACH_SPEED, EASY_TRAVEL, FLIP, MAX_SWING, Leg
 
+NEAR_HALF_TURN = np.deg2rad(175.0)
+"""A turn this close to half a turn has no clear shorter arc (its direction is decided by rounding:
+a parallel gripper's flip is exactly half a turn): no straight tool line makes it."""
 MAX_SAG = 0.02
 """Metres a held object may dip below both ends of a move through joint space (the carrying height
 over what stands between was planned for the ends: a pipette turned upright on a sagging arc struck
@@ -76,9 +79,12 @@ class Reach:
         """Joints at ``point``/``rot`` reached along a straight tool line from ``start`` (the way a straight
         move is executed), checked for reach and collisions (keeping ``room`` metres) every 2 cm and every
         8 degrees of turn (a big turn on a short line is where the warm-started IK can wander off);
-        ``None`` if it fails."""
+        ``None`` if it fails, or if it would turn the hand about half a turn (:data:`NEAR_HALF_TURN`)."""
         point = np.asarray(point, float)
-        steps = max(float(np.linalg.norm(point - start.pos)) / 0.02, rotation_angle(start.rot, rot) / np.deg2rad(8.0))
+        turn = rotation_angle(start.rot, rot)
+        if turn > NEAR_HALF_TURN:
+            return None
+        steps = max(float(np.linalg.norm(point - start.pos)) / 0.02, turn / np.deg2rad(8.0))
         n = max(2, int(np.ceil(steps)) + 1)
         q = start.q
         for t in np.linspace(0.0, 1.0, n)[1:]:
