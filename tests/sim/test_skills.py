@@ -422,6 +422,26 @@ def test_a_dry_run_can_ask_for_room_around_the_arm() -> None:
     assert world.model.geom_margin.max() == 0.0  # the world's own physics is untouched
 
 
+def test_no_straight_tool_line_turns_the_hand_half_a_turn() -> None:
+    """A parallel gripper's flip is exactly half a turn, whose shorter arc is either way round: a
+    straight line never makes it (the move goes through joint space); a quarter turn it may."""
+    from pipette_cli.skills.frames import axis_rotation, down_frame
+    from pipette_cli.skills.moves import FLIP, TRANSIT_SPEED, Leg
+    from pipette_cli.skills.runtime import SkillContext
+
+    world = World(REGISTRY.get("PickUpTestTube"))
+    world.reset(0)
+    ctx = SkillContext(world, np.random.default_rng(0))
+    rot = down_frame(np.array([0.0, 1.0, 0.0]))
+    start = ctx.plan.solve(np.array([0.45, 0.0, 0.85]), rot, ctx.hand.q)
+    assert start.ok()
+    leg = Leg(np.array([0.45, 0.0, 0.85]), rot, start.qpos, TRANSIT_SPEED)
+    below = np.array([0.45, 0.0, 0.80])
+    assert ctx.plan.straight_line(leg, below, rot, 0.004) is not None
+    assert ctx.plan.straight_line(leg, below, axis_rotation(rot[:, 2], np.pi / 2) @ rot, 0.004) is not None
+    assert ctx.plan.straight_line(leg, below, rot @ FLIP, 0.004) is None
+
+
 def test_the_planner_reads_the_hand_and_only_the_context_moves_it() -> None:
     """Planning is a dry run: a path over the scene and a choice among candidates leave the hand's
     planned pose, joints and what it may touch as they were; the context's moves along the path
