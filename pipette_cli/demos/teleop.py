@@ -29,7 +29,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from mink import SO3
 
 from pipette_cli.demos.collect import CollectResult, check_target, plan_seeds, step_cap
 from pipette_cli.demos.provenance import model_sha256, provenance
@@ -141,6 +140,8 @@ class KeyboardTeleop:
         task starts; forget queued keys."""
         self.world = world
         self.joint_targets = world.data.ctrl[world.arm_actuator_ids].copy()
+        from mink import SO3  # deferred: mink and scipy (~1 s; `pipette --help` imports this module)
+
         self.target_pos, rot = self.ik.tcp_pose(self.joint_targets)
         self.target_quat = SO3.from_matrix(rot).wxyz
         self.gripper = 1.0 if world.task.embodiment.gripper == "open" else 0.0
@@ -182,6 +183,8 @@ class KeyboardTeleop:
 
     # ------------------------------------------------------------------ motion
     def _move(self, dp: np.ndarray, dphi: np.ndarray) -> None:
+        from mink import SO3  # deferred: mink and scipy (~1 s; `pipette --help` imports this module)
+
         pos = self.target_pos + dp
         turned = (SO3(wxyz=self.target_quat) @ SO3.exp(dphi)).normalize()
         result = self.ik.solve(pos, turned.as_matrix(), q_start=self.joint_targets, tolerance=IK_TOLERANCE)

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from pipette_cli.sim.world import World
 
@@ -25,6 +24,8 @@ DAMPING = 0.05
 
 def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     """Axis-angle vector (world frame) rotating ``current`` onto ``target`` (3x3 matrices)."""
+    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
+
     return Rotation.from_matrix(target @ current.T).as_rotvec()
 
 

@@ -8,7 +8,6 @@ an approach vector and a closing vector, whatever the robot.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -48,16 +47,22 @@ def pitched_frame(toward: np.ndarray, pitch_deg: float) -> np.ndarray:
 
 def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation matrix of ``angle`` radians about ``axis``."""
+    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
+
     return Rotation.from_rotvec(unit(axis) * angle).as_matrix()
 
 
 def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
     """Angle in radians of the rotation taking ``r0`` to ``r1``."""
+    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
+
     return float(Rotation.from_matrix(r0.T @ r1).magnitude())
 
 
 def slerp(r0: np.ndarray, r1: np.ndarray, t: float) -> np.ndarray:
     """The rotation ``t`` (0 to 1) of the way from ``r0`` to ``r1`` along the shorter arc."""
+    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
+
     start = Rotation.from_matrix(r0)
     return (start * Rotation.from_rotvec(t * (start.inv() * Rotation.from_matrix(r1)).as_rotvec())).as_matrix()
 
