@@ -24,9 +24,11 @@ DAMPING = 0.05
 
 def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     """Axis-angle vector (world frame) rotating ``current`` onto ``target`` (3x3 matrices)."""
-    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
-
-    return Rotation.from_matrix(target @ current.T).as_rotvec()
+    quat_err = np.empty(4)
+    mujoco.mju_mat2Quat(quat_err, (target @ current.T).reshape(9))
+    axis_angle = np.empty(3)
+    mujoco.mju_quat2Vel(axis_angle, quat_err, 1.0)  # an exact half turn (w == 0) is pi
+    return axis_angle
 
 
 @dataclass

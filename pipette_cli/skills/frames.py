@@ -1,4 +1,5 @@
-"""Frames for skills: the canonical tool frame, rotations and interpolation (scipy's ``Rotation``).
+"""Frames for skills: the canonical tool frame, rotations and interpolation (MuJoCo's quaternion
+functions: about 10x faster than scipy's ``Rotation`` objects on these hot paths).
 
 Every robot's ``tcp`` site has the same frame (:mod:`pipette_cli.specs.robot`): z is the direction
 the fingers point (the approach axis), y the direction they close along. A grasp is therefore
@@ -7,6 +8,7 @@ an approach vector and a closing vector, whatever the robot.
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 UP = np.array([0.0, 0.0, 1.0])
@@ -47,24 +49,41 @@ def pitched_frame(toward: np.ndarray, pitch_deg: float) -> np.ndarray:
 
 def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation matrix of ``angle`` radians about ``axis``."""
-    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
+    quat = np.empty(4)
+    mujoco.mju_axisAngle2Quat(quat, unit(axis), angle)
+    return quat_to_mat(quat)
 
-    return Rotation.from_rotvec(unit(axis) * angle).as_matrix()
+
+def mat_to_quat(mat: np.ndarray) -> np.ndarray:
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat, dtype=float).reshape(9))
+    return quat
+
+
+def quat_to_mat(quat: np.ndarray) -> np.ndarray:
+    mat = np.empty(9)
+    mujoco.mju_quat2Mat(mat, quat)
+    return mat.reshape(3, 3)
+
+
+def relative_rotvec(r0: np.ndarray, r1: np.ndarray) -> np.ndarray:
+    """Rotation vector, in ``r0``'s own frame, of the shorter turn taking ``r0`` to ``r1`` (an exact half
+    turn, w == 0, is a half turn: ``mju_quat2Vel`` takes the angle from ``atan2``)."""
+    rotvec = np.empty(3)
+    mujoco.mju_subQuat(rotvec, mat_to_quat(r1), mat_to_quat(r0))
+    return rotvec
 
 
 def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
     """Angle in radians of the rotation taking ``r0`` to ``r1``."""
-    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
-
-    return float(Rotation.from_matrix(r0.T @ r1).magnitude())
+    return float(np.linalg.norm(relative_rotvec(r0, r1)))
 
 
 def slerp(r0: np.ndarray, r1: np.ndarray, t: float) -> np.ndarray:
     """The rotation ``t`` (0 to 1) of the way from ``r0`` to ``r1`` along the shorter arc."""
-    from scipy.spatial.transform import Rotation  # deferred: scipy (~0.9 s; `pipette --help` imports this module)
-
-    start = Rotation.from_matrix(r0)
-    return (start * Rotation.from_rotvec(t * (start.inv() * Rotation.from_matrix(r1)).as_rotvec())).as_matrix()
+    quat = mat_to_quat(r0)
+    mujoco.mju_quatIntegrate(quat, relative_rotvec(r0, r1), t)
+    return quat_to_mat(quat)
 
 
 def min_jerk(t: float) -> float:

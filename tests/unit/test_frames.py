@@ -1,6 +1,6 @@
-"""Skill frames: rotations and interpolation through scipy's Rotation, checked against closed forms
-(mink's SO3 was tried: its log of a half turn whose quaternion has w == 0 exactly is zero, and the
-skills build exact half turns: a parallel gripper's flip)."""
+"""Skill frames: rotations and interpolation through MuJoCo's quaternion functions, checked against
+closed forms (mink's SO3 was tried: its log of a half turn whose quaternion has w == 0 exactly is zero,
+and the skills build exact half turns: a parallel gripper's flip)."""
 
 from __future__ import annotations
 
