@@ -172,15 +172,30 @@ class Experiment:
         return path
 
 
+PROGRESS_BAR = re.compile(r"Training:\s*\d+%\|[^|\r\n]*\|[^\]\r\n]*\]")
+"""One redraw of lerobot-train's progress bar (about 95 % of a log's bytes; no number the report reads)."""
+
+
+def without_progress_bar(log: str) -> str:
+    """lerobot-train's log as kept: its progress-bar redraws and blank lines dropped, every other line
+    (the command, the loss lines) as written."""
+    lines = PROGRESS_BAR.sub("", log).replace("\r", "\n").split("\n")
+    return "".join(line + "\n" for line in lines if line.strip())
+
+
 def kept(ex: Experiment, *paths: Path) -> None:
-    """Copy ``paths`` (files, or folders' files) under ``ex.work`` to the same place under ``ex.keep``."""
+    """Copy ``paths`` (files, or folders' files) under ``ex.work`` to the same place under ``ex.keep``
+    (training logs without their progress bar)."""
     if ex.keep is None:
         return
     for path in paths:
         for file in [path] if path.is_file() else sorted(p for p in path.rglob("*") if p.is_file()):
             into = ex.keep / file.relative_to(ex.work)
             into.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(file, into)
+            if file.suffix == ".log":
+                into.write_text(without_progress_bar(file.read_text(errors="replace")))
+            else:
+                shutil.copy2(file, into)
 
 
 def restore(ex: Experiment) -> int:
@@ -445,20 +460,20 @@ def run_task(
     every = min(ex.pilot_steps)
     for setting in pending:  # each setting's data just before it trains: a lost machine loses one setting
         base = EPOCH_MATCHED.get(setting, setting)
-        sources = {setting: data(ex, task, [base])[base]}
+        source = data(ex, task, [base])[base]
         pilot_run = ex.folder(task, setting, "train")
         if setting == "raw" and quarter % every == 0 and any(pilot_run.glob(f"act/*/checkpoints/{steps:06d}")):
             # the pilot's run: without a learning-rate schedule (ACT has none) and with the same
             # seed, its checkpoints at S/4, S/2 and S are those of an S-step run
             total = max(ex.pilot_steps)
-            run = trained(ex, task, setting, sources[setting], total, every)
+            run = trained(ex, task, setting, source, total, every)
         elif setting in EPOCH_MATCHED:
             total = matched_steps(ex, task, EPOCH_MATCHED[setting], steps)
-            run = trained(ex, task, setting, sources[setting], total, total // 4)
+            run = trained(ex, task, setting, source, total, total // 4)
         else:  # a new machine has no pilot run: raw's own S-step run (amendment 7)
             folder = "train" if setting != "raw" else f"train_{steps}"
             total = steps
-            run = trained(ex, task, setting, sources[setting], total, quarter, folder)
+            run = trained(ex, task, setting, source, total, quarter, folder)
         last = total if setting in EPOCH_MATCHED else steps
         for label, into, step, plan, suite in evaluations(ex, task, setting, steps, suites):
             evaluated(ex, task, checkpoint(run, step or last, total), label, into, plan, suite)

@@ -156,6 +156,29 @@ def test_training_loss_is_read_from_the_lerobot_log_near_each_mark(tmp_path) -> 
     assert set(experiment.training_loss(ex, task, "raw", [100]).values()) == {None}
 
 
+def test_a_kept_training_log_loses_its_progress_bar_and_keeps_every_loss_line(tmp_path) -> None:
+    ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast", keep=tmp_path / "keep")
+    task = Task(PICK)
+    log = ex.folder(task, "raw", "train", "act", "run.log")
+    log.parent.mkdir(parents=True)
+    bar = "Training:  {p}%|{b}| {i}/2000 [00:{s:02d}<53:04,  1.61s/step]"
+    text = "# pipette train: lerobot-train --steps=2000\nWARNING: could not load libtorchcodec\n"
+    for i in range(1, 101):
+        redraws = "".join("\r" + bar.format(p=i // 20, b="#" * (i // 10), i=20 * i - k, s=k) for k in range(19, -1, -1))
+        text += redraws + f"INFO step:{20 * i} smpl:{160 * i} ep:1 epch:0.1 loss:{1 / i:.4f} grdn:1.0\n"
+    log.write_text(text + "\r" + bar.format(p=100, b="#" * 10, i=2000, s=0) + "\n")
+    marks = [100, 1000, 2000]
+    before = experiment.training_loss(ex, task, "raw", marks)
+
+    experiment.kept(ex, log)
+    copy = ex.keep / log.relative_to(ex.work)
+    assert "Training:" not in copy.read_text() and len(copy.read_text()) < len(text) / 10
+    assert copy.read_text().splitlines()[:2] == text.splitlines()[:2]  # the command and the warnings stay
+    log.unlink()
+    assert experiment.training_loss(ex, task, "raw", marks) == before  # read from the kept copy
+    assert before["2000"] == pytest.approx(sum(1 / i for i in range(96, 101)) / 5, abs=1e-4)
+
+
 def test_amendment_1_compares_clutter_augmentation_on_the_clutter_suite_in_its_own_family() -> None:
     cells = {
         (PICK, "raw"): outcomes(PICK, [0] * 10 + [1] * 10),
