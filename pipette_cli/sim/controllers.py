@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from pipette_cli.sim.quaternions import mat_to_quat
 from pipette_cli.sim.world import World
 
 DAMPING = 0.05
@@ -24,10 +25,8 @@ DAMPING = 0.05
 
 def rotation_error(target: np.ndarray, current: np.ndarray) -> np.ndarray:
     """Axis-angle vector (world frame) rotating ``current`` onto ``target`` (3x3 matrices)."""
-    quat_err = np.empty(4)
-    mujoco.mju_mat2Quat(quat_err, (target @ current.T).reshape(9))
     axis_angle = np.empty(3)
-    mujoco.mju_quat2Vel(axis_angle, quat_err, 1.0)  # an exact half turn (w == 0) is pi
+    mujoco.mju_quat2Vel(axis_angle, mat_to_quat(target @ current.T), 1.0)  # an exact half turn (w == 0) is pi
     return axis_angle
 
 

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from pipette_cli.errors import SimError, SpecError
+from pipette_cli.sim.quaternions import mat_to_quat
 from pipette_cli.specs.robot import MenagerieRef, PadSpec, RobotSpec, robot_spec
 
 log = logging.getLogger(__name__)
@@ -122,7 +123,7 @@ def make_robot_spec(name: str) -> tuple[mujoco.MjSpec, RobotSpec]:
     ee.add_site(
         name="tcp",
         pos=list(tcp.pos),
-        quat=list(_mat_quat(tcp.rotation())),
+        quat=list(mat_to_quat(tcp.rotation())),
         size=[0.006, 0, 0],
         rgba=[1, 0.2, 0.2, 0.0],
         group=4,
@@ -137,14 +138,8 @@ def wrist_camera_pose(
     body's origin; the Panda hand's own frame), expressed in the robot's camera body."""
     rot = config.end_effector.tcp.rotation()
     out = np.zeros(4)
-    mujoco.mju_mulQuat(out, _mat_quat(rot), np.asarray(quat, dtype=float))
+    mujoco.mju_mulQuat(out, mat_to_quat(rot), np.asarray(quat, dtype=float))
     return list(rot @ np.asarray(pos, dtype=float)), list(out)
-
-
-def _mat_quat(mat: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.asarray(mat, dtype=float).flatten())
-    return quat
 
 
 def _flat_pads(spec: mujoco.MjSpec, pad: PadSpec, robot: str) -> None:

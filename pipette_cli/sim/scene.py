@@ -21,6 +21,7 @@ from pipette_cli.assets.library import load_asset_library
 from pipette_cli.assets.loader import attach_asset
 from pipette_cli.errors import AssetError, SimError
 from pipette_cli.sim.meshes import MeshDetail, decimate_visual_meshes
+from pipette_cli.sim.quaternions import mat_to_quat
 from pipette_cli.sim.robots import make_robot_spec, match_options, wrist_camera_pose
 from pipette_cli.specs.base import BENCH_TOP_Z, PoseSpec
 from pipette_cli.specs.robot import RobotSpec
@@ -72,10 +73,7 @@ def look_at_quat(pos: np.ndarray, target: np.ndarray) -> np.ndarray:
     right = np.cross(forward, up)
     right /= np.linalg.norm(right)
     cam_up = np.cross(right, forward)
-    mat = np.column_stack([right, cam_up, -forward])  # camera x, y, z in world
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, mat.flatten())
-    return quat
+    return mat_to_quat(np.column_stack([right, cam_up, -forward]))  # camera x, y, z in world
 
 
 def _camera_quat(cam: CameraSpec) -> np.ndarray:

@@ -1,5 +1,5 @@
 """Frames for skills: the canonical tool frame, rotations and interpolation (MuJoCo's quaternion
-functions: about 10x faster than scipy's ``Rotation`` objects on these hot paths).
+functions: 4-30x faster a call than scipy's ``Rotation`` objects on these hot paths).
 
 Every robot's ``tcp`` site has the same frame (:mod:`pipette_cli.specs.robot`): z is the direction
 the fingers point (the approach axis), y the direction they close along. A grasp is therefore
@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import mujoco
 import numpy as np
+
+from pipette_cli.sim.quaternions import mat_to_quat, quat_to_mat
 
 UP = np.array([0.0, 0.0, 1.0])
 
@@ -54,35 +56,23 @@ def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     return quat_to_mat(quat)
 
 
-def mat_to_quat(mat: np.ndarray) -> np.ndarray:
-    quat = np.empty(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(mat, dtype=float).reshape(9))
-    return quat
-
-
-def quat_to_mat(quat: np.ndarray) -> np.ndarray:
-    mat = np.empty(9)
-    mujoco.mju_quat2Mat(mat, quat)
-    return mat.reshape(3, 3)
-
-
-def relative_rotvec(r0: np.ndarray, r1: np.ndarray) -> np.ndarray:
-    """Rotation vector, in ``r0``'s own frame, of the shorter turn taking ``r0`` to ``r1`` (an exact half
+def _turn(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+    """Rotation vector, in ``q0``'s own frame, of the shorter turn taking ``q0`` to ``q1`` (an exact half
     turn, w == 0, is a half turn: ``mju_quat2Vel`` takes the angle from ``atan2``)."""
     rotvec = np.empty(3)
-    mujoco.mju_subQuat(rotvec, mat_to_quat(r1), mat_to_quat(r0))
+    mujoco.mju_subQuat(rotvec, q1, q0)
     return rotvec
 
 
 def rotation_angle(r0: np.ndarray, r1: np.ndarray) -> float:
     """Angle in radians of the rotation taking ``r0`` to ``r1``."""
-    return float(np.linalg.norm(relative_rotvec(r0, r1)))
+    return float(np.linalg.norm(_turn(mat_to_quat(r0), mat_to_quat(r1))))
 
 
 def slerp(r0: np.ndarray, r1: np.ndarray, t: float) -> np.ndarray:
     """The rotation ``t`` (0 to 1) of the way from ``r0`` to ``r1`` along the shorter arc."""
     quat = mat_to_quat(r0)
-    mujoco.mju_quatIntegrate(quat, relative_rotvec(r0, r1), t)
+    mujoco.mju_quatIntegrate(quat, _turn(quat, mat_to_quat(r1)), t)
     return quat_to_mat(quat)
 
 

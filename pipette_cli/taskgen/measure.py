@@ -17,6 +17,7 @@ import numpy as np
 
 from pipette_cli.assets.library import load_asset_library
 from pipette_cli.assets.loader import load_asset_spec
+from pipette_cli.sim.quaternions import quat_to_mat
 from pipette_cli.sim.scene import collision_boxes, set_physics
 from pipette_cli.specs.task import TimingSpec
 
@@ -97,9 +98,7 @@ def _point(xyz: np.ndarray) -> tuple[float, float, float]:
 
 def quat_to_euler_deg(quat: Iterable[float]) -> tuple[float, float, float]:
     """wxyz quaternion -> intrinsic x-y-z Euler angles in degrees (MuJoCo's eulerseq "xyz")."""
-    mat = np.zeros(9)
-    mujoco.mju_quat2Mat(mat, np.asarray(quat, dtype=float))
-    r = mat.reshape(3, 3)
+    r = quat_to_mat(np.asarray(quat, dtype=float))
     b = np.arcsin(np.clip(r[0, 2], -1.0, 1.0))
     a = np.arctan2(-r[1, 2], r[2, 2])
     c = np.arctan2(-r[0, 1], r[0, 0])
