@@ -25,7 +25,7 @@ from pipette_cli.augment.executors import Executor, default_workers, run_jobs
 from pipette_cli.augment.pipeline import DemoJob, DemoResult
 from pipette_cli.augment.report import yield_report
 from pipette_cli.augment.specs import AugmentSpec
-from pipette_cli.demos.provenance import provenance
+from pipette_cli.demos.provenance import mixing_problem, provenance
 from pipette_cli.demos.recorder import DatasetInfo, commit_tmp, fsync_dir, write_json_atomic
 from pipette_cli.demos.store import clean, pack, part_path, parts_dir, scan
 from pipette_cli.errors import DatasetError, PipetteError
@@ -175,6 +175,9 @@ def augment(
         for ref in source_eps
         if ref.summary.uid not in done
     ]
+    for path in outputs if jobs else []:
+        if (have_eps := scan(path)).episodes and (mixing := mixing_problem(have_eps, task)) is not None:
+            raise DatasetError(mixing)
     result = AugmentResult(out, {}, skipped_demos=len(source_eps) - len(jobs))
     if on_start is not None:
         on_start(result.skipped_demos, len(jobs))

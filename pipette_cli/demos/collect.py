@@ -33,7 +33,7 @@ import numpy as np
 from pipette_cli.demos.check import EXPERT_FAILED
 from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
 from pipette_cli.demos.pool import ordered_pool
-from pipette_cli.demos.provenance import model_sha256, provenance
+from pipette_cli.demos.provenance import mixing_problem, model_sha256, provenance
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeSummary, EpisodeWriter, commit_tmp, sim_state
 from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan
 from pipette_cli.errors import DatasetError, PipetteError
@@ -262,6 +262,8 @@ def collect(
         Job(have + i, s, part_path(out, have + i))
         for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))
     ]
+    if jobs and have and (mixing := mixing_problem(status, task)) is not None:
+        raise DatasetError(mixing)
     result = CollectResult(out, total=have)
     if expert_factory is None and jobs:
         find_expert(task)  # fail fast, before building anything

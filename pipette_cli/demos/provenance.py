@@ -10,14 +10,17 @@ import hashlib
 import json
 import logging
 import subprocess
+from collections.abc import Mapping
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
 
 import pipette_cli
 from pipette_cli.assets.library import load_asset_library
+from pipette_cli.demos.store import DatasetStatus, open_h5
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -75,6 +78,16 @@ def git_state() -> tuple[str, bool]:
     return commit or "unknown", bool(status.strip())
 
 
+CODE_KEYS = ("package_version", "git_commit", "mujoco_version")
+"""The provenance attributes that name the code an episode was made by."""
+
+
+def provenance_code() -> dict[str, str]:
+    """:data:`CODE_KEYS` of the code running now."""
+    commit, _dirty = git_state()
+    return {"package_version": pipette_cli.__version__, "git_commit": commit, "mujoco_version": mujoco.__version__}
+
+
 def provenance(task: TaskSpec, model: mujoco.MjModel | None = None) -> dict[str, str | bool]:
     """The provenance attributes of an episode recorded for ``task``.
 
@@ -83,15 +96,54 @@ def provenance(task: TaskSpec, model: mujoco.MjModel | None = None) -> dict[str,
         ``task_spec_sha256``, ``assets_sha256`` (JSON object: asset id -> SHA-256) and, when
         ``model`` is given, ``model_sha256``.
     """
-    commit, dirty = git_state()
     out: dict[str, str | bool] = {
-        "package_version": pipette_cli.__version__,
-        "git_commit": commit,
-        "git_dirty": dirty,
-        "mujoco_version": mujoco.__version__,
+        **provenance_code(),
+        "git_dirty": git_state()[1],
         "task_spec_sha256": task_spec_sha256(task),
         "assets_sha256": json.dumps(asset_hashes(task), sort_keys=True),
     }
     if model is not None:
         out["model_sha256"] = model_sha256(model)
     return out
+
+
+def code_version(attrs: Mapping[str, Any]) -> tuple[str, ...]:
+    """The code that made an episode, from its attributes (``?`` where one is missing)."""
+    return tuple(str(attrs.get(key, "?")) for key in CODE_KEYS)
+
+
+def describe_code(version: tuple[str, ...]) -> str:
+    package, commit, engine = version
+    at = f" at {commit[:12]}" if commit not in ("unknown", "?") else ""
+    return f"pipette {package}{at} with MuJoCo {engine}"
+
+
+def recorded_code(status: DatasetStatus) -> set[tuple[str, ...]]:
+    """The code versions (:func:`code_version`) that made the episodes of ``status``'s file and parts."""
+    groups: dict[Path, list[str]] = {}
+    for ref in status.episodes:
+        groups.setdefault(ref.file, []).append(ref.group)
+    found: set[tuple[str, ...]] = set()
+    for path, names in groups.items():  # the packed file once, each part once
+        with open_h5(path) as f:
+            found.update(code_version(f[name].attrs) for name in names)
+    return found
+
+
+def mixing_problem(status: DatasetStatus, task: TaskSpec) -> str | None:
+    """Why new episodes made by this code must not join ``status``'s file, or None.
+
+    A file whose episodes were made by other code (another pipette version or commit, another
+    MuJoCo) would hold two versions' physics, experts and retargeting, which no reader can tell
+    apart by looking at the data; episodes are compared by :data:`CODE_KEYS` (a dirty tree counts
+    as its commit).
+    """
+    here = code_version(provenance_code())
+    others = sorted(recorded_code(status) - {here})
+    if not others:
+        return None
+    return (
+        f"{status.path} holds episodes made by {describe_code(others[0])}; this is {describe_code(here)}: "
+        f"adding {task.id} episodes here would mix two versions' physics and experts in one file. "
+        "Finish it with the version that began it, or write to another file"
+    )

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 
@@ -13,6 +15,7 @@ from pipette_cli.augment.run import augment, ledger_path
 from pipette_cli.augment.specs import AugmentSpec, VariantSpec
 from pipette_cli.augment.verify import verify_file
 from pipette_cli.demos.store import read_episode, scan
+from pipette_cli.errors import DatasetError
 from pipette_cli.registry import load_registry
 from pipette_cli.sim.env import PipetteEnv
 from pipette_cli.specs.perturbations import CameraPoseSpec, JointNoiseSpec, LightingSpec, SpeedSpec
@@ -115,10 +118,27 @@ def test_rerun_skips_finished_demos_and_other_parameters_are_refused(run, task) 
     # execution-only fields (batch screening gives the same verdicts) do not block a resume
     flipped = augment(task, raw, out, SPEC.model_copy(update={"batch": not SPEC.batch}), rejected=rejected, workers=1)
     assert flipped.new_demos == 0 and out.read_bytes() == before
-    from pipette_cli.errors import DatasetError
-
     with pytest.raises(DatasetError, match="other parameters"):
         augment(task, raw, out, SPEC.model_copy(update={"seed": 9}), workers=1)
+
+
+def test_an_output_begun_by_other_code_is_not_finished_by_this_code(run, task, tmp_path: Path) -> None:
+    raw, out, rejected, _ = run
+    older, older_rejected = tmp_path / "older.h5", tmp_path / "older_rejected.h5"
+    for src, dst in ((out, older), (rejected, older_rejected), (ledger_path(out), ledger_path(older))):
+        shutil.copy(src, dst)
+    with h5py.File(older, "r+") as f:
+        for episode in f["episodes"].values():
+            episode.attrs["git_commit"] = "fedcba9876543210" * 2 + "fedcba98"
+    finished = augment(task, raw, older, SPEC, rejected=older_rejected, workers=1)
+    assert finished.new_demos == 0  # finished: read, not added to
+    ledger = json.loads(ledger_path(older).read_text())
+    ledger["demos"].clear()  # as if its one demo were still to do
+    ledger_path(older).write_text(json.dumps(ledger))
+    before = older.read_bytes()
+    with pytest.raises(DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ at fedcba987654"):
+        augment(task, raw, older, SPEC, rejected=older_rejected, workers=1)
+    assert older.read_bytes() == before
 
 
 def test_target_yield_shrinks_magnitudes_until_enough_variants_pass(task, tmp_path_factory) -> None:

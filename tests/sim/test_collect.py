@@ -21,6 +21,7 @@ import pytest
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import parts_dir, read_episode, scan
+from pipette_cli.errors import DatasetError
 from pipette_cli.registry import load_registry
 
 pytestmark = pytest.mark.render
@@ -80,6 +81,29 @@ def test_replay_detects_a_one_ulp_change_in_an_action(recorded: Path, task, tmp_
     report = replay_episode(tampered, 0, task)
     assert not report.states_equal and report.first_mismatch == 11
     assert 0 < report.max_abs_diff < 1e-6
+
+
+def made_by_other_code(path: Path) -> None:
+    """Mark every episode of ``path`` as recorded by another commit (as an older checkout would)."""
+    with h5py.File(path, "r+") as f:
+        for episode in f["episodes"].values():
+            episode.attrs["git_commit"] = "0123456789abcdef" * 2 + "01234567"
+
+
+def test_a_file_begun_by_other_code_takes_no_new_episodes_and_is_left_as_it_was(
+    recorded: Path, task, tmp_path: Path
+) -> None:
+    older = tmp_path / "older.h5"
+    shutil.copy(recorded, older)
+    made_by_other_code(older)
+    before = older.read_bytes()
+    with pytest.raises(
+        DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ at 0123456789ab.*mix two versions"
+    ):
+        collect(task, older, episodes=3, seed=5, image_size=16, expert_factory=demo_experts.Wiggle)
+    assert older.read_bytes() == before and not parts_dir(older).exists()
+    done = collect(task, older, episodes=2, seed=5, image_size=16, expert_factory=demo_experts.Wiggle)
+    assert done.total == 2 and not done.added  # finished already: nothing to mix, nothing refused
 
 
 def test_the_file_does_not_depend_on_the_number_of_workers(recorded: Path, task, tmp_path: Path) -> None:

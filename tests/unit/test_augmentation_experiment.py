@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -250,17 +251,21 @@ def test_amendment_6_trains_the_augmented_data_for_as_many_passes_as_raw_gets(tm
     assert ("more_demos_ep", "aug_all_ep") not in dict(experiment.families("clutter"))["amendment 6"]
 
 
-def test_amendment_7_a_new_machine_restores_the_kept_logs_and_runs_only_unfinished_settings(
-    tmp_path, monkeypatch
-) -> None:
+def pick_and_suites() -> tuple[Any, dict[str, Any]]:
+    """PickUpTestTube and the experiment's three registered suites, by name."""
     from pipette_cli.evaluation.suites import load_suites
     from pipette_cli.registry import load_registry
 
     registry = load_registry()
     found = load_suites(registry)
     names = {"nominal": experiment.NOMINAL, "shifted": experiment.SHIFTED, "clutter": experiment.CLUTTER}
-    suites = {name: found.get(suite) for name, suite in names.items()}
-    task = registry.get(PICK)
+    return registry.get(PICK), {name: found.get(suite) for name, suite in names.items()}
+
+
+def test_amendment_7_a_new_machine_restores_the_kept_logs_and_runs_only_unfinished_settings(
+    tmp_path, monkeypatch
+) -> None:
+    task, suites = pick_and_suites()
     ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast", keep=tmp_path / "keep")
     raw = experiment.evaluations(ex, task, "raw", 2000, suites)
     # raw: the three suites and its learning curve at S/4 and S/2, each of the suite's 50 episodes
@@ -299,3 +304,55 @@ def test_amendment_7_a_new_machine_restores_the_kept_logs_and_runs_only_unfinish
     with pytest.raises(RuntimeError, match="stop before recording"):
         experiment.run_task(ex, task, 2000, suites, ["raw", "aug_object"])
     assert built == [["aug_object"]]
+
+
+def test_amendment_8_replicates_train_the_same_data_with_other_seeds_and_are_read_across_seeds(
+    tmp_path, monkeypatch
+) -> None:
+    task, suites = pick_and_suites()
+    ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast")
+    # evaluated on the nominal and shifted suites, with no learning curve
+    assert [
+        (label, f.parent.name) for label, f, *_ in experiment.evaluations(ex, task, "aug_all_seed1001", 2000, suites)
+    ] == [
+        ("aug_all_seed1001", "nominal"),
+        ("aug_all_seed1001", "shifted"),
+    ]
+    trained = []
+
+    def train_checkpoint(task_id, options, on_train):
+        trained.append(options)
+        return options.output_root / "act" / "run" / "checkpoints" / "last" / "pretrained_model"
+
+    monkeypatch.setattr(experiment, "train_checkpoint", train_checkpoint)
+    monkeypatch.setattr(experiment, "convert", lambda sources, options: pytest.fail("aug_all's dataset is converted"))
+    dataset = ex.folder(task, "aug_all", "datasets", PICK.replace("/", "_"), "augmented", "meta", "info.json")
+    dataset.parent.mkdir(parents=True)
+    dataset.write_text("{}")
+    for setting, seed in (("aug_all", 1000), ("aug_all_seed1002", 1002)):
+        run = experiment.trained(ex, task, setting, ex.folder(task, "aug_all.h5"), 2000, 500)
+        options = trained[-1]
+        assert options.datasets_root == ex.folder(task, "aug_all", "datasets")  # the same data
+        assert {f for f in options.extra if f.startswith("--seed=")} == {f"--seed={seed}"} and options.steps == 2000
+        assert run == ex.folder(task, setting, "train", "act", "run")  # its own run
+
+    # read across seeds: every aug_all seed against every raw seed, and the seed-matched pairs pooled
+    cells = {}
+    for i, (raw, aug) in enumerate([(5, 9), (7, 8), (4, 12)]):
+        suffix = "" if i == 0 else f"_seed{experiment.REPLICATE_SEEDS[i - 1]}"
+        cells[(PICK, f"raw{suffix}")] = outcomes(PICK, [1] * raw + [0] * (20 - raw))
+        cells[(PICK, f"aug_all{suffix}")] = outcomes(PICK, [1] * aug + [0] * (20 - aug))
+    cells[(HINGE, "raw")] = cells[(HINGE, "aug_all")] = outcomes(HINGE, [1] * 20)  # its replicates not run yet
+    rows = experiment.replicate_rows(cells, [PICK, HINGE])
+    assert [r["task"] for r in rows] == [PICK]
+    row = rows[0]
+    assert row["raw"] == [5, 7, 4] and row["aug_all"] == [9, 8, 12] and row["seeds"] == [1000, 1001, 1002]
+    assert min(row["crossed_differences"]) == 1 and max(row["crossed_differences"]) == 8 and row["same_sign"]
+    assert row["mean_difference"] == pytest.approx((29 - 16) / 3 / 20)
+    # 60 seed-matched pairs: aug_all alone succeeds on 13 (4 + 1 + 8), raw alone on none
+    assert row["p_value"] == pytest.approx(2 / 2**13) and row["significant"]
+    cells[(PICK, "raw_seed1002")] = outcomes(PICK, [1] * 10 + [0] * 10)  # one seed pair now goes the other way
+    assert not experiment.replicate_rows(cells, [PICK])[0]["same_sign"]
+    text = "\n".join(experiment.replicate_section("nominal", rows))
+    assert "| 5, 7, 4 | 9, 8, 12 | +22 pt | +1 to +8 | yes |" in text
+    assert "PickUpTestTube-v1 aug_object: 14/50" in text  # the lost run's realization beside it
