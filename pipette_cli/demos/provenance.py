@@ -78,21 +78,39 @@ def git_state() -> tuple[str, bool]:
     return commit or "unknown", bool(status.strip())
 
 
-CODE_KEYS = ("package_version", "git_commit", "mujoco_version")
-"""The provenance attributes that name the code an episode was made by."""
+def files_sha256(root: Path) -> str:
+    """SHA-256 over every file under ``root`` but bytecode caches (each path, size and bytes, in path order)."""
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts):
+        data = path.read_bytes()
+        digest.update(f"{path.relative_to(root).as_posix()}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()
+
+
+@cache
+def code_sha256() -> str:
+    """:func:`files_sha256` of the package: the code that runs, edits included, whether it came from git
+    or from a wheel (a commit hash changes when the same patch is applied again; this does not)."""
+    return files_sha256(Path(pipette_cli.__file__).resolve().parent)
 
 
 def provenance_code() -> dict[str, str]:
-    """:data:`CODE_KEYS` of the code running now."""
+    """The attributes that name the code running now (:func:`code_version` reads them back)."""
     commit, _dirty = git_state()
-    return {"package_version": pipette_cli.__version__, "git_commit": commit, "mujoco_version": mujoco.__version__}
+    return {
+        "package_version": pipette_cli.__version__,
+        "code_sha256": code_sha256(),
+        "git_commit": commit,
+        "mujoco_version": mujoco.__version__,
+    }
 
 
 def provenance(task: TaskSpec, model: mujoco.MjModel | None = None) -> dict[str, str | bool]:
     """The provenance attributes of an episode recorded for ``task``.
 
     Returns:
-        ``package_version``, ``git_commit``, ``git_dirty``, ``mujoco_version``,
+        ``package_version``, ``code_sha256`` (:func:`code_sha256`), ``git_commit``, ``git_dirty``, ``mujoco_version``,
         ``task_spec_sha256``, ``assets_sha256`` (JSON object: asset id -> SHA-256) and, when
         ``model`` is given, ``model_sha256``.
     """
@@ -107,23 +125,25 @@ def provenance(task: TaskSpec, model: mujoco.MjModel | None = None) -> dict[str,
     return out
 
 
-def code_version(attrs: Mapping[str, Any]) -> tuple[str, ...]:
-    """The code that made an episode, from its attributes (``?`` where one is missing)."""
-    return tuple(str(attrs.get(key, "?")) for key in CODE_KEYS)
+def code_version(attrs: Mapping[str, Any]) -> tuple[str, str, str]:
+    """The code that made an episode, from its attributes: pipette's version, its source (the hash of
+    its files; an episode recorded before that was kept, by its git commit) and MuJoCo's version."""
+    source = attrs.get("code_sha256")
+    made = f"source {str(source)[:12]}" if source else f"commit {str(attrs.get('git_commit', '?'))[:12]}"
+    return str(attrs.get("package_version", "?")), made, str(attrs.get("mujoco_version", "?"))
 
 
-def describe_code(version: tuple[str, ...]) -> str:
-    package, commit, engine = version
-    at = f" at {commit[:12]}" if commit not in ("unknown", "?") else ""
-    return f"pipette {package}{at} with MuJoCo {engine}"
+def describe_code(version: tuple[str, str, str]) -> str:
+    package, made, engine = version
+    return f"pipette {package} ({made}) with MuJoCo {engine}"
 
 
-def recorded_code(status: DatasetStatus) -> set[tuple[str, ...]]:
+def recorded_code(status: DatasetStatus) -> set[tuple[str, str, str]]:
     """The code versions (:func:`code_version`) that made the episodes of ``status``'s file and parts."""
     groups: dict[Path, list[str]] = {}
     for ref in status.episodes:
         groups.setdefault(ref.file, []).append(ref.group)
-    found: set[tuple[str, ...]] = set()
+    found: set[tuple[str, str, str]] = set()
     for path, names in groups.items():  # the packed file once, each part once
         with open_h5(path) as f:
             found.update(code_version(f[name].attrs) for name in names)
@@ -133,10 +153,9 @@ def recorded_code(status: DatasetStatus) -> set[tuple[str, ...]]:
 def mixing_problem(status: DatasetStatus, task: TaskSpec) -> str | None:
     """Why new episodes made by this code must not join ``status``'s file, or None.
 
-    A file whose episodes were made by other code (another pipette version or commit, another
+    A file whose episodes were made by other code (another pipette version or source, another
     MuJoCo) would hold two versions' physics, experts and retargeting, which no reader can tell
-    apart by looking at the data; episodes are compared by :data:`CODE_KEYS` (a dirty tree counts
-    as its commit).
+    apart by looking at the data; episodes are compared by :func:`code_version`.
     """
     here = code_version(provenance_code())
     others = sorted(recorded_code(status) - {here})

@@ -129,14 +129,14 @@ def test_an_output_begun_by_other_code_is_not_finished_by_this_code(run, task, t
         shutil.copy(src, dst)
     with h5py.File(older, "r+") as f:
         for episode in f["episodes"].values():
-            episode.attrs["git_commit"] = "fedcba9876543210" * 2 + "fedcba98"
+            episode.attrs["code_sha256"] = "fedcba9876543210" * 4
     finished = augment(task, raw, older, SPEC, rejected=older_rejected, workers=1)
     assert finished.new_demos == 0  # finished: read, not added to
     ledger = json.loads(ledger_path(older).read_text())
     ledger["demos"].clear()  # as if its one demo were still to do
     ledger_path(older).write_text(json.dumps(ledger))
     before = older.read_bytes()
-    with pytest.raises(DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ at fedcba987654"):
+    with pytest.raises(DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ \(source fedcba987654\)"):
         augment(task, raw, older, SPEC, rejected=older_rejected, workers=1)
     assert older.read_bytes() == before
 

@@ -57,7 +57,15 @@ def test_recorded_episode_has_the_a3_contents(recorded: Path) -> None:
     np.testing.assert_allclose(record.arrays["sim_time"], np.arange(steps) / 30, atol=1e-9)
     assert record.arrays["sim_state"][:, 0].tolist() == record.arrays["sim_time"].tolist()  # state starts with time
     assert np.all(np.diff(record.arrays["wall_time"]) > 0)
-    for key in ("package_version", "git_commit", "mujoco_version", "task_spec_sha256", "assets_sha256", "model_sha256"):
+    for key in (
+        "package_version",
+        "code_sha256",
+        "git_commit",
+        "mujoco_version",
+        "task_spec_sha256",
+        "assets_sha256",
+        "model_sha256",
+    ):
         assert record.attrs[key], key
     assert "test_tube_16x150" in record.attrs["assets_sha256"]
     assert record.attrs["expert"].endswith("Wiggle")
@@ -84,10 +92,10 @@ def test_replay_detects_a_one_ulp_change_in_an_action(recorded: Path, task, tmp_
 
 
 def made_by_other_code(path: Path) -> None:
-    """Mark every episode of ``path`` as recorded by another commit (as an older checkout would)."""
+    """Mark every episode of ``path`` as recorded by other code (another source, as an older checkout)."""
     with h5py.File(path, "r+") as f:
         for episode in f["episodes"].values():
-            episode.attrs["git_commit"] = "0123456789abcdef" * 2 + "01234567"
+            episode.attrs["code_sha256"] = "0123456789abcdef" * 4
 
 
 def test_a_file_begun_by_other_code_takes_no_new_episodes_and_is_left_as_it_was(
@@ -98,12 +106,22 @@ def test_a_file_begun_by_other_code_takes_no_new_episodes_and_is_left_as_it_was(
     made_by_other_code(older)
     before = older.read_bytes()
     with pytest.raises(
-        DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ at 0123456789ab.*mix two versions"
+        DatasetError, match=r"older\.h5 holds episodes made by pipette \S+ \(source 0123456789ab\).*mix two versions"
     ):
         collect(task, older, episodes=3, seed=5, image_size=16, expert_factory=demo_experts.Wiggle)
     assert older.read_bytes() == before and not parts_dir(older).exists()
     done = collect(task, older, episodes=2, seed=5, image_size=16, expert_factory=demo_experts.Wiggle)
     assert done.total == 2 and not done.added  # finished already: nothing to mix, nothing refused
+
+
+def test_the_same_code_under_another_commit_hash_goes_on_recording(recorded: Path, task, tmp_path: Path) -> None:
+    again = tmp_path / "again.h5"  # as after `git am` of the same patch on another machine
+    shutil.copy(recorded, again)
+    with h5py.File(again, "r+") as f:
+        for episode in f["episodes"].values():
+            episode.attrs["git_commit"] = "0123456789abcdef" * 2 + "01234567"
+    done = collect(task, again, episodes=3, seed=5, image_size=16, expert_factory=demo_experts.Wiggle)
+    assert [s.seed for s in done.added] == [7] and done.total == 3
 
 
 def test_the_file_does_not_depend_on_the_number_of_workers(recorded: Path, task, tmp_path: Path) -> None:
