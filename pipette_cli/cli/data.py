@@ -167,7 +167,9 @@ def replay(
         states = (
             f"all {plural(report.states_compared, 'state')} bit-exact"
             if report.states_equal
-            else f"states differ from step {report.first_mismatch} on (max |diff| {report.max_abs_diff:.3g})"
+            else f"states differ from step {report.first_mismatch} on (max |diff| {report.max_abs_diff:.3g}"
+            + ("" if report.code_changed is None else f"; {report.code_changed}")
+            + ")"
         )
         outcome = "same outcome" if report.outcome_equal else f"outcome {report.replayed} != recorded {report.recorded}"
         verdict = "success" if report.replayed.get("success") else f"failed ({report.replayed.get('reason')})"

@@ -138,6 +138,13 @@ def describe_code(version: tuple[str, str, str]) -> str:
     return f"pipette {package} ({made}) with MuJoCo {engine}"
 
 
+def code_change(attrs: Mapping[str, Any]) -> str | None:
+    """``recorded by X, replayed by Y`` when an episode's code is not the code running now, else None:
+    why a replay may differ from its recording though the file is sound."""
+    theirs, here = code_version(attrs), code_version(provenance_code())
+    return None if theirs == here else f"recorded by {describe_code(theirs)}, replayed by {describe_code(here)}"
+
+
 def recorded_code(status: DatasetStatus) -> set[tuple[str, str, str]]:
     """The code versions (:func:`code_version`) that made the episodes of ``status``'s file and parts."""
     groups: dict[Path, list[str]] = {}

@@ -15,7 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from pipette_cli.demos.provenance import task_spec_sha256
+from pipette_cli.demos.provenance import code_change, task_spec_sha256
 from pipette_cli.demos.recorder import SIM_STATE, STOPPED, TRUNCATED, sim_state
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import DatasetError
@@ -39,6 +39,8 @@ class ReplayReport:
     recorded: dict[str, object] = field(default_factory=dict)
     replayed: dict[str, object] = field(default_factory=dict)
     spec_changed: bool = False
+    code_changed: str | None = None
+    """``recorded by X, replayed by Y`` when other code recorded the episode (:func:`.provenance.code_change`)."""
 
     @property
     def states_equal(self) -> bool:
@@ -65,6 +67,7 @@ class ReplayReport:
             "recorded": self.recorded,
             "replayed": self.replayed,
             "spec_changed": self.spec_changed,
+            "code_changed": self.code_changed,
             "ok": self.ok,
         }
 
@@ -103,6 +106,7 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
     actions = record.arrays["action"]
     report = ReplayReport(index, ref.summary.seed, len(actions))
     report.spec_changed = record.attrs.get("task_spec_sha256") != task_spec_sha256(task)
+    report.code_changed = code_change(record.attrs)
     reason = ref.summary.reason
     report.recorded = {"success": ref.summary.success, "reason": reason, "metrics": ref.summary.metrics}
     undecided = reason if reason in (TRUNCATED, STOPPED) else TRUNCATED

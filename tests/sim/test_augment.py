@@ -141,6 +141,24 @@ def test_an_output_begun_by_other_code_is_not_finished_by_this_code(run, task, t
     assert older.read_bytes() == before
 
 
+def test_a_demo_that_does_not_replay_says_which_code_recorded_it(run, task, tmp_path: Path) -> None:
+    raw = tmp_path / "raw.h5"
+    shutil.copy(run[0], raw)
+    with h5py.File(raw, "r+") as f:
+        episode = next(iter(f["episodes"].values()))
+        episode.attrs["code_sha256"] = "fedcba9876543210" * 4  # recorded by other code ...
+        actions = episode["action"]
+        row = actions[5]
+        row[0] = np.nextafter(row[0], np.inf)  # ... whose physics differ in the last bit
+        actions[5] = row
+    spec = AugmentSpec(variants=[VariantSpec(name="original")])
+    result = augment(task, raw, tmp_path / "aug.h5", spec, workers=1)
+    (demo,) = json.loads(ledger_path(tmp_path / "aug.h5").read_text())["demos"].values()
+    assert result.report["kept"] == 0 and demo["status"] == "replay_failed"
+    assert demo["detail"].startswith("replay differs from the recording at step ")
+    assert "(recorded by pipette " in demo["detail"] and "(source fedcba987654)" in demo["detail"]
+
+
 def test_target_yield_shrinks_magnitudes_until_enough_variants_pass(task, tmp_path_factory) -> None:
     from pipette_cli.augment.calibrate import calibrate
 

@@ -114,6 +114,17 @@ def test_a_file_begun_by_other_code_takes_no_new_episodes_and_is_left_as_it_was(
     assert done.total == 2 and not done.added  # finished already: nothing to mix, nothing refused
 
 
+def test_a_replay_says_when_other_code_recorded_the_episode(recorded: Path, task, tmp_path: Path) -> None:
+    other = tmp_path / "other.h5"
+    shutil.copy(recorded, other)
+    made_by_other_code(other)
+    assert replay_episode(recorded, 0, task).code_changed is None
+    report = replay_episode(other, 0, task)
+    assert report.ok  # other code that reproduces the states is no error; it is named all the same
+    assert report.code_changed is not None and report.code_changed.startswith("recorded by pipette ")
+    assert "(source 0123456789ab)" in report.code_changed and report.as_dict()["code_changed"] == report.code_changed
+
+
 def test_the_same_code_under_another_commit_hash_goes_on_recording(recorded: Path, task, tmp_path: Path) -> None:
     again = tmp_path / "again.h5"  # as after `git am` of the same patch on another machine
     shutil.copy(recorded, again)
