@@ -21,6 +21,7 @@ import numpy as np
 import pipette_cli
 from pipette_cli.assets.library import load_asset_library
 from pipette_cli.demos.store import DatasetStatus, open_h5
+from pipette_cli.kernels import blas_kernel
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -111,12 +112,14 @@ def provenance(task: TaskSpec, model: mujoco.MjModel | None = None) -> dict[str,
 
     Returns:
         ``package_version``, ``code_sha256`` (:func:`code_sha256`), ``git_commit``, ``git_dirty``, ``mujoco_version``,
+        ``blas_kernel`` (OpenBLAS's, :func:`pipette_cli.kernels.blas_kernel`),
         ``task_spec_sha256``, ``assets_sha256`` (JSON object: asset id -> SHA-256) and, when
         ``model`` is given, ``model_sha256``.
     """
     out: dict[str, str | bool] = {
         **provenance_code(),
         "git_dirty": git_state()[1],
+        "blas_kernel": blas_kernel(),
         "task_spec_sha256": task_spec_sha256(task),
         "assets_sha256": json.dumps(asset_hashes(task), sort_keys=True),
     }

@@ -18,6 +18,7 @@ A run folder holds
 from __future__ import annotations
 
 import json
+import os
 import platform
 from collections import Counter
 from dataclasses import asdict
@@ -28,13 +29,14 @@ from typing import Any
 import mujoco
 
 import pipette_cli
-from pipette_cli.demos.provenance import git_state, sha256_file, task_spec_sha256
+from pipette_cli.demos.provenance import code_sha256, git_state, sha256_file, task_spec_sha256
 from pipette_cli.demos.recorder import write_json_atomic
 from pipette_cli.errors import DatasetError
 from pipette_cli.evaluation.evaluate import EpisodeLog
 from pipette_cli.evaluation.settings import DecodeConfig
 from pipette_cli.evaluation.significance import wilson_interval
 from pipette_cli.evaluation.suites import EpisodePlan
+from pipette_cli.kernels import PORTABLE, blas_kernel
 from pipette_cli.specs.task import TaskSpec
 
 RUN_FORMAT = "pipette.eval/1"
@@ -49,8 +51,9 @@ def episode_file(folder: Path, index: int) -> Path:
 
 
 def environment_record(gl: dict[str, str] | None = None) -> dict[str, Any]:
-    """Where episodes run: package, git commit, MuJoCo, torch and lerobot versions, Python, and
-    the GL backend and renderer (``gl`` from :func:`~pipette_cli.sim.render.gl_info`)."""
+    """Where episodes run: package, git commit and source hash, MuJoCo, torch and lerobot versions,
+    Python, the CPU kernels numpy and torch were told to use (:mod:`pipette_cli.kernels`), and the GL
+    backend and renderer (``gl`` from :func:`~pipette_cli.sim.render.gl_info`)."""
     commit, dirty = git_state()
 
     def version(dist: str) -> str:
@@ -67,6 +70,9 @@ def environment_record(gl: dict[str, str] | None = None) -> dict[str, Any]:
         "torch": version("torch"),
         "lerobot": version("lerobot"),
         "python": platform.python_version(),
+        "code_sha256": code_sha256(),
+        "blas_kernel": blas_kernel(),
+        "cpu_kernels": {key: os.environ.get(key, "auto") for key in PORTABLE},
         **(gl or {}),
     }
 

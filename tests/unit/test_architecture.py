@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[2] / "pipette_cli"
 
 # lowest first; a package may import from any package in an earlier layer (and from itself)
 LAYERS: list[set[str]] = [
+    {"kernels"},  # the package's __init__ imports it before anything loads numpy
     {"__init__", "errors", "progress"},
     {"plugins"},
     {"resources"},
