@@ -15,6 +15,9 @@ Stages (each resumes: rerun the same command after an interruption and finished 
           results.json and table.md in --docs.
   diagnose  how much each trained policy's actions follow its images, on the first frames of the
           raw demonstrations (no suite seed): diagnosis.json in --docs (plan.md, point 6).
+  hashes  per task, a hash of every dataset's arrays (all but wall time), the code that made them and
+          the CPU: data_hashes.json beside the kept logs, to tell on another machine whether its
+          datasets, or only its policies, differ (plan.md, amendments 7 and 8).
 
     python benchmarks/augmentation_experiment.py data --work runs/augmentation
     python benchmarks/augmentation_experiment.py pilot --work runs/augmentation
@@ -29,9 +32,11 @@ machine goes on from the first unfinished setting (plan amendment 7).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import multiprocessing
 import os
+import platform
 import re
 import shutil
 import sys
@@ -44,6 +49,7 @@ from pathlib import Path
 from statistics import fmean
 from typing import Any, TypeVar
 
+import h5py
 import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
@@ -70,6 +76,7 @@ from pipette_cli.evaluation.significance import (  # noqa: E402
     wilson_interval,
 )
 from pipette_cli.evaluation.suites import EpisodePlan, RegisteredSuite, adhoc_plan, episode_plan, load_suites  # noqa: E402
+from pipette_cli.kernels import cpu_flags  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
@@ -747,6 +754,51 @@ def data_code(ex: Experiment, task: TaskSpec) -> dict[str, list[str]]:
     }
 
 
+def array_digest(name: str, value: np.ndarray) -> str:
+    """SHA-256 of one HDF5 array with its name, dtype and shape (strings by their text, not their
+    object pointers)."""
+    if value.dtype.kind == "O":
+        value = np.array([v.decode() if isinstance(v, bytes) else str(v) for v in np.ravel(value)])
+    value = np.ascontiguousarray(value)
+    return hashlib.sha256(f"{name}\0{value.dtype}\0{value.shape}\0".encode() + value.tobytes()).hexdigest()
+
+
+def datasets_in(f: h5py.File) -> list[str]:
+    """The names of every array in an HDF5 file, sorted."""
+    names: list[str] = []
+    f.visititems(lambda name, obj: names.append(name) if isinstance(obj, h5py.Dataset) else None)
+    return sorted(names)
+
+
+def data_hashes(ex: Experiment, task: TaskSpec, sample: int = 6) -> dict[str, Any]:
+    """Every dataset of ``task`` in the work folder: one hash over all its arrays but wall time, the
+    number of arrays, the hashes of its first ``sample`` actions and main views, and the code that
+    made it; with the machine's CPU (two machines' files say whether their datasets differ)."""
+    files: dict[str, Any] = {}
+    for path in sorted(ex.folder(task).glob("*.h5")):
+        status = scan(path)
+        if status.pending:  # being made now: its parts are not in the file yet
+            files[path.name] = {"in_progress": True}
+            continue
+        with h5py.File(path, "r") as f:
+            names = [n for n in datasets_in(f) if not n.endswith("wall_time")]
+            digests = {n: array_digest(n, f[n][()]) for n in names}
+        whole = hashlib.sha256("".join(digests.values()).encode()).hexdigest()
+        some = [n for n in digests if n.endswith(("/action", "images/main"))][: 2 * sample]
+        files[path.name] = {
+            "sha256_of_arrays": whole,
+            "arrays": len(digests),
+            "some_arrays": {n: digests[n][:16] for n in some},
+            "made_by": sorted(describe_code(v) for v in recorded_code(status)),
+        }
+    try:
+        info = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        info = []
+    model = next((line.partition(":")[2].strip() for line in info if line.startswith("model name")), platform.machine())
+    return {"machine": model, "avx512f": "avx512f" in cpu_flags(), "files": files}
+
+
 def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceiling: Sequence[str] = ()) -> str:
     """results.json and table.md in ``docs`` from the episode logs under ``ex.work``."""
     ids = [t.id for t in tasks]
@@ -833,7 +885,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("stage", choices=("data", "pilot", "run", "report", "diagnose"))
+    parser.add_argument("stage", choices=("data", "pilot", "run", "report", "diagnose", "hashes"))
     parser.add_argument("--work", type=Path, default=Path("runs/augmentation"))
     parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction" / "augmentation")
     parser.add_argument(
@@ -880,6 +932,15 @@ def main() -> None:
     tasks = [registry.get(n) for n in (args.tasks.split(",") if args.tasks else default)]
     if args.stage == "pilot":
         pilot(ex, tasks, args.docs)
+        return
+    if args.stage == "hashes":
+        for task in tasks:
+            if not any(ex.folder(task).glob("*.h5")):
+                continue  # nothing made yet
+            into = (ex.keep or args.docs) / ex.folder(task).name / "data_hashes.json"
+            into.parent.mkdir(parents=True, exist_ok=True)
+            into.write_text(json.dumps(data_hashes(ex, task), indent=1) + "\n")
+            say(f"{task.id}: {into}")
         return
     if args.stage == "data":  # what does not depend on training: demonstrations and augmentation
         for task in tasks:

@@ -356,3 +356,31 @@ def test_amendment_8_replicates_train_the_same_data_with_other_seeds_and_are_rea
     text = "\n".join(experiment.replicate_section("nominal", rows))
     assert "| 5, 7, 4 | 9, 8, 12 | +22 pt | +1 to +8 | yes |" in text
     assert "PickUpTestTube-v1 aug_object: 14/50" in text  # the lost run's realization beside it
+
+
+def test_data_hashes_follow_the_arrays_but_not_wall_time_or_string_pointers(tmp_path, monkeypatch) -> None:
+    import h5py
+    import numpy as np
+
+    ex = experiment.Experiment(tmp_path, 1, 64, "fast")
+    task, _ = pick_and_suites()
+    folder = ex.folder(task)
+    folder.mkdir(parents=True)
+
+    def write(name: str, action: float, wall: float) -> None:
+        with h5py.File(folder / name, "w") as f:
+            g = f.create_group("episodes/episode_000000")
+            g["action"] = np.full((3, 8), action)
+            g["wall_time"] = np.full(3, wall)
+            g["instruction"] = np.array([b"pick up the tube"] * 3, dtype=object)
+
+    write("a.h5", 0.5, 1.0)
+    write("b.h5", 0.5, 2.0)  # another wall time only
+    write("c.h5", np.nextafter(0.5, 1.0), 1.0)  # one action one ulp apart
+    monkeypatch.setattr(experiment, "scan", lambda path: type("Status", (), {"episodes": [], "pending": []})())
+    found = experiment.data_hashes(ex, task)
+    files = found["files"]
+    assert files["a.h5"]["arrays"] == 2 and "avx512f" in found and found["machine"]
+    assert files["a.h5"]["sha256_of_arrays"] == files["b.h5"]["sha256_of_arrays"]
+    assert files["a.h5"]["sha256_of_arrays"] != files["c.h5"]["sha256_of_arrays"]
+    assert list(files["a.h5"]["some_arrays"]) == ["episodes/episode_000000/action"]
