@@ -64,7 +64,7 @@ from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.experts.base import expert_program  # noqa: E402
 from pipette_cli.demos.provenance import describe_code, git_state, recorded_code  # noqa: E402
-from pipette_cli.demos.store import read_episode, scan  # noqa: E402
+from pipette_cli.demos.store import DatasetStatus, read_episode, scan  # noqa: E402
 from pipette_cli.evaluation.results import read_logs  # noqa: E402
 from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
 from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
@@ -76,7 +76,7 @@ from pipette_cli.evaluation.significance import (  # noqa: E402
     wilson_interval,
 )
 from pipette_cli.evaluation.suites import EpisodePlan, RegisteredSuite, adhoc_plan, episode_plan, load_suites  # noqa: E402
-from pipette_cli.kernels import cpu_flags  # noqa: E402
+from pipette_cli.kernels import cpu_field, cpu_flags  # noqa: E402
 from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert  # noqa: E402
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, train_checkpoint  # noqa: E402
 from pipette_cli.registry import load_registry  # noqa: E402
@@ -250,7 +250,7 @@ def augmented(ex: Experiment, task: TaskSpec, raw: Path, setting: str) -> tuple[
 
 def data_of(setting: str) -> str:
     """The data setting whose demonstrations ``setting`` trains on (amendments 6 and 8)."""
-    return EPOCH_MATCHED.get(setting) or REPLICATES.get(setting, (setting, 0))[0]
+    return EPOCH_MATCHED.get(setting) or REPLICATES.get(setting, (setting, TRAIN_SEED))[0]
 
 
 def trained(
@@ -745,13 +745,15 @@ def task_notes(ids: list[str], ceiling: list[str]) -> dict[str, list[str]]:
     return notes
 
 
+def made_by(status: DatasetStatus) -> list[str]:
+    """The code that made a dataset's episodes, described, sorted."""
+    return sorted(describe_code(version) for version in recorded_code(status))
+
+
 def data_code(ex: Experiment, task: TaskSpec) -> dict[str, list[str]]:
     """The code that made each of ``task``'s datasets in the work folder, by file: a setting whose data
     another commit than the run's made shows here (amendment 8)."""
-    return {
-        path.name: sorted(describe_code(version) for version in recorded_code(scan(path)))
-        for path in sorted(ex.folder(task).glob("*.h5"))
-    }
+    return {path.name: made_by(scan(path)) for path in sorted(ex.folder(task).glob("*.h5"))}
 
 
 def array_digest(name: str, value: np.ndarray) -> str:
@@ -789,14 +791,13 @@ def data_hashes(ex: Experiment, task: TaskSpec, sample: int = 6) -> dict[str, An
             "sha256_of_arrays": whole,
             "arrays": len(digests),
             "some_arrays": {n: digests[n][:16] for n in some},
-            "made_by": sorted(describe_code(v) for v in recorded_code(status)),
+            "made_by": made_by(status),
         }
-    try:
-        info = Path("/proc/cpuinfo").read_text().splitlines()
-    except OSError:
-        info = []
-    model = next((line.partition(":")[2].strip() for line in info if line.startswith("model name")), platform.machine())
-    return {"machine": model, "avx512f": "avx512f" in cpu_flags(), "files": files}
+    return {
+        "machine": cpu_field("model name") or platform.machine(),
+        "avx512f": "avx512f" in cpu_flags(),
+        "files": files,
+    }
 
 
 def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceiling: Sequence[str] = ()) -> str:

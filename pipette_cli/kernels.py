@@ -31,16 +31,22 @@ PORTABLE = {"OPENBLAS_CORETYPE": "Haswell", "ATEN_CPU_CAPABILITY": "avx2", "ONED
 NEEDS = {"avx2", "fma"}
 
 
-def cpu_flags(cpuinfo: Path = Path("/proc/cpuinfo")) -> set[str]:
-    """The instruction-set flags of the first CPU in ``cpuinfo`` (empty where there is none)."""
+def cpu_field(name: str, cpuinfo: Path = Path("/proc/cpuinfo")) -> str | None:
+    """Field ``name`` of the first CPU in ``cpuinfo`` (``flags``, ``model name``), or None where there is none."""
     try:
         text = cpuinfo.read_text()
     except OSError:
-        return set()
+        return None
     for line in text.splitlines():
-        if line.startswith("flags"):
-            return set(line.partition(":")[2].split())
-    return set()
+        key, _, value = line.partition(":")
+        if key.strip() == name:
+            return value.strip()
+    return None
+
+
+def cpu_flags(cpuinfo: Path = Path("/proc/cpuinfo")) -> set[str]:
+    """The instruction-set flags of the first CPU in ``cpuinfo`` (empty where there is none)."""
+    return set((cpu_field("flags", cpuinfo) or "").split())
 
 
 def pin(environ: MutableMapping[str, str] = os.environ, flags: set[str] | None = None) -> str | None:

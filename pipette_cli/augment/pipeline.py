@@ -33,7 +33,7 @@ from pipette_cli.augment.render import fresh_steps, render_rollout, view_key
 from pipette_cli.augment.simulate import Placement, Rollout, placement, replay_check, restore, settle_steps, simulate
 from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.experts.base import expert_program
-from pipette_cli.demos.provenance import code_change
+from pipette_cli.demos.provenance import replay_reason
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter, compress_frame
 from pipette_cli.demos.store import EpisodeRef, read_episode
 from pipette_cli.errors import PipetteError
@@ -197,8 +197,7 @@ class DemoAugmenter:
         why = replay_check(self.world, s.seed, original)
         result.seconds["physics"] += time.perf_counter() - t0
         if why is not None:
-            changed = code_change(record.attrs)
-            result.status, result.detail = REPLAY_FAILED, why + ("" if changed is None else f" ({changed})")
+            result.status, result.detail = REPLAY_FAILED, replay_reason(why, record.attrs)
             return result
         target = self.task.targets[0] if self.task.targets else None
         t0 = time.perf_counter()

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pipette_cli.augment.simulate import Rollout, offset_from_attrs, replay_check
-from pipette_cli.demos.provenance import code_change
+from pipette_cli.demos.provenance import replay_reason
 from pipette_cli.demos.store import read_episode, scan
 from pipette_cli.errors import DatasetError
 from pipette_cli.sim.distractors import distractors_from_attrs, with_distractors
@@ -35,7 +35,6 @@ def verify_file(task: TaskSpec, path: Path, world: World | None = None) -> list[
         extra = distractors_from_attrs(record.attrs)  # the scene it ran in: the task's, plus its distractors
         scene = World(with_distractors(task, extra), meshes=world.meshes) if extra else world
         why = replay_check(scene, ref.summary.seed, Rollout.from_record(record), offset_from_attrs(record.attrs))
-        if why is not None and (changed := code_change(record.attrs)) is not None:
-            why = f"{why} ({changed})"
-        checks.append(Check(ref.index, str(record.attrs.get("augment_variant", "")), why is None, why or ""))
+        reason = "" if why is None else replay_reason(why, record.attrs)
+        checks.append(Check(ref.index, str(record.attrs.get("augment_variant", "")), why is None, reason))
     return checks

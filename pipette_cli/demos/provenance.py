@@ -148,6 +148,12 @@ def code_change(attrs: Mapping[str, Any]) -> str | None:
     return None if theirs == here else f"recorded by {describe_code(theirs)}, replayed by {describe_code(here)}"
 
 
+def replay_reason(why: str, attrs: Mapping[str, Any]) -> str:
+    """Why a replay failed, with :func:`code_change` added where other code recorded the episode."""
+    changed = code_change(attrs)
+    return why if changed is None else f"{why} ({changed})"
+
+
 def recorded_code(status: DatasetStatus) -> set[tuple[str, str, str]]:
     """The code versions (:func:`code_version`) that made the episodes of ``status``'s file and parts."""
     groups: dict[Path, list[str]] = {}

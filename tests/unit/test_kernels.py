@@ -62,4 +62,6 @@ def test_cpu_flags_come_from_the_first_cpu(tmp_path) -> None:
     info = tmp_path / "cpuinfo"
     info.write_text("processor\t: 0\nflags\t\t: fpu sse2 avx2 fma\n\nprocessor\t: 1\nflags\t\t: fpu\n")
     assert kernels.cpu_flags(info) == {"fpu", "sse2", "avx2", "fma"}
+    info.write_text("model name\t: Some CPU @ 2 GHz\nflags\t\t: fpu\n")
+    assert kernels.cpu_field("model name", info) == "Some CPU @ 2 GHz" and kernels.cpu_field("microcode", info) is None
     assert kernels.cpu_flags(tmp_path / "absent") == set()
