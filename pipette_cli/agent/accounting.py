@@ -41,6 +41,11 @@ _GLUED = re.compile(r"^(\d+(?:\.\d+)?)([a-z]+)$")
 SAVE_VERB = re.compile(rf"(?:{SAVE_VERBS})[sd]?|saved|written|stored|wrote")
 
 
+def _suffix(n: int) -> str:
+    """1 -> st, 2 -> nd, 3 -> rd, 11 -> th."""
+    return "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+
+
 def _literals(phrase: str) -> tuple[set[str], tuple[str, ...]]:
     """The literal words of a vocabulary phrase and its ``word*`` prefixes."""
     words: set[str] = set()
@@ -212,6 +217,10 @@ class Accountant:
             return
         if value is None or isinstance(value, StepRef):
             return
+        if param.comma_list and isinstance(value, str) and "," in value:  # --variants light,cam
+            for item in value.split(","):
+                self._value(words, param, item.strip())
+            return
         if param.name in TASK_PARAMS and isinstance(value, str):
             for task in value.split(","):
                 self._task(words, task.strip())
@@ -220,6 +229,11 @@ class Accountant:
                 words.phrase(phrase)
         elif isinstance(value, int | float):
             self._number(words, float(value))
+            if param.name in self.vocab.from_zero:  # "the third episode" is index 2
+                position = int(value) + 1
+                words.where(lambda t: t == f"{position}{_suffix(position)}")
+                for ordinal in (w for w, n in self.vocab.ordinals.items() if n == position):
+                    words.phrase(ordinal)
             for phrase in [*param.units, *param.names]:
                 words.phrase(phrase)
         elif param.name in FREE_TEXT or (

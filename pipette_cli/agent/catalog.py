@@ -84,6 +84,11 @@ class ParamInfo:
     def path(self) -> bool:
         return self.kind == "path"
 
+    @property
+    def comma_list(self) -> bool:
+        """One option holding several values joined by "," (``--variants light,cam``)."""
+        return not self.multiple and "comma" in self.help.lower()
+
     def values(self) -> tuple[str, ...]:
         return self.choices or self.hinted
 

@@ -272,7 +272,7 @@ class OfflineAgent:
         if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
             args[param.name] = in_file  # "my centrifuge demos in data/OpenCentrifugeLid.h5"
         elif match.explicit:
-            many = param.multiple or "comma" in param.help.lower()
+            many = param.multiple or param.comma_list
             args[param.name] = list(match.explicit) if many else match.explicit[0]
         elif unknown:
             raise AgentError(f"unknown task {unknown!r}; {self.index.suggest_name(short_name(unknown))}")
@@ -280,6 +280,12 @@ class OfflineAgent:
             args[param.name] = match.task
         elif match.candidates:
             raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
+        elif match.opposed:
+            raise AgentError(
+                f"no registered task does what the request asks ({match.action!r} that): {', '.join(match.opposed)} "
+                f"{'does' if len(match.opposed) == 1 else 'do'} the opposite; name a task, or create one "
+                'with `pipette new-task "<what the robot should do>"`'
+            )
         elif param.required or info.is_answer:
             named = re.search(
                 r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words
@@ -313,6 +319,7 @@ class OfflineAgent:
         if not numeric:
             return
         text = re.sub(r"\b(\d+)\s*[x×]\s*\1\b", r"\1 px", words)  # 64x64 images
+        text = self._positions(numeric, text)
         for word, value in sorted(self.vocab.numbers.items(), key=lambda kv: -len(kv[0])):
             text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
         taken: set[str] = set()
@@ -352,6 +359,20 @@ class OfflineAgent:
         if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
             args[fallback.name] = _typed(fallback, bare[0])
 
+    def _positions(self, numeric: list[ParamInfo], text: str) -> str:
+        """ "the third episode" / "the 3rd demo" -> "episode 2" for a parameter counting from 0."""
+        ordinals = "|".join(sorted(map(re.escape, self.vocab.ordinals), key=len, reverse=True))
+        for param in (p for p in numeric if p.name in self.vocab.from_zero):
+            names = "|".join(phrase_pattern(n).pattern for n in param.names)
+
+            def index(m: re.Match[str], name: str = param.names[0]) -> str:
+                said = m.group(1)
+                position = int(said[:-2]) if said[0].isdigit() else self.vocab.ordinals[said]
+                return f"{name} {position - 1}"
+
+            text = re.sub(rf"(?<![\w-])(\d+(?:st|nd|rd|th)|{ordinals})\s+(?:{names})(?![\w-])", index, text)
+        return text
+
     def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
         the help lists only next to the option's name ("wrist camera")."""
@@ -381,14 +402,16 @@ class OfflineAgent:
                     )
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
-            if found:  # the first named, or the last after a correction ("..., actually just the paper variants")
+            if found and param.comma_list and not _CORRECTION.search(words):  # "object pose and camera shake"
+                args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
+            elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
                 args[param.name] = max(found)[2] if _CORRECTION.search(words) else min(found)[2]
 
     def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
         """A parameter the clause gives two values joined by "and" ("the raw and the augmented
         data"), for a command that takes one: the step is made once per value."""
         for param in info.params.values():
-            if param.multiple or param.kind != "str":
+            if param.multiple or param.comma_list or param.kind != "str":
                 continue
             found = sorted(
                 (m.start(), m.end(), value)
@@ -436,13 +459,14 @@ class OfflineAgent:
             if (
                 param.kind != "str"
                 or param.values()
+                or param.name in self.vocab.values  # named by its values' words ("lighting only"), never the next word
                 or not is_empty(args.get(param.name))
                 or param.name in ("description", "about", "asset_id", "backend", "model", "base_url")
             ):
                 continue
             pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
-            if m and m.group(1).lower() not in self.vocab.tasks.stop:
+            if m and m.group(1).lower() not in {*self.vocab.tasks.stop, *self.vocab.filler}:
                 args[param.name] = m.group(1).strip("\"'")
 
     def _asset(self, words: str) -> str | None:

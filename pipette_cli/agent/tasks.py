@@ -57,6 +57,11 @@ class TaskMatch:
     candidates: tuple[str, ...] = ()
     explicit: tuple[str, ...] = ()
     """Ids or names written out in the request, in order."""
+    opposed: tuple[str, ...] = ()
+    """Tasks about what the request names that do the opposite of its action ("open the
+    spectrophotometer" when only CloseSpectrophotometerLid exists): never chosen."""
+    action: str = ""
+    """The request's action the ``opposed`` tasks undo ("open")."""
 
 
 @dataclass
@@ -187,9 +192,12 @@ class TaskIndex:
             if not any(terms[t] > WEIGHTS["instruction"] for t in shared - self._actions):
                 continue  # an object, tag or robot must match, not only an action or the instruction
             score = sum(terms[t] * self._idf[t] for t in shared)
-            names = self.name_terms[tid]
+            names = (
+                set(self.name_words[tid]) - self._stop
+            )  # as written: "balance" names PlaceTubeOnBalance, not TareAndWeigh
             run = _longest_run(self.name_words[tid], request_words)
-            out[tid] = score + 0.2 * len(names & said) / max(len(names), 1) + 0.3 * max(run - 1, 0)
+            covered = len(names & said) / max(len(names), 1)
+            out[tid] = score + 0.2 * covered + 0.3 * max(run - 1, 0)
         return out
 
     def match(self, text: str) -> TaskMatch:
@@ -198,11 +206,29 @@ class TaskIndex:
         if explicit:
             return TaskMatch(explicit[0], (), tuple(explicit))
         scores = self.scores(text)
+        terms = self.request_terms(text)
+        said = terms & self._actions
+        opposed = {tid for tid in scores if self._opposes(tid, said)}
+        objects = {t for t in terms if t.startswith("kind:") and any(t in self.terms[o] for o in opposed)}
+        scores = {  # a task left must be about the objects the opposed ones were about, not only the robot
+            tid: score for tid, score in scores.items() if tid not in opposed and objects <= self.terms[tid].keys()
+        }
         if not scores:
-            return TaskMatch(None)
+            words = {stem(w): w for pair in self.vocab.tasks.opposites.items() for w in pair}
+            action = next((words.get(a, a) for a in sorted(said) if any(self._opposes(t, {a}) for t in opposed)), "")
+            return TaskMatch(None, opposed=tuple(sorted(opposed)), action=action)
         best = max(scores.values())
         top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
+
+    def _opposes(self, task: str, actions: set[str]) -> bool:
+        """``task`` (its name, tags or instruction) does the opposite of the request's ``actions`` and holds none
+        of them (vocabulary ``tasks.opposites``: close for open, remove for place)."""
+        if not actions or actions & self.terms[task].keys():
+            return False
+        undo = {stem(b) for a, b in self.vocab.tasks.opposites.items() if stem(a) in actions}
+        undo |= {stem(a) for a, b in self.vocab.tasks.opposites.items() if stem(b) in actions}
+        return bool(undo & self.terms[task].keys())
 
     def all_tasks(self, text: str) -> bool:
         """ "all tasks", "every task", "the whole benchmark"."""

@@ -69,7 +69,7 @@ class Validator:
             self._link(info, args, steps, context, notes)
             task = self._carry(info, args, carried, steps, notes)
             self._templates(args, task)
-            self._defaults(info, args, task, notes)
+            self._defaults(info, args, task, notes, {step.product for step in steps if step.product})
             missing = self.catalog.missing(info.name, args)
             product, kind = product_of(info, args, task, self.vocab)
             steps.append(CheckedStep(index, info.name, args, missing, product, kind, notes))
@@ -174,14 +174,19 @@ class Validator:
                 return "all"
             if not param.required:
                 return None  # the command's default covers every task
-            raise AgentError(f"'pipette {info.name}' runs one task at a time; name the task")
+            instead = self.vocab.stands_in.get(info.name, {}).get(param.name)
+            suite = info.params[instead].flag if instead in info.params else None
+            raise AgentError(
+                f"'pipette {info.name}' runs one task at a time; name the task"
+                + (f", or run a suite of tasks with {suite}" if suite else "")
+            )
         try:
             ids = [self.registry.entry(str(n).strip()).spec.id for n in names]
         except PipetteError as exc:
             raise AgentError(f"{label}: {exc}") from None
         if param.multiple:
             return ids
-        if len(ids) > 1 and "comma" not in param.help.lower():
+        if len(ids) > 1 and not param.comma_list:
             raise AgentError(f"'pipette {info.name}' runs one task at a time; name one of {', '.join(ids)}")
         return ",".join(ids)
 
@@ -322,12 +327,24 @@ class Validator:
                 else:
                     args[key] = value.format(**names)
 
-    def _defaults(self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str]) -> None:
+    def _defaults(
+        self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str], taken: set[str]
+    ) -> None:
+        """Fill the vocabulary's default outputs; one an earlier step of the plan already writes gets
+        the step's robot, else a number ("10 on the Franka and 10 on the UR5e": two files)."""
         for key, template in self.vocab.defaults.items():
             command, _, name = key.rpartition(".")
             if command != info.name or name not in info.params or not is_empty(args.get(name)) or task is None:
                 continue
-            args[name] = template.format(Task=short_name(task))
+            path = template.format(Task=short_name(task))
+            stem, dot, suffix = path.rpartition(".") if "." in path.rsplit("/", 1)[-1] else (path, "", "")
+            tags = [str(args["robot"])] if args.get("robot") else []
+            tags += [str(n) for n in range(2, len(taken) + 3)]
+            for tag in tags:
+                if path not in taken:
+                    break
+                path = f"{stem}_{tag}{dot}{suffix}"
+            args[name] = path
             notes.append(f"default {info.params[name].flag or name} {args[name]}")
 
 

@@ -56,6 +56,9 @@ class TaskWordsSpec(Spec):
     all: list[str]
     synonyms: dict[str, list[str]]
     stop: list[str]
+    opposites: dict[str, str] = Field(default_factory=dict)
+    """Actions that undo each other (open: close): a task doing the opposite of what a request
+    asks is never chosen for it."""
 
 
 class ProductSpec(Spec):
@@ -91,6 +94,10 @@ class WorkflowVocabularySpec(Spec):
     values: dict[str, dict[str, list[str]]]
     numbers: dict[str, int]
     bare_number: str
+    ordinals: dict[str, int] = Field(default_factory=dict)
+    """"third" -> 3: a position, for the parameters in ``from_zero`` ("the third episode" is index 2)."""
+    from_zero: list[str] = Field(default_factory=list)
+    """Parameters that count from 0 (episode indices)."""
     policies: dict[str, PolicySpec]
     tasks: TaskWordsSpec
     defaults: dict[str, str]
