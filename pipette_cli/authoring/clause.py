@@ -9,6 +9,7 @@ first; a pronoun ("it", "them") is a mention the parser resolves from the earlie
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 from pipette_cli.language.assets import Vocabulary, size_class
@@ -83,6 +84,18 @@ class Clause:
         return [m for m in self.mentions if m.prep in preps]
 
 
+def gerund(phrase: str) -> str:
+    """A verb phrase with its first word in -ing form: lift -> lifting, put -> putting, place -> placing."""
+    head, _, rest = phrase.partition(" ")
+    if head.endswith("e") and not head.endswith(("ee", "ye", "oe")) and len(head) > 2:
+        head = head[:-1] + "ing"
+    elif re.fullmatch(r"[^aeiou]*[aeiou][^aeiouwxy]", head):  # one short syllable: drop -> dropping
+        head = head + head[-1] + "ing"
+    else:
+        head += "ing"
+    return f"{head} {rest}".strip()
+
+
 class ClauseReader:
     """Reads steps against one vocabulary (tables built once)."""
 
@@ -91,7 +104,9 @@ class ClauseReader:
         words = vocab.words
         self.aliases = vocab.aliases()
         self.bench = sorted(words.bench, key=lambda p: -len(p.split()))
-        self.verbs = sorted(((p, a) for a, ps in words.actions.items() for p in ps), key=lambda pa: -len(pa[0].split()))
+        verbs = {(p, a) for a, ps in words.actions.items() for p in ps}
+        verbs |= {(gerund(p), a) for p, a in verbs}  # "by lifting it", "start by opening the lid"
+        self.verbs = sorted(verbs, key=lambda pa: (-len(pa[0].split()), pa[0]))
         self.implied = dict(words.implied_targets)
         self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
         self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
@@ -101,6 +116,7 @@ class ClauseReader:
         self.fillers = set(words.fillers)
         self.pronouns = sorted(words.pronouns, key=lambda p: -len(p.split()))
         self.runs = sorted(words.runs, key=lambda p: -len(p.split()))
+        self.run_buttons = sorted(words.run_buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
 
     # ------------------------------------------------------------------ verbs
@@ -152,6 +168,12 @@ class ClauseReader:
             # one, a word that starts an object's name ("the sparkly pipette tip box") names it
             if found is not None and clause.action is not None and name_at(tokens, i, self.aliases) is not None:
                 found = None
+            if found is not None and clause.action is not None and found[0] == clause.action:
+                for k in range(i, i + found[2]):  # the same action said twice: "hand me the flask by lifting it"
+                    tokens[k].used = True
+                at.update(range(i, i + found[2]))
+                i += found[2]
+                continue
             if found is not None and (clause.action is None or found[0] == "unsupported"):
                 kind, phrase, n = found
                 if kind == "unsupported":
@@ -195,6 +217,13 @@ class ClauseReader:
                 found = ("bench", bench[0], bench[1])
             if found is None and pronoun and not part:
                 found = ("pronoun", pronoun[0], pronoun[1])
+            button = first_match(tokens, i, self.run_buttons) if found is None else None
+            if button is not None and clause.action in ("press", "run"):  # "press the start button": a run
+                clause.action = "run"  # of the instrument named with it, or of the one named before
+                for k in range(i, i + button[1]):
+                    tokens[k].used = True
+                i += button[1]
+                continue
             run = first_match(tokens, i, self.runs) if found is None and clause.action == "run" else None
             if run is not None:  # "start the spin": the instrument whose run it is
                 found = ("pronoun", run[0], run[1])

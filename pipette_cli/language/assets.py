@@ -71,6 +71,7 @@ class VocabularySpec(Spec):
     actions: dict[str, list[Phrase]]
     implied_targets: dict[Phrase, str] = {}
     runs: list[Phrase] = []
+    run_buttons: list[Phrase] = []
     parts: dict[str, list[Phrase]]
     relations: dict[Relation, list[Phrase]]
     prepositions: PrepositionsSpec
