@@ -800,6 +800,49 @@ def data_hashes(ex: Experiment, task: TaskSpec, sample: int = 6) -> dict[str, An
     }
 
 
+SPEED_RUNS = {
+    "shared": ROOT / "docs" / "benchmarks" / "bench_train.json",
+    "idle": ROOT / "docs" / "benchmarks" / "bench_train_idle.json",
+}
+"""benchmarks/bench_train.py runs, each "before" and "after" side by side in one run: on cores
+other work shares (as the experiment's trainings ran, two at a time) and on an idle machine."""
+
+
+def training_speed(runs: dict[str, Path] = SPEED_RUNS) -> tuple[dict[str, Any], list[str]]:
+    """The training step before and after the speed work (plan.md, "Training speed"): each run's
+    seconds per step for both presets, the ratio, its commit and load; and the table's lines."""
+    found: dict[str, Any] = {}
+    lines = [
+        "### Training step, before and after (benchmarks/bench_train.py, side by side in one run)",
+        "",
+        "| machine | before s/step | after s/step | before / after | commit | load average |",
+        "|---|---:|---:|---:|---|---|",
+    ]
+    for name, path in runs.items():
+        if not path.is_file():
+            continue
+        run = json.loads(path.read_text())
+        before, after = run["rows"]["before"], run["rows"]["after"]
+        loads = [x for row in run["rows"].values() for x in row.get("load", [])]
+        found[name] = {
+            "file": str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path),
+            "commit": run["settings"]["git_commit"],
+            "before_s_per_step": before["s_per_step"],
+            "after_s_per_step": after["s_per_step"],
+            "speedup": before["s_per_step"] / after["s_per_step"],
+            "before": before["what"],
+            "after": after["what"],
+            "load_average": [min(loads), max(loads)] if loads else None,
+        }
+        row = found[name]
+        load = "-" if not loads else f"{min(loads):.1f}-{max(loads):.1f}"
+        lines.append(
+            f"| {name} | {row['before_s_per_step']:.3f} | {row['after_s_per_step']:.3f} | "
+            f"{row['speedup']:.2f}x | {row['commit'][:7]} | {load} |"
+        )
+    return found, [*lines, ""]
+
+
 def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceiling: Sequence[str] = ()) -> str:
     """results.json and table.md in ``docs`` from the episode logs under ``ex.work``."""
     ids = [t.id for t in tasks]
@@ -860,6 +903,8 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
             + " | ".join(f"{found[s]['kept']}/{found[s]['attempts']}" if s in found else "-" for s in VARIANTS)
             + " |"
         )
+    results["training_speed"], speed_lines = training_speed()
+    lines += ["", *speed_lines]
     results["data_code"] = {t.id: data_code(ex, t) for t in tasks}
     results["earlier_run"] = EARLIER
     commit, dirty = git_state()

@@ -384,3 +384,25 @@ def test_data_hashes_follow_the_arrays_but_not_wall_time_or_string_pointers(tmp_
     assert files["a.h5"]["sha256_of_arrays"] == files["b.h5"]["sha256_of_arrays"]
     assert files["a.h5"]["sha256_of_arrays"] != files["c.h5"]["sha256_of_arrays"]
     assert list(files["a.h5"]["some_arrays"]) == ["episodes/episode_000000/action"]
+
+
+def test_the_report_holds_the_training_step_before_and_after_from_the_side_by_side_runs(tmp_path) -> None:
+    import json
+
+    def run(before: float, after: float, loads: list[float]) -> dict:
+        rows = {
+            "before": {"what": "old preset", "s_per_step": before, "load": loads[:1]},
+            "after": {"what": "new preset", "s_per_step": after, "load": loads[1:]},
+        }
+        return {"settings": {"git_commit": "abc1234def"}, "rows": rows}
+
+    (tmp_path / "shared.json").write_text(json.dumps(run(4.0, 0.5, [7.0, 3.5])))
+    (tmp_path / "idle.json").write_text(json.dumps(run(0.37, 0.45, [0.2, 1.7])))
+    found, lines = experiment.training_speed(
+        {"shared": tmp_path / "shared.json", "idle": tmp_path / "idle.json", "absent": tmp_path / "none.json"}
+    )
+    assert set(found) == {"shared", "idle"}  # a run that is not there is left out, not invented
+    assert found["shared"]["speedup"] == pytest.approx(8.0) and found["idle"]["speedup"] == pytest.approx(0.37 / 0.45)
+    assert found["shared"]["load_average"] == [3.5, 7.0]
+    assert "| idle | 0.370 | 0.450 | 0.82x | abc1234 | 0.2-1.7 |" in lines
+    assert all(path.is_file() for path in experiment.SPEED_RUNS.values())  # the committed runs the report reads
