@@ -115,6 +115,7 @@ def demos(
             continue
         episodes = status.episodes
         ok = sum(ref.summary.success for ref in episodes)
+        failed = [ref.index for ref in episodes if not ref.summary.success]
         files.append(
             {
                 "file": str(path),
@@ -122,6 +123,7 @@ def demos(
                 "episodes": len(episodes),
                 "successful": ok,
                 "failed": len(episodes) - ok,
+                "failed_episodes": failed,
                 "pending": len(status.pending),
                 "image_size": status.info.image_height,
             }
@@ -142,15 +144,26 @@ def demos(
     if len(files) == 1:
         f = files[0]
         pending = f", {f['pending']} of them pending" if f["pending"] else ""
+        which = (
+            f" ({'episode' if f['failed'] == 1 else 'episodes'} {_indices(f['failed_episodes'])})"
+            if f["failed"]
+            else ""
+        )
         text = (
             f"{f['file']} holds {plural(f['episodes'], 'demo')} of {f['task_id']}: {f['successful']} successful, "
-            f"{f['failed']} failed{pending}"
+            f"{f['failed']} failed{which}{pending}"
         )
     else:
         text = f"{plural(total, 'demo')} in {len(files)} files"
     return Answer(
         text, ["file", "task", "demos", "successful", "failed", "pending"], rows, {"total": total, "files": files}
     )
+
+
+def _indices(indices: list[int], shown: int = 12) -> str:
+    """ "3, 7, 9" (the first ``shown``, then how many more)."""
+    more = f" and {len(indices) - shown} more" if len(indices) > shown else ""
+    return ", ".join(map(str, indices[:shown])) + more
 
 
 def _summaries(folder: Path) -> list[dict[str, Any]]:

@@ -20,12 +20,12 @@ from pipette_cli.agent.catalog import (
     AgentError,
     CommandCatalog,
     CommandInfo,
-    ParamInfo,
     Unsupported,
     is_empty,
 )
 from pipette_cli.agent.clauses import RECIPE_PREFIX, Intents, split_clauses
 from pipette_cli.agent.mentions import SAVE, assign_paths
+from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.validate import Validator
@@ -36,9 +36,6 @@ from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 from pipette_cli.registry import Registry
 
-_NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
-_MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
-"""Units after a number that make it a size ("50 mL tube"), not a count."""
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
@@ -55,10 +52,6 @@ def _recipe_value(value: Any, before: int) -> Any:
     if isinstance(value, dict) and "from_step" in value:
         return {"from_step": int(value["from_step"]) + before}
     return value
-
-
-def _typed(param: ParamInfo, number: float) -> int | float:
-    return int(number) if param.kind == "int" and number == int(number) else number
 
 
 class OfflineAgent:
@@ -121,11 +114,14 @@ class OfflineAgent:
                 steps += self._expand(recipe, ", ".join(said), len(steps), problems)
                 continue
             command = clause.command or self._policy_only(clause.text)
-            if command is None:
-                continue
+            if command is None or (clauses and self._done_before(clause.text)):
+                continue  # "after training, evaluate ...": what was done before, not a step
             info = self.catalog.get(command)
             args = self.fill(info, clause.text, problems)
             both = self._both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            if not both and self._continues(info, clause, args, steps):
+                steps[-1].args.update(args)  # "render X. save the picture to y.png": one step
+                continue
             each = [] if both else self._each_product(info, clause.text, args, steps)
             if each:  # "convert both": one step per earlier output of the kind it reads
                 steps += [StepSpec(command=command, args={**args, **one}) for one in each]
@@ -195,6 +191,26 @@ class OfflineAgent:
                 return [{name: [{"from_step": i}] if many else {"from_step": i}} for i in made]
         return []
 
+    def _done_before(self, text: str) -> bool:
+        """A clause of only a word of the vocabulary's ``done_before`` and a cue ("after training",
+        "once collected") says what happened before the next step: it plans nothing."""
+        words = words_of(text).split()
+        return len(words) == 2 and words[0] in self.vocab.done_before
+
+    def _continues(self, info: CommandInfo, clause: Any, args: dict[str, Any], steps: list[StepSpec]) -> bool:
+        """A clause after "," / "and" / a sentence end that asks for the command of the step before
+        and only gives values that step left open ("what does X look like? save the picture to
+        y.png") completes that step."""
+        if not steps or clause.after == "strong" or steps[-1].command != info.name or not args:
+            return False
+        task = info.task_param()
+        before = steps[-1].args
+        if task is not None and task.name in args and args[task.name] != before.get(task.name):
+            return False
+        return not {k for k, v in args.items() if not is_empty(v)} & {
+            k for k, v in before.items() if not is_empty(v)
+        } - ({task.name} if task is not None else set())
+
     def _policy_only(self, text: str) -> str | None:
         """A clause naming a policy and no command asks to train it ("use VQ-BeT on the tube task")."""
         return "train" if "train" in self.catalog and self._policy(words_of(text)) else None
@@ -243,7 +259,7 @@ class OfflineAgent:
             param = next((p for p in info.params.values() if set(p.values()) & set(self.vocab.policies)), None)
             if param is not None:
                 args[param.name] = policy
-        self._numbers(info, words, args, bound)
+        read_numbers(self.vocab, info, words, args, bound)
         self._values(info, words, args)
         self._flags(info, words, args)
         self._text(info, text, saved, mentions.words, words, args)
@@ -309,69 +325,6 @@ class OfflineAgent:
             if re.search(rf"(?<![\w-]){re.escape(word)}(?![\w-])", words):
                 return key
         return None
-
-    def _numbers(
-        self, info: CommandInfo, words: str, args: dict[str, Any], bound: AbstractSet[float] = frozenset()
-    ) -> None:
-        """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
-        before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
-        numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
-        if not numeric:
-            return
-        text = re.sub(r"\b(\d+)\s*[x×]\s*\1\b", r"\1 px", words)  # 64x64 images
-        text = self._positions(numeric, text)
-        for word, value in sorted(self.vocab.numbers.items(), key=lambda kv: -len(kv[0])):
-            text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
-        taken: set[str] = set()
-        bare: list[float] = []
-        for m in _NUMBER.finditer(text):
-            number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
-            after, before = text[m.end() :].lstrip(), text[: m.start()].rstrip()
-            best: tuple[int, ParamInfo] | None = None
-            for param in (p for p in numeric if p.name not in taken):
-                names = param.names
-                tests = (
-                    (3, param.units, lambda p, after=after: phrase_pattern(p).match(after)),
-                    (
-                        2,
-                        param.units,
-                        lambda p, after=after: re.match(
-                            rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after
-                        ),
-                    ),
-                    (
-                        1,
-                        names,
-                        lambda p, before=before: re.search(
-                            rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$", before
-                        ),
-                    ),
-                )
-                for rank, phrases, matcher in tests:
-                    if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
-                        best = (rank, param)
-            if best is not None:
-                args[best[1].name] = _typed(best[1], number)
-                taken.add(best[1].name)
-            elif not m.group(3) and not _MEASURE.match(after) and number not in bound:
-                bare.append(number)
-        fallback = info.params.get(self.vocab.bare_number)
-        if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
-            args[fallback.name] = _typed(fallback, bare[0])
-
-    def _positions(self, numeric: list[ParamInfo], text: str) -> str:
-        """ "the third episode" / "the 3rd demo" -> "episode 2" for a parameter counting from 0."""
-        ordinals = "|".join(sorted(map(re.escape, self.vocab.ordinals), key=len, reverse=True))
-        for param in (p for p in numeric if p.name in self.vocab.from_zero):
-            names = "|".join(phrase_pattern(n).pattern for n in param.names)
-
-            def index(m: re.Match[str], name: str = param.names[0]) -> str:
-                said = m.group(1)
-                position = int(said[:-2]) if said[0].isdigit() else self.vocab.ordinals[said]
-                return f"{name} {position - 1}"
-
-            text = re.sub(rf"(?<![\w-])(\d+(?:st|nd|rd|th)|{ordinals})\s+(?:{names})(?![\w-])", index, text)
-        return text
 
     def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values

@@ -209,8 +209,10 @@ class TaskIndex:
         terms = self.request_terms(text)
         said = terms & self._actions
         opposed = {tid for tid in scores if self._opposes(tid, said)}
-        objects = {t for t in terms if t.startswith("kind:") and any(t in self.terms[o] for o in opposed)}
-        scores = {  # a task left must be about the objects the opposed ones were about, not only the robot
+        highest = max(scores.values(), default=0.0)
+        leading = {tid for tid in opposed if scores[tid] >= highest - 1e-9}
+        objects = {t for t in terms if t.startswith("kind:") and any(t in self.terms[o] for o in leading)}
+        scores = {  # where an opposed task led, one left must be about its objects, not only the robot
             tid: score for tid, score in scores.items() if tid not in opposed and objects <= self.terms[tid].keys()
         }
         if not scores:

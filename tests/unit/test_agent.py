@@ -331,7 +331,9 @@ def test_answers_count_demos_in_hdf5_files(tmp_path, monkeypatch) -> None:
     record(Path("data/tube.h5"), "pipette/PickUpTestTube-v1", [True, True, False])
     record(Path("data/bath.h5"), "pipette/OpenWaterBathLid-v1", [True])
     one = answer("answer demos", AGENT.plan("how many demos are in data/tube.h5").steps[0].args)
-    assert one.text == "data/tube.h5 holds 3 demos of pipette/PickUpTestTube-v1: 2 successful, 1 failed"
+    assert one.text == "data/tube.h5 holds 3 demos of pipette/PickUpTestTube-v1: 2 successful, 1 failed (episode 2)"
+    which = answer("answer demos", AGENT.plan("which of the recordings in data/tube.h5 failed?").steps[0].args)
+    assert which.data["files"][0]["failed_episodes"] == [2]
     by_task = answer("answer demos", AGENT.plan("how many demos do I have of the water bath task").steps[0].args)
     assert by_task.data["total"] == 1 and by_task.data["files"][0]["file"] == "data/bath.h5"
     assert answer("answer demos", {}).data["total"] == 4

@@ -1,0 +1,87 @@
+"""Numbers in a request and the options they set: "30 demos", "seed 3", "64x64 images", "15k steps",
+"the third episode" (an index counting from 0), a bare count for ``bare_number``."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Set as AbstractSet
+from typing import Any
+
+from pipette_cli.agent.catalog import CommandInfo, ParamInfo, is_empty
+from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
+from pipette_cli.language.phrases import phrase_pattern
+
+_NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
+_MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
+"""Units after a number that make it a size ("50 mL tube"), not a count."""
+
+
+def _typed(param: ParamInfo, number: float) -> int | float:
+    return int(number) if param.kind == "int" and number == int(number) else number
+
+
+def read_numbers(
+    vocab: WorkflowVocabularySpec,
+    info: CommandInfo,
+    words: str,
+    args: dict[str, Any],
+    bound: AbstractSet[float] = frozenset(),
+) -> None:
+    """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
+    before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
+    numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
+    if not numeric:
+        return
+    text = re.sub(r"\b(\d+)\s*[x×]\s*\1\b", r"\1 px", words)  # 64x64 images
+    text = _positions(vocab, numeric, text)
+    for word, value in sorted(vocab.numbers.items(), key=lambda kv: -len(kv[0])):
+        text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
+    taken: set[str] = set()
+    bare: list[float] = []
+    for m in _NUMBER.finditer(text):
+        number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
+        after, before = text[m.end() :].lstrip(), text[: m.start()].rstrip()
+        best: tuple[int, ParamInfo] | None = None
+        for param in (p for p in numeric if p.name not in taken):
+            names = param.names
+            tests = (
+                (3, param.units, lambda p, after=after: phrase_pattern(p).match(after)),
+                (
+                    2,
+                    param.units,
+                    lambda p, after=after: re.match(rf"(?:[a-z][\w-]*\s+){{1,2}}{phrase_pattern(p).pattern}", after),
+                ),
+                (
+                    1,
+                    names,
+                    lambda p, before=before: re.search(
+                        rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$", before
+                    ),
+                ),
+            )
+            for rank, phrases, matcher in tests:
+                if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
+                    best = (rank, param)
+        if best is not None:
+            args[best[1].name] = _typed(best[1], number)
+            taken.add(best[1].name)
+        elif not m.group(3) and not _MEASURE.match(after) and number not in bound:
+            bare.append(number)
+    fallback = info.params.get(vocab.bare_number)
+    if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
+        args[fallback.name] = _typed(fallback, bare[0])
+
+
+def _positions(vocab: WorkflowVocabularySpec, numeric: list[ParamInfo], text: str) -> str:
+    """ "the third episode" / "the 3rd demo" -> "episode 2" for a parameter counting from 0."""
+    ordinals = "|".join(sorted(map(re.escape, vocab.ordinals), key=len, reverse=True))
+    for param in (p for p in numeric if p.name in vocab.from_zero):
+        names = "|".join(phrase_pattern(n).pattern for n in param.names)
+
+        def index(m: re.Match[str], name: str = param.names[0]) -> str:
+            said = m.group(1)
+            position = int(said[:-2]) if said[0].isdigit() else vocab.ordinals[said]
+            return f"{name} {position - 1}"
+
+        text = re.sub(rf"(?<![\w-])(\d+(?:st|nd|rd|th)|{ordinals})\s+(?:{names})(?![\w-])", index, text)
+    return text
