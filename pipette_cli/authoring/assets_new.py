@@ -15,7 +15,7 @@ import re
 import shutil
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -67,6 +67,60 @@ FAMILIES: dict[str, tuple[str, str, str, tuple[float, float], tuple[str, ...]]] 
     "petri_dish": ("petri_dish", "petri_dish", "diameter_mm", (20, 250), ("petri dish", "culture dish", "dish")),
     "test_tube": ("tube", "test_tube", "diameter_mm", (6, 40), ("test tube", "glass tube", "culture tube")),
 }
+REQUEST_WORDS = frozenset(
+    [
+        "make",
+        "create",
+        "generate",
+        "model",
+        "add",
+        "build",
+        "design",
+        "draw",
+        "need",
+        "want",
+        "give",
+        "new",
+        "asset",
+        "assets",
+        "labware",
+        "lab",
+        "ware",
+        "piece",
+        "of",
+        "a",
+        "an",
+        "the",
+        "one",
+        "please",
+        "me",
+        "i",
+        "we",
+        "us",
+        "for",
+    ]
+)
+"""Words of an asset request that ask for nothing more than the asset itself."""
+UNITS = frozenset(
+    [
+        "ml",
+        "millilitre",
+        "millilitres",
+        "milliliter",
+        "milliliters",
+        "l",
+        "litre",
+        "litres",
+        "liter",
+        "liters",
+        "mm",
+        "cm",
+        "x",
+        "by",
+    ]
+)
+"""Units of the sizes a generator takes (used where a number of the draft is)."""
+
 PROMPT = """You choose a parametric generator for a lab-ware asset described in English.
 Reply with one JSON object: {{"generator": one of {generators}, "volume_ml": number or null,
 "diameter_mm": number or null, "length_mm": number or null}}.
@@ -133,7 +187,7 @@ def parse_asset(description: str) -> AssetDraftSpec:
     if found is None:
         raise DraftError(
             f"no parametric generator for {description!r}; generators: {', '.join(FAMILIES)} "
-            "(e.g. 'a 300 mL beaker', 'a 120 mm petri dish', 'a 12 x 75 mm test tube')"
+            f"(e.g. 'a 300 mL beaker', 'a 120 mm petri dish', 'a 12 x 75 mm test tube'){_library_has(description)}"
         )
     values: dict[str, float] = {}
     if m := re.search(r"(\d+(?:\.\d+)?)\s*(?:x|by)\s*(\d+(?:\.\d+)?)\s*mm\b", text):
@@ -152,6 +206,48 @@ def parse_asset(description: str) -> AssetDraftSpec:
         raise DraftError(
             f"cannot make {description!r}: {exc.errors()[0]['msg'].removeprefix('Value error, ') if hasattr(exc, 'errors') else exc}"
         ) from None
+
+
+def _library_has(description: str) -> str:
+    """ "; the library has: well_plate_384, ..." for the kinds the description names, else ""."""
+    from pipette_cli.language.assets import load_vocabulary  # deferred: the asset vocabulary
+
+    vocab = load_vocabulary()
+    ids = list(dict.fromkeys(a for _, kind in vocab.names_in(description.lower()) for a in vocab.members(kind)))
+    if not ids:
+        return ""
+    sizes = set(re.findall(r"\d+", description))  # "a 384-well plate" -> well_plate_384 first
+    ids.sort(key=lambda a: not sizes & set(re.findall(r"\d+", a)))
+    more = f" and {len(ids) - 6} more" if len(ids) > 6 else ""
+    return f"; the library has: {', '.join(ids[:6])}{more} (`pipette assets show ID`)"
+
+
+def unused_words(description: str, spec: AssetDraftSpec, made: str = "") -> list[str]:
+    """The words of ``description`` that ``spec`` does not explain, in order: every word but the
+    family's names, the numbers of its sizes (in mL, L, mm or cm) with their units, the words of
+    ``made`` (the made asset's own description: "glass", "blue screw cap") and words that only ask
+    for an asset (the same check for the offline parser and an LLM's answer)."""
+    from pipette_cli.language.assets import load_vocabulary  # deferred: the asset vocabulary
+
+    words = load_vocabulary().words
+    text = description.lower().replace("×", " x ").replace("µ", "u")
+    text = re.sub(r"(\d),(\d{3})\b", r"\1\2", text)
+    text = re.sub(r"(\d)([a-z])", r"\1 \2", text)  # "500ml" -> "500 ml"
+    for phrase in sorted([*words.polite, *FAMILIES[spec.generator][4]], key=len, reverse=True):
+        text = re.sub(rf"\b{re.escape(phrase)}\b", " ", text)
+    sizes = [v for v in (spec.volume_ml, spec.diameter_mm, spec.length_mm) if v is not None]
+    said = {v * f for v in sizes for f in (1.0, 0.001, 0.1)}  # mL or L, mm or cm
+    known = REQUEST_WORDS | set(words.articles) | set(words.fillers) | set(re.findall(r"[a-z]+", made.lower()))
+    tokens = re.findall(r"\d+(?:\.\d+)?|[a-z][a-z'-]*", text)
+    numbers = {t for t in tokens if t[0].isdigit() and any(math.isclose(float(t), v) for v in said)}
+    return [
+        t
+        for t in tokens
+        if t not in known
+        and t not in numbers
+        and not (t in UNITS and numbers)
+        and not (t[0].isdigit() and t in numbers)
+    ]
 
 
 def _references(function_name: str) -> list[tuple[str, partial[AssetDef]]]:
@@ -216,6 +312,10 @@ class DraftedAsset:
     existing: str | None
     dimensions: list[float]
     mass: float
+    description: str = ""
+    """The asset's own description (its material, cap, ...)."""
+    not_understood: list[str] = field(default_factory=list)
+    """Words of the description the draft does not use (see :func:`unused_words`)."""
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -226,6 +326,7 @@ class DraftedAsset:
             "scaled_from": self.reference,
             "dimensions_m": self.dimensions,
             "mass_kg": round(self.mass, 4),
+            "not_understood": self.not_understood,
         }
 
 
@@ -262,22 +363,26 @@ def make_asset(spec: AssetDraftSpec, asset_id: str | None = None) -> DraftedAsse
         existing,
         [round(float(v), 4) for v in (hi - lo)],
         asset.total_mass(),
+        asset.description,
     )
 
 
 def draft_asset(description: str, backend: AuthoringBackend, *, asset_id: str | None = None) -> DraftedAsset:
-    """Description -> validated asset, with the offline parser or an LLM backend."""
+    """Description -> validated asset, with the offline parser or an LLM backend; the words of the
+    description it does not use are listed in ``not_understood``."""
     if backend.name == "offline":
-        return make_asset(parse_asset(description), asset_id)
-    system = PROMPT.format(
-        generators=", ".join(FAMILIES), volume=", ".join(g for g, f in FAMILIES.items() if f[2] == "volume_ml")
-    )
-    return backend.complete(
-        system=system,
-        user=f"Asset description: {description}",
-        schema=AssetDraftSpec,
-        accept=lambda spec: make_asset(spec, asset_id),
-    )
+        drafted = make_asset(parse_asset(description), asset_id)
+    else:
+        system = PROMPT.format(
+            generators=", ".join(FAMILIES), volume=", ".join(g for g, f in FAMILIES.items() if f[2] == "volume_ml")
+        )
+        drafted = backend.complete(
+            system=system,
+            user=f"Asset description: {description}",
+            schema=AssetDraftSpec,
+            accept=lambda spec: make_asset(spec, asset_id),
+        )
+    return replace(drafted, not_understood=unused_words(description, drafted.spec, drafted.description))
 
 
 def default_asset_root() -> Path:

@@ -177,11 +177,13 @@ def new_asset(
     # deferred: pxr.Usd, httpx (~0.25 s)
     from pipette_cli.authoring.assets_new import default_asset_root, draft_asset, write_asset
     from pipette_cli.authoring.backends import make_backend
+    from pipette_cli.taskgen.plan import PlanError
 
     engine = make_backend(backend, model=model, base_url=base_url)
     drafted = draft_asset(description, engine, asset_id=asset_id)
     root = out or default_asset_root()
     summary = drafted.summary()
+    unread = not_understood_line(drafted.not_understood, "asset")
     if drafted.existing and not asset_id:
         if as_json:
             print_json({"existing": drafted.existing, **summary})
@@ -189,11 +191,17 @@ def new_asset(
             f"the library already has this asset: {drafted.existing} "
             f"({drafted.spec.generator}, {drafted.spec.describe()}); pass --id to write a copy"
         )
+        if unread:
+            err_console.print(f"[yellow]{escape(unread)}[/yellow]", soft_wrap=True)
         return
     if not as_json:
         out_console.print(
             f"{drafted.asset_id}: {drafted.spec.generator} {drafted.spec.describe()} -> {root}/{drafted.category}/"
         )
+    if unread:
+        err_console.print(f"[yellow]{escape(unread)}[/yellow]", soft_wrap=True)
+    if drafted.not_understood and yes:
+        raise PlanError(refused_under_yes(drafted.not_understood, "write"))
     if not _confirm(f"write {drafted.asset_id} under {root}?", yes):
         err_console.print("not written")
         raise typer.Exit(1)

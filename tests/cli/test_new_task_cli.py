@@ -182,9 +182,21 @@ def test_assets_new_knows_what_the_library_already_has(run_cli, tmp_path) -> Non
     assert not list(tmp_path.iterdir())
 
 
+def test_assets_new_says_which_words_it_did_not_use_and_writes_nothing_under_yes(run_cli, tmp_path) -> None:
+    result = run_cli("assets", "new", "a tall 300 mL Erlenmeyer flask", "--out", tmp_path, "--yes")
+    assert result.exit_code == 1 and "not understood: 'tall'" in result.stderr and "not written" in result.stderr
+    assert not list(tmp_path.iterdir())
+    existing = run_cli("assets", "new", "a tall 250 mL Erlenmeyer flask", "--out", tmp_path, "--json")
+    assert json.loads(existing.stdout)["not_understood"] == ["tall"] and "not understood: 'tall'" in existing.stderr
+
+
 @pytest.mark.parametrize(
     ("text", "message"),
-    [("a flux capacitor", "no parametric generator"), ("a 90000 mL beaker", "less than or equal to 5000")],
+    [
+        ("a flux capacitor", "no parametric generator"),
+        ("a 90000 mL beaker", "less than or equal to 5000"),
+        ("a 384-well plate", "the library has: well_plate_384"),
+    ],
 )
 def test_assets_new_rejects_what_it_cannot_make(run_cli, tmp_path, text, message) -> None:
     result = run_cli("assets", "new", text, "--out", tmp_path, "--yes")
