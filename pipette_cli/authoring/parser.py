@@ -141,8 +141,8 @@ class Builder:
             if not self.steps or not direct:
                 raise PlanError(f"no action in '{clause.text}': start with a verb such as {ACTION_WORDS}")
             action = self.steps[-1].action  # "put the tube in the rack, the vial in the box"
-        if action == "run":
-            self._run(clause, direct)
+        if action in ("run", "tare"):
+            self._run(clause, direct, action)
             return
         before = self.steps[-1] if self.steps else None
         if (
@@ -196,9 +196,10 @@ class Builder:
         mention = Mention(m.start, m.end, kind, m.phrase, window_start=m.window_start, part="lid")
         return ("close" if action in ("place", "close") else "open"), mention
 
-    def _run(self, clause: Clause, direct: list[Mention]) -> None:
-        """An instrument's run ("start the spin", "run the centrifuge", "spin the tube in it"): the
-        instrument named, or whose run is named, or the one the item went into."""
+    def _run(self, clause: Clause, direct: list[Mention], action: str = "run") -> None:
+        """An instrument's run ("start the spin", "run the centrifuge", "spin the tube in it"), or a
+        tare ("tare the balance", "hit the tare button"): the instrument named, or whose run is
+        named, or the one the item went into."""
         places = [m for m in clause.mentions if not m.is_bench and m.prep in ("dest", "of")]
         named = [self.obj(m, clause, "instrument", []) for m in [*direct, *places]]
         instruments = [o for o in named if self._static(o)]
@@ -208,10 +209,10 @@ class Builder:
             instrument = self._last_place_of(items[0])
         if instrument is None:
             instrument = self.pronoun("instrument", clause)
-        for item in items:
+        for item in items if action == "run" else []:
             if self._last_place_of(item) is not instrument:
                 self.steps.append(RawStep("place", item, instrument))  # "spin the tube in the centrifuge"
-        self.steps.append(RawStep("run", instrument))
+        self.steps.append(RawStep(action, instrument))
 
     def _hatch(
         self, action: str, clause: Clause, direct: list[Mention], hatch: Part | None, part_name: str | None = None

@@ -12,7 +12,7 @@ from pipette_cli.authoring.clause import Clause
 from pipette_cli.language.assets import Vocabulary
 from pipette_cli.taskgen.plan import PlanError
 
-ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over, start"
+ACTION_WORDS = "pick up, place, put, insert, remove, take out, open, close, press, hold over, start, tare"
 
 
 def refuse_unsupported(clauses: list[Clause], vocab: Vocabulary) -> None:

@@ -29,7 +29,7 @@ from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_spec
 
 VOCABULARY_FILE = "vocabulary.yaml"
-ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position", "run")
+ACTIONS = ("pick", "place", "remove", "open", "close", "press", "position", "run", "tare")
 Phrase = str
 Relation = Literal["next_to", "left_of", "right_of", "behind", "in_front_of"]
 """Where a placement goes relative to its target, as seen from the robot (left is its left)."""
@@ -71,7 +71,7 @@ class VocabularySpec(Spec):
     actions: dict[str, list[Phrase]]
     implied_targets: dict[Phrase, str] = {}
     runs: list[Phrase] = []
-    run_buttons: list[Phrase] = []
+    buttons: dict[str, list[Phrase]] = {}
     parts: dict[str, list[Phrase]]
     relations: dict[Relation, list[Phrase]]
     prepositions: PrepositionsSpec

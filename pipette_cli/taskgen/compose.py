@@ -36,6 +36,7 @@ CATEGORY = {
     "close": "hatch_control",
     "press": "hatch_control",
     "run": "other",
+    "tare": "other",
 }
 
 

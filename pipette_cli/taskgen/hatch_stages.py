@@ -7,7 +7,7 @@ from __future__ import annotations
 from pipette_cli.specs import evaluators as ev
 from pipette_cli.specs import expert as sk
 from pipette_cli.specs.base import BoundSpec
-from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, RunSpec
+from pipette_cli.specs.mechanisms import ClosureSpec, InstrumentSpec, RunSpec, ScaleSpec
 from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, measure_asset, r
 from pipette_cli.taskgen.motors import SHUT_TOLERANCE, motor_button, motorised, shut_bound
 from pipette_cli.taskgen.plan import PlanError, PlanStepSpec
@@ -123,6 +123,19 @@ class HatchStages(StageBase):
             "values": f"ran at least {RAN_S:g} s with its {joint.name.split('_')[0] if joint else 'parts'} shut"
         }
         program: list[sk.StepSpec] = [sk.PressSpec(button=f"{name}/start_button"), sk.WaitSpec(seconds=RAN_S + 1.0)]
+        return Stage(step, criterion, program, comments, [name], instruments=[instrument])
+
+    def _tare(self, step: PlanStepSpec) -> Stage:
+        """Press the tare button of a balance: its reading is zero after (an empty pan, or a container on it)."""
+        name = step.object
+        geom = measure_asset(self.placed[name].asset)
+        if "tare_button" not in geom.sites:
+            raise PlanError(f"the {self.human(name)} has no tare button")
+        instrument = InstrumentSpec(name=name, scale=ScaleSpec(pan=f"{name}/pan", tare_button=f"{name}/tare_button"))
+        values = {"tared": BoundSpec(min=1.0), "mass_g": BoundSpec(min=-0.5, max=0.5)}
+        criterion = ev.InstrumentStateSpec(mechanism=name, values=values, timeout_s=self.timeout(10))
+        comments = {"values": "tared at least once, reading within 0.5 g of zero"}
+        program: list[sk.StepSpec] = [sk.PressSpec(button=f"{name}/tare_button"), sk.WaitSpec(seconds=1.0)]
         return Stage(step, criterion, program, comments, [name], instruments=[instrument])
 
     def _lift_off_lid(self, step: PlanStepSpec, geom: AssetGeometry, opening: bool) -> Stage:

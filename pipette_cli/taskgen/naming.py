@@ -65,6 +65,7 @@ def step_words(step: PlanStepSpec, names: dict[str, str], checked: CheckedPlan) 
         "close": [("Close", None), (names[obj], obj)] + ([(part, None)] if part else []),
         "press": [("Press", None), (names[obj], obj), ("Button", None)],
         "run": [("Run", None), (names[obj], obj)],
+        "tare": [("Tare", None), (names[obj], obj)],
     }
     return table[step.action]
 
@@ -156,6 +157,7 @@ def step_name(step: PlanStepSpec, checked: CheckedPlan) -> str:
         "close": lambda: f"close the {obj} {part}".strip(),
         "press": lambda: f"press the {obj} button",
         "run": lambda: f"start the {obj}",
+        "tare": lambda: f"tare the {obj}",
     }[step.action]()
 
 

@@ -22,8 +22,8 @@ from pipette_cli.llm import strict_json_schema
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.robot import robot_names
 
-Action = Literal["pick", "place", "remove", "open", "close", "press", "position", "run"]
-INSTRUMENT_ACTIONS = ("open", "close", "press", "run")
+Action = Literal["pick", "place", "remove", "open", "close", "press", "position", "run", "tare"]
+INSTRUMENT_ACTIONS = ("open", "close", "press", "run", "tare")
 """Actions on an instrument (its lid, door, drawer, buttons); the others move an object."""
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
 Part = Literal[

@@ -289,8 +289,8 @@ class SceneBuilder:
             elif step.action == "press":
                 keys.append(geom.sites["button"][:2])
                 pressed = True
-            elif step.action == "run":
-                keys.append(geom.sites["start_button"][:2])
+            elif step.action in ("run", "tare"):  # its start or tare button
+                keys.append(geom.sites[f"{'start' if step.action == 'run' else 'tare'}_button"][:2])
                 pressed = True
             else:
                 site = receiving_site(geom, step.part if name == step.target else None, self.checked.asset(step.object))

@@ -116,6 +116,8 @@ def _check_step(
             f"{where}: the {human} has no start button: running instruments (heating, shaking, timed "
             "programs, knobs) is not simulated beyond a start button's run"
         )
+    if step.action == "tare" and "tare_button" not in info.semantics.get("sites", []):
+        problems.append(f"{where}: impossible request: the {human} has no tare button (only a balance is tared)")
     if step.relation is not None and step.action != "place":
         problems.append(f"{where}: a relation ({step.relation}) only says where a placement goes")
     return problems, limits

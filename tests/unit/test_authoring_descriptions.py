@@ -44,6 +44,7 @@ CRITERIA = {
     "close": {"joint_threshold", "region_hold"},
     "press": {"mechanism_triggered", "joint_threshold"},
     "run": {"instrument_state"},
+    "tare": {"instrument_state"},
 }
 
 
