@@ -21,6 +21,7 @@ from pipette_cli.authoring.text import (
     has_negation,
     normalise,
     split_steps,
+    subordinates,
 )
 from pipette_cli.language.assets import Vocabulary
 from pipette_cli.language.lexicon import robot_mentions
@@ -473,15 +474,21 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     if len(robots) > 1:
         raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
     reader = ClauseReader(vocab)
-    clauses = [reader.read(part) for part in split_steps(text, reader.is_verb, vocab)]
+    parts, earlier = subordinates(split_steps(text, reader.is_verb, vocab), reader.is_verb)
+    clauses = [reader.read(part) for part in parts]
     if not clauses:
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     refuse_unsupported(clauses, vocab)
     builder = Builder(vocab)
     unknown = refuse_unknown(clauses, vocab)
     try:
-        for clause in clauses:
+        starts: list[int] = []
+        for i, clause in enumerate(clauses):
+            starts.append(len(builder.steps))
             builder.add(clause)
+            if i in earlier:  # "start the cycler after closing its lid": read after the main clause, done before it
+                main, sub = starts[earlier[i]], starts[i]
+                builder.steps[main:] = builder.steps[sub:] + builder.steps[main:sub]
         plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
     except PlanError as exc:
         if not unknown:

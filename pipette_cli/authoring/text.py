@@ -148,3 +148,35 @@ def split_steps(text: str, reader_is_verb: Callable[[list[Token], int], bool], v
 
     steps = [tokenise(clause.text, vocab) for clause in split_clauses(text, separators, starts)]
     return [s for s in steps if any(t.kind == "word" for t in s)]
+
+
+SUBORDINATORS = {"after": True, "before": False}
+"""A word that opens a step inside another ("..., after closing its lid"): True when that step is
+done first."""
+
+
+def subordinates(
+    steps: list[list[Token]], is_verb: Callable[[list[Token], int], bool]
+) -> tuple[list[list[Token]], dict[int, int]]:
+    """Steps with "after/before + verb" split off their main step ("start the thermal cycler after
+    closing its lid" -> "start the thermal cycler", "closing its lid"), in the order they are read
+    (a pronoun in the subordinate step refers to the main step's object), and for each subordinate
+    step done first, the index of the main step it goes before."""
+    out: list[list[Token]] = []
+    first: dict[int, int] = {}
+    for tokens in steps:
+        k = next(
+            (
+                k
+                for k in range(1, len(tokens) - 1)
+                if tokens[k].text in SUBORDINATORS and tokens[k].kind == "word" and is_verb(tokens, k + 1)
+            ),
+            None,
+        )
+        if k is None:
+            out.append(tokens)
+            continue
+        out += [tokens[:k], tokens[k + 1 :]]
+        if SUBORDINATORS[tokens[k].text]:
+            first[len(out) - 1] = len(out) - 2
+    return out, first
