@@ -23,7 +23,7 @@ from pipette_cli.agent.catalog import (
     Unsupported,
     is_empty,
 )
-from pipette_cli.agent.clauses import RECIPE_PREFIX, Intents, split_clauses
+from pipette_cli.agent.clauses import RECIPE_PREFIX, Clause, Intents, split_clauses
 from pipette_cli.agent.mentions import SAVE, assign_paths
 from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
@@ -197,7 +197,7 @@ class OfflineAgent:
         words = words_of(text).split()
         return len(words) == 2 and words[0] in self.vocab.done_before
 
-    def _continues(self, info: CommandInfo, clause: Any, args: dict[str, Any], steps: list[StepSpec]) -> bool:
+    def _continues(self, info: CommandInfo, clause: Clause, args: dict[str, Any], steps: list[StepSpec]) -> bool:
         """A clause after "," / "and" / a sentence end that asks for the command of the step before
         and only gives values that step left open ("what does X look like? save the picture to
         y.png") completes that step."""
