@@ -129,8 +129,11 @@ class OfflineAgent:
             for value in both[1] if both else [None]:  # "convert both the raw and the augmented data"
                 steps.append(StepSpec(command=command, args={**args, both[0]: value} if both else args))
         if not steps:
+            filler = {w.lower() for w in self.vocab.filler}
+            said = [w for w in words_of(find_mentions(text, self.registry.ids()).words).split() if w not in filler]
+            asked = f" (nothing in {', '.join(map(repr, said[:6]))} names a command)" if said else ""
             raise AgentError(
-                "cannot tell what to run from this request; say e.g. 'list the tasks', "
+                f"cannot tell what to run from this request{asked}; say e.g. 'list the tasks', "
                 "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"
             )
         return PlanSpec(steps=steps), problems
