@@ -5,8 +5,10 @@ objects as the asset library names them (1.0; "falcon tube" is a conical tube), 
 tags and robot (0.7), and its instruction's words (0.4). A request's words are stemmed and
 mapped through the vocabulary's synonyms ("shut" -> close, "scale" -> balance); each shared
 term adds ``weight x idf`` (terms many tasks share count less), and a small bonus for how much
-of the task's name the request covers breaks ties toward the task named most completely. An
-explicit id or name always wins; equal best scores are reported as ambiguous, never guessed.
+of the task's name (as written) the request covers breaks ties toward the task named most
+completely. A task doing the opposite of the request's action (vocabulary ``tasks.opposites``) is
+never chosen. An explicit id or name always wins; equal best scores are reported as ambiguous,
+never guessed.
 """
 
 from __future__ import annotations
@@ -192,9 +194,8 @@ class TaskIndex:
             if not any(terms[t] > WEIGHTS["instruction"] for t in shared - self._actions):
                 continue  # an object, tag or robot must match, not only an action or the instruction
             score = sum(terms[t] * self._idf[t] for t in shared)
-            names = (
-                set(self.name_words[tid]) - self._stop
-            )  # as written: "balance" names PlaceTubeOnBalance, not TareAndWeigh
+            # the name as written: "balance" names PlaceTubeOnBalance, not TareAndWeigh ("weigh")
+            names = set(self.name_words[tid]) - self._stop
             run = _longest_run(self.name_words[tid], request_words)
             covered = len(names & said) / max(len(names), 1)
             out[tid] = score + 0.2 * covered + 0.3 * max(run - 1, 0)
@@ -224,8 +225,8 @@ class TaskIndex:
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
 
     def _opposes(self, task: str, actions: set[str]) -> bool:
-        """``task`` (its name, tags or instruction) does the opposite of the request's ``actions`` and holds none
-        of them (vocabulary ``tasks.opposites``: close for open, remove for place)."""
+        """``task`` (its name, tags or instruction) does the opposite of the request's ``actions``
+        and holds none of them (vocabulary ``tasks.opposites``: close for open, remove for place)."""
         if not actions or actions & self.terms[task].keys():
             return False
         undo = {stem(b) for a, b in self.vocab.tasks.opposites.items() if stem(a) in actions}
