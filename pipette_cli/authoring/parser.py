@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
 from pipette_cli.authoring.refusals import ACTION_WORDS, refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.text import (
+    CONDITIONS,
     extract_thresholds,
     has_negation,
     normalise,
@@ -474,13 +475,14 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     if len(robots) > 1:
         raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
     reader = ClauseReader(vocab)
-    parts, earlier = subordinates(split_steps(text, reader.is_verb, vocab), reader.is_verb)
+    parts, earlier, conditions = subordinates(split_steps(text, reader.is_verb, vocab), reader.is_verb)
     clauses = [reader.read(part) for part in parts]
     if not clauses:
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     refuse_unsupported(clauses, vocab)
     builder = Builder(vocab)
-    unknown = refuse_unknown(clauses, vocab)
+    said = [w for w in conditions if w in CONDITIONS or w not in {*words.articles, *words.fillers}]
+    unknown = refuse_unknown(clauses, vocab) + said  # a condition's opening word and what it says
     try:
         starts: list[int] = []
         for i, clause in enumerate(clauses):

@@ -153,30 +153,34 @@ def split_steps(text: str, reader_is_verb: Callable[[list[Token], int], bool], v
 SUBORDINATORS = {"after": True, "before": False}
 """A word that opens a step inside another ("..., after closing its lid"): True when that step is
 done first."""
+CONDITIONS = ("once", "when", "until", "while", "after", "before")
+"""Words that open a condition rather than a step ("... once the spin finishes"): a task has no
+such conditions, so their words are listed as not understood, never read as objects."""
 
 
 def subordinates(
     steps: list[list[Token]], is_verb: Callable[[list[Token], int], bool]
-) -> tuple[list[list[Token]], dict[int, int]]:
+) -> tuple[list[list[Token]], dict[int, int], list[str]]:
     """Steps with "after/before + verb" split off their main step ("start the thermal cycler after
     closing its lid" -> "start the thermal cycler", "closing its lid"), in the order they are read
-    (a pronoun in the subordinate step refers to the main step's object), and for each subordinate
-    step done first, the index of the main step it goes before."""
+    (a pronoun in the subordinate step refers to the main step's object); for each subordinate
+    step done first, the index of the main step it goes before; and the words of conditions cut
+    off their step ("remove the tube once the spin finishes": 'once', 'spin', 'finishes')."""
     out: list[list[Token]] = []
     first: dict[int, int] = {}
+    conditions: list[str] = []
     for tokens in steps:
         k = next(
-            (
-                k
-                for k in range(1, len(tokens) - 1)
-                if tokens[k].text in SUBORDINATORS and tokens[k].kind == "word" and is_verb(tokens, k + 1)
-            ),
+            (k for k in range(1, len(tokens) - 1) if tokens[k].kind == "word" and tokens[k].text in CONDITIONS),
             None,
         )
         if k is None:
             out.append(tokens)
-            continue
-        out += [tokens[:k], tokens[k + 1 :]]
-        if SUBORDINATORS[tokens[k].text]:
-            first[len(out) - 1] = len(out) - 2
-    return out, first
+        elif tokens[k].text in SUBORDINATORS and is_verb(tokens, k + 1):
+            out += [tokens[:k], tokens[k + 1 :]]
+            if SUBORDINATORS[tokens[k].text]:
+                first[len(out) - 1] = len(out) - 2
+        else:
+            out.append(tokens[:k])
+            conditions += [t.text for t in tokens[k:] if t.kind != "punct"]
+    return out, first, conditions
