@@ -206,6 +206,8 @@ class OfflineAgent:
         y.png") completes that step."""
         if not steps or clause.after == "strong" or steps[-1].command != info.name or not args:
             return False
+        if set(words_of(clause.text).split()) & set(self.vocab.repeats):  # "render it again at 256 px": another
+            return False
         task = info.task_param()
         before = steps[-1].args
         if task is not None and task.name in args and args[task.name] != before.get(task.name):
