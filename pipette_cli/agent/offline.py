@@ -334,6 +334,7 @@ class OfflineAgent:
     def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
         """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
         the help lists only next to the option's name ("wrist camera")."""
+        corrected = _CORRECTION.search(words) is not None
         for param in info.params.values():
             if not is_empty(args.get(param.name)) or param.kind in ("bool", "path", "task"):
                 continue
@@ -360,10 +361,10 @@ class OfflineAgent:
                     )
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
-            if found and param.comma_list and not _CORRECTION.search(words):  # "object pose and camera shake"
+            if found and param.comma_list and not corrected:  # "object pose and camera shake"
                 args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
             elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
-                args[param.name] = max(found)[2] if _CORRECTION.search(words) else min(found)[2]
+                args[param.name] = max(found)[2] if corrected else min(found)[2]
 
     def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
         """A parameter the clause gives two values joined by "and" ("the raw and the augmented

@@ -117,11 +117,11 @@ class WorkflowVocabularySpec(Spec):
     each: list[str] = Field(default_factory=list)
     """Words that mean every earlier output of a kind ("convert both")."""
     opening: list[str] = Field(default_factory=list)
+    """Words that only open a request ("first, ...")."""
     repeats: list[str] = Field(default_factory=list)
     """Words that ask for the command once more ("again", "another"): such a clause is a step of its own."""
     done_before: list[str] = Field(default_factory=list)
     """Words that, with a command's cue alone ("after training"), say what was done before."""
-    """Words that only open a request ("first, ...")."""
     corrections: list[str] = Field(default_factory=list)
     """Words that take back what came before ("actually", "no -")."""
     filler: list[str] = Field(default_factory=list)

@@ -240,14 +240,7 @@ def unused_words(description: str, spec: AssetDraftSpec, made: str = "") -> list
     known = REQUEST_WORDS | set(words.articles) | set(words.fillers) | set(re.findall(r"[a-z]+", made.lower()))
     tokens = re.findall(r"\d+(?:\.\d+)?|[a-z][a-z'-]*", text)
     numbers = {t for t in tokens if t[0].isdigit() and any(math.isclose(float(t), v) for v in said)}
-    return [
-        t
-        for t in tokens
-        if t not in known
-        and t not in numbers
-        and not (t in UNITS and numbers)
-        and not (t[0].isdigit() and t in numbers)
-    ]
+    return [t for t in tokens if t not in known and t not in numbers and not (t in UNITS and numbers)]
 
 
 def _references(function_name: str) -> list[tuple[str, partial[AssetDef]]]:

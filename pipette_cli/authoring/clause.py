@@ -116,9 +116,9 @@ class ClauseReader:
         self.fillers = set(words.fillers)
         self.pronouns = sorted(words.pronouns, key=lambda p: -len(p.split()))
         self.runs = sorted(words.runs, key=lambda p: -len(p.split()))
-        self.buttons = sorted(
-            ((p, action) for action, ps in words.buttons.items() for p in ps), key=lambda pa: -len(pa[0].split())
-        )
+        self.buttons = {p: action for action, ps in words.buttons.items() for p in ps}
+        """A button's name -> the action its press is ("start button" -> run)."""
+        self.button_names = sorted(self.buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
 
     # ------------------------------------------------------------------ verbs
@@ -219,9 +219,9 @@ class ClauseReader:
                 found = ("bench", bench[0], bench[1])
             if found is None and pronoun and not part:
                 found = ("pronoun", pronoun[0], pronoun[1])
-            button = first_match(tokens, i, [p for p, _ in self.buttons]) if found is None else None
-            if button is not None and clause.action in ("press", *dict(self.buttons).values()):
-                clause.action = dict(self.buttons)[button[0]]  # "press the start button": a run, of the
+            button = first_match(tokens, i, self.button_names) if found is None else None
+            if button is not None and clause.action in ("press", *self.buttons.values()):
+                clause.action = self.buttons[button[0]]  # "press the start button": a run, of the
                 for k in range(i, i + button[1]):  # instrument named with it or the one named before
                     tokens[k].used = True
                 i += button[1]

@@ -25,6 +25,8 @@ from pipette_cli.specs.robot import robot_names
 Action = Literal["pick", "place", "remove", "open", "close", "press", "position", "run", "tare"]
 INSTRUMENT_ACTIONS = ("open", "close", "press", "run", "tare")
 """Actions on an instrument (its lid, door, drawer, buttons); the others move an object."""
+BUTTON_SITES = {"run": "start_button", "tare": "tare_button"}
+"""The asset site an action presses where the action is a button's (a run, a tare)."""
 Role = Literal["item", "destination", "source", "instrument", "target", "distractor"]
 Part = Literal[
     "lid",

@@ -24,7 +24,7 @@ from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.taskgen.layout import BESIDE_GAP, Footprint, Layout, PlacedObject
 from pipette_cli.taskgen.measure import AssetGeometry, JointInfo, holds_open, measure_asset, r, stands_alone
 from pipette_cli.taskgen.motors import release_angle
-from pipette_cli.taskgen.plan import INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
+from pipette_cli.taskgen.plan import BUTTON_SITES, INSTRUMENT_ACTIONS, PlanError, PlanStepSpec
 from pipette_cli.taskgen.resolve import choose_pair, holders_that_fit
 from pipette_cli.taskgen.validate import CheckedPlan, lid_beside, lid_points, separate_lid
 
@@ -289,8 +289,8 @@ class SceneBuilder:
             elif step.action == "press":
                 keys.append(geom.sites["button"][:2])
                 pressed = True
-            elif step.action in ("run", "tare"):  # its start or tare button
-                keys.append(geom.sites[f"{'start' if step.action == 'run' else 'tare'}_button"][:2])
+            elif step.action in BUTTON_SITES:  # its start or tare button
+                keys.append(geom.sites[BUTTON_SITES[step.action]][:2])
                 pressed = True
             else:
                 site = receiving_site(geom, step.part if name == step.target else None, self.checked.asset(step.object))
