@@ -211,9 +211,9 @@ class Builder:
             instrument = self._last_place_of(items[0])
         if instrument is None:
             instrument = self.pronoun("instrument", clause)
-        for item in items if action == "run" else []:
+        for item in items:  # "spin the tube in the centrifuge", "tare the beaker on the balance"
             if self._last_place_of(item) is not instrument:
-                self.steps.append(RawStep("place", item, instrument))  # "spin the tube in the centrifuge"
+                self.steps.append(RawStep("place", item, instrument))
         self.steps.append(RawStep(action, instrument))
 
     def _hatch(
