@@ -46,14 +46,15 @@ class Intents:
         self.names = task_names
         commands = set(catalog.commands)
         filler = set(vocab.filler)
-        self.option_words = {  # an option's own words and the words of its multi-word names ("render profile")
-            name: {
-                w
-                for p in info.params.values()
-                for n in (p.name.replace("_", " "), *(n for n in p.names if " " in n))
-                for w in n.split()
-                if w not in filler
-            }
+        self.option_names = {  # an option's name and its multi-word names ("render profile"), as phrases
+            name: sorted(
+                {
+                    n
+                    for p in info.params.values()
+                    for n in (p.name.replace("_", " "), *(n for n in p.names if " " in n))
+                    if set(n.split()) - filler
+                }
+            )
             for name, info in catalog.commands.items()
         }
         self.cues = [
@@ -112,6 +113,17 @@ class Intents:
         ]
         return {w for span in spans for w in (span[0], span[-1])}
 
+    def names_option(self, text: str, command: str, previous: str) -> bool:
+        """Whether the words of ``text`` asking for ``command`` belong to the name of an option of
+        ``previous`` said there ("..., with the full render profile": ``--render-profile`` of the
+        collect before, not a ``sim render``; "render it again" names no option)."""
+        cue = self.cue_words(text, command)
+        words = words_of(find_mentions(text, self.names).words)
+        return any(
+            set(name.split()) & cue and phrase_pattern(name).search(words)
+            for name in self.option_names.get(previous, [])
+        )
+
     def best(self, text: str) -> tuple[str | None, int]:
         scores = self.scores(text)
         if not scores:
@@ -143,7 +155,7 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
                 or (
                     score >= WEIGHTS["verbs"]
                     and (piece.after == "sentence" or command != previous)
-                    and not intents.cue_words(piece.text, command) & intents.option_words.get(previous, set())
+                    and not intents.names_option(piece.text, command, previous)
                 )
             )
         )
