@@ -266,7 +266,7 @@ class ClauseReader:
                 if tokens[k].kind == "size":
                     m.sizes.append(tokens[k].text)
                     tokens[k].used = True
-                elif not tokens[k].used:
+                elif not tokens[k].used and not tokens[k].text.isdigit():  # "2 microtubes": a count, listed
                     two = f"{tokens[k].text} {tokens[k + 1].text}" if k + 1 < m.start else ""
                     modifier = self.modifiers.get(two) or self.modifiers.get(tokens[k].text)
                     m.modifiers.append(modifier or tokens[k].text)
@@ -362,7 +362,6 @@ class ClauseReader:
                     token.kind == "word"
                     and token.text not in self.fillers
                     and token.text not in self.articles
-                    and not token.text.isdigit()
                     and token.text not in self.prep_words
                 )
             )
