@@ -26,9 +26,11 @@ from typing import Any
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
 from pipette_cli.agent.clauses import ANSWER_PREFIX
 from pipette_cli.agent.mentions import SAVE_VERBS
+from pipette_cli.agent.numbers import spelled_numbers
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
-from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec
+from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, distributed
+from pipette_cli.language.clauses import LIST_MARK
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import phrase_pattern, words_of
@@ -143,7 +145,8 @@ class Accountant:
     def unused_words(self, request: str, plan: CheckedPlan) -> list[str]:
         """The words of ``request`` that ``plan`` does not explain, in order (see the module docstring)."""
         mentions = find_mentions(request, self.index.registry.ids())
-        words = _Words.of(mentions.words, self.units)
+        said = distributed(LIST_MARK.sub(" ", mentions.words), self.vocab.distributes)  # "1) ...": no words
+        words = _Words.of(said, self.units)
         words.where(lambda t: t in self.filler or not re.search(r"[a-z0-9]", t))
         if mentions.paths:  # "store them in out/x.h5", "write the augmented file to x.h5"
             words.where(lambda t: SAVE_VERB.fullmatch(t) is not None)
@@ -221,7 +224,7 @@ class Accountant:
             for item in value.split(","):
                 self._value(words, param, item.strip())
             return
-        if param.name in TASK_PARAMS and isinstance(value, str):
+        if isinstance(value, str) and (param.name in TASK_PARAMS or value in self.index.terms):
             for task in value.split(","):
                 self._task(words, task.strip())
         elif isinstance(value, bool):
@@ -247,6 +250,14 @@ class Accountant:
             self._choice(words, param, str(value))
 
     def _choice(self, words: _Words, param: ParamInfo, value: str) -> None:
+        value, _, count = value.partition("*")
+        if count:  # --variants object*3: "three object-pose draws (per demo)"
+            self._number(words, float(count))
+            for phrase in self.vocab.per_each:
+                words.phrase(phrase)
+        value, _, index = value.partition(":") if value.partition(":")[0] in param.indexed else (value, "", "")
+        if index:  # "cuda:1"
+            self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
         policy = self.vocab.policies.get(lowered)
@@ -260,7 +271,7 @@ class Accountant:
             words.phrase(phrase)
 
     def _number(self, words: _Words, value: float) -> None:
-        spelled = {w for w, n in self.vocab.numbers.items() if n == value}
+        spelled = {w for w, n in spelled_numbers(self.vocab).items() if n == value}
         for phrase in spelled:
             words.phrase(phrase)
 

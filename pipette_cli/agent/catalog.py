@@ -92,6 +92,11 @@ class ParamInfo:
     def values(self) -> tuple[str, ...]:
         return self.choices or self.hinted
 
+    @property
+    def indexed(self) -> tuple[str, ...]:
+        """Values the help writes with an index ("cuda[:N]"): "cuda:1", "gpu 1" keep theirs."""
+        return tuple(re.findall(r"([\w-]+)\[:N\]", self.help))
+
 
 @dataclass(frozen=True)
 class CommandInfo:
@@ -207,7 +212,8 @@ def _walk(command: Any, path: tuple[str, ...] = ()) -> Iterator[tuple[tuple[str,
             yield (*path, name), sub
 
 
-_HINTED = re.compile(r"^(?:[\w ]+:\s*)?([\w.:-]+(?:\s*\([^)]*\))?(?:,\s*[\w.:-]+(?:\s*\([^)]*\))?)*\s+or\s+[\w.:-]+)")
+_VALUE = r"[\w.:-]+(?:\[:N\])?"
+_HINTED = re.compile(rf"^(?:[\w -]+:\s*)?({_VALUE}(?:\s*\([^)]*\))?(?:,\s*{_VALUE}(?:\s*\([^)]*\))?)*\s+or\s+{_VALUE})")
 
 
 def hinted_values(help_text: str) -> tuple[str, ...]:
@@ -215,7 +221,7 @@ def hinted_values(help_text: str) -> tuple[str, ...]:
     m = _HINTED.match(help_text.strip())
     if not m:
         return ()
-    text = re.sub(r"\([^)]*\)", "", m.group(1))
+    text = re.sub(r"\([^)]*\)|\[:N\]", "", m.group(1))
     return tuple(v.strip().rstrip(".:") for v in re.split(r",|\bor\b", text) if v.strip().rstrip(".:"))
 
 

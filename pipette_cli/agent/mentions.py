@@ -27,14 +27,15 @@ _FROM = re.compile(r"\b(?:from|of)$")
 
 def option_words(param: ParamInfo) -> set[str]:
     """Words that name ``param`` (its name's parts and its vocabulary names, singular), without
-    the generic "path"/"file"/"root"."""
+    the generic "path"/"file"/"root" unless they are its whole name (``convert --root``)."""
     words = set(param.name.split("_")) | {w for name in param.names for w in name.split()}
-    return {singular(w) for w in words} - {"path", "root", "file", "the", "a", "in", "of", "to"}
+    generic = {"path", "root", "file", "the", "a", "in", "of", "to"} - {param.name}
+    return {singular(w) for w in words} - generic
 
 
 def _named(before: str, params: list[ParamInfo]) -> ParamInfo | None:
     """The option among ``params`` that the words before a path name ("the policy in")."""
-    said = {singular(w) for w in re.split(r"[\s-]+", before)[-3:]}
+    said = {singular(w) for t in before.split()[-3:] for w in (t, *t.split("-"))}  # "fine-tune", "tune"
     return next((p for p in params if option_words(p) & said), None)
 
 

@@ -24,16 +24,16 @@ from pipette_cli.agent.catalog import (
     is_empty,
 )
 from pipette_cli.agent.clauses import RECIPE_PREFIX, Clause, Intents, split_clauses
-from pipette_cli.agent.mentions import SAVE, assign_paths
-from pipette_cli.agent.numbers import read_numbers
+from pipette_cli.agent.mentions import SAVE, assign_paths, option_words
+from pipette_cli.agent.numbers import read_numbers, spelled_numbers
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
+from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, distributed, lexicon
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
-from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
 
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
@@ -229,7 +229,7 @@ class OfflineAgent:
         added to ``problems`` (raised at once without it). Numbers in ``bound`` belong to an
         option of another step: never a bare count here."""
         mentions = find_mentions(text, self.registry.ids())
-        words = words_of(mentions.words)
+        words = words_of(distributed(mentions.words, self.vocab.distributes))  # "object and clutter variants"
         args: dict[str, Any] = {}
         named = self._registry_names(info, mentions.words)
         try:
@@ -264,6 +264,10 @@ class OfflineAgent:
             param = next((p for p in info.params.values() if set(p.values()) & set(self.vocab.policies)), None)
             if param is not None:
                 args[param.name] = policy
+        words = self._indexed(info, words, args)
+        copied = self.vocab.task_params.get(info.name)
+        if copied and is_empty(args.get(copied)) and self.index.explicit(mentions.words):
+            args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
         read_numbers(self.vocab, info, words, args, bound)
         self._values(info, words, args)
         self._flags(info, words, args)
@@ -288,6 +292,9 @@ class OfflineAgent:
             return
         unknown = self.index.unknown_name(raw)
         cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
+        for name in info.params:  # "the paper grid" is a value of --variants, not the paper's tasks
+            for phrase in (p for phrases in self.vocab.values.get(name, {}).values() for p in phrases):
+                raw = phrase_pattern(phrase).sub(" ", raw)
         match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
         in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
         if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
@@ -335,11 +342,20 @@ class OfflineAgent:
         """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
         the help lists only next to the option's name ("wrist camera")."""
         corrected = _CORRECTION.search(words) is not None
+        claims = {  # a value's name of several words claims them: "the cpu reproduction suite" is no --device cpu
+            name: [m.span() for p in phrases if " " in p for m in phrase_pattern(p).finditer(words)]
+            for name in info.params
+            for phrases in [[p for ps in self.vocab.values.get(name, {}).values() for p in ps]]
+        }
+        everything = words
         for param in info.params.values():
             if not is_empty(args.get(param.name)) or param.kind in ("bool", "path", "task"):
                 continue
             if set(param.values()) & set(self.vocab.policies):
                 continue  # policies are read by _policy
+            words = everything
+            for start, end in (span for other, spans in claims.items() if other != param.name for span in spans):
+                words = words[:start] + " " * (end - start) + words[end:]
             found: list[tuple[int, int, str]] = []  # (start, -length, value): the longest name at a place wins
             for value, phrases in self.vocab.values.get(param.name, {}).items():
                 m = find_phrase(phrases, words)
@@ -361,10 +377,35 @@ class OfflineAgent:
                     )
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
+            if found and param.comma_list and "NAME*N" in param.help:  # "three object-pose draws": object*3
+                found = [(at, n, self._counted(words, at, value)) for at, n, value in found]
             if found and param.comma_list and not corrected:  # "object pose and camera shake"
                 args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
             elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
                 args[param.name] = max(found)[2] if corrected else min(found)[2]
+
+    def _counted(self, words: str, at: int, value: str) -> str:
+        """``value`` with the count said just before its words ("three object-pose draws" ->
+        ``object*3``), for an option whose help writes ``NAME*N``."""
+        spelled = spelled_numbers(self.vocab)
+        numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
+        m = re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])
+        if m is None:
+            return value
+        count = int(m.group(1)) if m.group(1).isdigit() else spelled[m.group(1)]
+        return f"{value}*{count}" if count > 1 else value
+
+    def _indexed(self, info: CommandInfo, words: str, args: dict[str, Any]) -> str:
+        """A value the help writes with an index ("cuda[:N]") said with one ("cuda:1", "gpu 1"):
+        the value with it, and ``words`` without the index (never a count)."""
+        for param in (p for p in info.params.values() if is_empty(args.get(p.name))):
+            for value in param.indexed:
+                said = "|".join(phrase_pattern(p).pattern for p in [value, *self.vocab.values[param.name][value]])
+                m = re.search(rf"(?<![\w-])(?:{said})\s*:?\s*(\d+)(?![\w.-])", words)
+                if m:
+                    args[param.name] = f"{value}:{m.group(1)}"
+                    words = words[: m.start(1)] + " " * len(m.group(1)) + words[m.end(1) :]
+        return words
 
     def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
         """A parameter the clause gives two values joined by "and" ("the raw and the augmented
@@ -399,11 +440,16 @@ class OfflineAgent:
             said = text
             for path in saved:  # "... and save it to x.yaml" is not part of the description
                 said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(path)}\S*", "", said)
+            sentences = re.split(r"(?<=[.!?;])\s+", said.strip())
+            while len(sentences) > 1 and self._only_options(info, sentences[-1]):  # "... stirrer. check it"
+                sentences.pop()
+            said = " ".join(sentences)
             quoted = _QUOTED.search(said)
             cues = self.vocab.intents.get(info.name, None)
             cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
             rest = said[cue.end() :] if cue else said
             rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)
+            rest = re.sub(r"^(?:please|kindly)\b[\s:,.-]*", "", rest, flags=re.IGNORECASE)  # "new task please: ..."
             if quoted or rest.strip(" ."):
                 args["description"] = quoted.group(1) if quoted else rest.strip(" .")
         if "about" in info.params and is_empty(args.get("about")):
@@ -427,6 +473,12 @@ class OfflineAgent:
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
             if m and m.group(1).lower() not in {*self.vocab.tasks.stop, *self.vocab.filler}:
                 args[param.name] = m.group(1).strip("\"'")
+
+    def _only_options(self, info: CommandInfo, sentence: str) -> bool:
+        """Whether ``sentence`` says nothing but options of ``info`` ("check it", "and write it to x")."""
+        named = {w for p in info.params.values() if p.name != "description" for w in option_words(p)}
+        said = [w for w in words_of(sentence).split() if w not in self.vocab.filler]
+        return bool(said) and all(singular(w) in named for w in said)
 
     def _asset(self, words: str) -> str | None:
         assets = load_asset_words()

@@ -147,7 +147,8 @@ class TaskIndex:
         lowered = text.lower()
         for pattern, word in self._synonyms:
             lowered = pattern.sub(f" {word} ", lowered)
-        return {stem(w) for w in re.findall(r"[a-z0-9]+", lowered)} - self._stop
+        sized = {f"{n}{u}" for n, u in re.findall(r"\b(\d+)\s*(ml|ul|l|mm|cm)\b", lowered)}  # "50 mL": 50ml
+        return ({stem(w) for w in re.findall(r"[a-z0-9]+", lowered)} | sized) - self._stop
 
     def request_terms(self, text: str) -> set[str]:
         """Concepts and asset kinds (``kind:conical tube``) a request names."""

@@ -8,6 +8,7 @@ addresses already taken out).
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -103,6 +104,9 @@ class WorkflowVocabularySpec(Spec):
     defaults: dict[str, str]
     carry: list[str]
     carry_to: dict[str, list[str]]
+    task_params: dict[str, str] = Field(default_factory=dict)
+    """Command -> its option that takes a registered task the request names, where the command
+    has no task parameter (``tasks new --from``: its positional id is the task it creates)."""
     one_of: dict[str, list[str]]
     background: dict[str, str]
     products: dict[str, ProductSpec]
@@ -124,6 +128,10 @@ class WorkflowVocabularySpec(Spec):
     """Words that, with a command's cue alone ("after training"), say what was done before."""
     corrections: list[str] = Field(default_factory=list)
     """Words that take back what came before ("actually", "no -")."""
+    per_each: list[str] = Field(default_factory=list)
+    """Words that say a count is for each input ("per demo"): ``--variants object*3``."""
+    distributes: list[str] = Field(default_factory=list)
+    """Nouns that words coordinated before them each take ("object and clutter variants")."""
     filler: list[str] = Field(default_factory=list)
     """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""
     recipes: dict[str, RecipeSpec] = Field(default_factory=dict)
@@ -169,3 +177,21 @@ def lexicon(registry: Registry) -> WorkflowVocabularySpec:
     every suite's as ``suite_id``)."""
     vocab = load_vocabulary()
     return vocab.model_copy(update={"values": {**vocab.values, **registry_values(registry)}})
+
+
+def distributed(text: str, nouns: list[str]) -> str:
+    """``text`` with words coordinated before one of ``nouns`` each given it: "light, cam and
+    object variants" -> "light variants, cam variants and object variants"."""
+    if not nouns:
+        return text
+    pattern = re.compile(
+        r"(?<![\w-])([a-z][\w-]*(?:,\s*[a-z][\w-]*)*)(,?\s+(?:and|or|&)\s+)([a-z][\w-]*)\s+"
+        rf"({'|'.join(map(re.escape, nouns))})(?![\w-])",
+        re.IGNORECASE,
+    )
+
+    def spread(m: re.Match[str]) -> str:
+        items = re.split(r",\s*", m.group(1))
+        return ", ".join(f"{item} {m.group(4)}" for item in items) + f"{m.group(2)}{m.group(3)} {m.group(4)}"
+
+    return pattern.sub(spread, text)

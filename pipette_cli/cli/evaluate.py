@@ -123,7 +123,7 @@ def eval_command(
         ),
     ] = 1,
     device: Annotated[
-        str, typer.Option("--device", help="Torch device for --policy: cpu, cuda, auto (cuda when available).")
+        str, typer.Option("--device", help="Torch device for --policy: cpu, cuda[:N] or auto (cuda when available).")
     ] = DEFAULT_DEVICE,
     dead_after: Annotated[
         float, typer.Option("--dead-after", min=0.1, help="Seconds a server may be unreachable before the run stops.")

@@ -281,7 +281,7 @@ def _name_from_id(task_id: str) -> str:
 
 @app.command("new")
 def new_task(
-    task_id: Annotated[str, typer.Argument(help="New id, e.g. mylab/PickUpCryovial-v1.")],
+    new_id: Annotated[str, typer.Argument(help="New id, e.g. mylab/PickUpCryovial-v1.")],
     template: Annotated[
         str,
         typer.Option(
@@ -299,15 +299,15 @@ def new_task(
 
     Example: pipette tasks new mylab/PickUpCryovial-v1 --from pick --asset cryovial_2ml --out registry/
     """
-    if not re.match(TASK_ID_PATTERN, task_id):
-        raise PipetteError(f"task id {task_id!r} must look like namespace/Name-v1 (e.g. mylab/PickUpCryovial-v1)")
+    if not re.match(TASK_ID_PATTERN, new_id):
+        raise PipetteError(f"task id {new_id!r} must look like namespace/Name-v1 (e.g. mylab/PickUpCryovial-v1)")
     registry = _registry()
-    if task_id in registry.tasks:
-        raise PipetteError(f"task id {task_id!r} is already registered ({registry.entry(task_id).path})")
-    name = _name_from_id(task_id)
+    if new_id in registry.tasks:
+        raise PipetteError(f"task id {new_id!r} is already registered ({registry.entry(new_id).path})")
+    name = _name_from_id(new_id)
     if template in task_template_names():
         context: dict[str, object] = {
-            "task_id": task_id,
+            "task_id": new_id,
             "name": name,
             "instruction": instruction or f"{name}.",
             "robot": DEFAULT_ROBOT,
@@ -324,14 +324,14 @@ def new_task(
             )
         source = registry.entry(template)
         doc = read_yaml(source.path)
-        doc["id"] = task_id
+        doc["id"] = new_id
         doc["name"] = name
         if "tags" in doc:  # a copy is not one of the paper's twelve benchmark tasks
             doc["tags"] = [t for t in doc["tags"] if t != "paper-benchmark"]
         if instruction:
             doc["instruction"] = instruction
         text = dump_yaml(doc)
-    stem = re.sub(r"(?<!^)(?=[A-Z])", "_", task_id.split("/", 1)[1].rsplit("-v", 1)[0]).lower()
+    stem = re.sub(r"(?<!^)(?=[A-Z])", "_", new_id.split("/", 1)[1].rsplit("-v", 1)[0]).lower()
     target = out or Path(f"{stem}.yaml")
     if target.is_dir() or target.suffix not in YAML_SUFFIXES:
         target = target / f"{stem}.yaml"  # a folder, existing or to be made

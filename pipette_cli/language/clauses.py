@@ -20,6 +20,9 @@ from functools import cache
 from pipette_cli.language.phrases import phrase_regex
 
 _SENTENCE = r"[;!?]\s*(?=\S)|\.\s+(?=[A-Za-z])"
+_LIST_MARK = r"(?:^|(?<=\s))\(?\d{1,2}\)\s+"
+"""A numbered list's marker ("1) collect ... 2) replay ..."): a strong separator."""
+LIST_MARK = re.compile(_LIST_MARK)
 
 
 @dataclass(frozen=True)
@@ -82,7 +85,7 @@ def _pattern(separators: Separators) -> re.Pattern[str]:
     weak = "|".join(_weak(w) for w in separators.weak)
     return re.compile(
         rf"(?P<strong>(?:,\s*|\s+and\s+|\s+|(?<=\s)|^)(?<![\w-])(?:{'|'.join(strong)})(?![\w-])[\s,:]*)"
-        rf"|(?P<sentence>{_SENTENCE})|(?P<weak>{weak})",
+        rf"|(?P<listed>{_LIST_MARK})|(?P<sentence>{_SENTENCE})|(?P<weak>{weak})",
         re.IGNORECASE,
     )
 
@@ -106,7 +109,7 @@ def pieces(text: str, separators: Separators) -> list[Piece]:
             out.append(Piece(piece, kind or "weak", separator) if out else Piece(piece, "start"))
             kind, separator = None, ""
         if m is not None:
-            found = m.lastgroup or "weak"
+            found = {"listed": "strong"}.get(m.lastgroup or "weak", m.lastgroup or "weak")
             kind = found if kind is None or RANK[found] > RANK[kind] else kind
             separator, position = separator + m.group(0), m.end()
     return out

@@ -32,8 +32,8 @@ def plain(text: str) -> str:
 
 def words_of(text: str) -> str:
     """Lowercased words for cue matching: contractions spelled out ("what's" -> "what is"),
-    punctuation other than ``' - . + %`` turned into spaces."""
-    lowered = plain(text)
+    thousands without their commas, punctuation other than ``' - . + %`` turned into spaces."""
+    lowered = re.sub(r"(\d),(\d{3})\b", r"\1\2", plain(text))  # 1,500 -> 1500
     for pattern, spelled in _CONTRACTIONS:
         lowered = pattern.sub(spelled, lowered)
     return " ".join(re.sub(r"[^\w'.+%π-]+", " ", lowered).split()).replace(" .", " ").rstrip(".")

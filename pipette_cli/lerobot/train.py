@@ -90,7 +90,7 @@ class TrainOptions:
     dataset_version: DatasetVersion = described(DatasetVersion.raw, "raw or augmented (separate datasets)")
     steps: int | None = described(None, f"Training steps (default: the paper's, D.1: {_per_policy('steps')})")
     batch_size: int | None = described(None, f"Batch size (default: the paper's, D.1: {_per_policy('batch_size')})")
-    device: str | None = described(None, "cpu, cuda, cuda:1, mps (default: LeRobot picks the best available)")
+    device: str | None = described(None, "cpu, cuda[:N] or mps (default: LeRobot picks the best available)")
     datasets_root: Path = described(
         DEFAULT_DATASETS_ROOT, "Folder of <task>/<version> datasets (pipette convert's layout)"
     )

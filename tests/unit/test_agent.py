@@ -507,3 +507,27 @@ def test_a_suite_stands_in_for_the_task_of_eval() -> None:
     catalog = load_catalog()
     assert catalog.missing("eval", {"suite_id": "pipette/PaperBenchmark-v1", "policy": "ckpt"}) == []
     assert catalog.missing("eval", {"policy": "ckpt"}) == ["task_id"]
+
+
+def test_coordinated_words_each_take_the_noun_after_them() -> None:
+    from pipette_cli.agent.vocabulary import distributed
+
+    nouns = load_vocabulary().distributes
+    assert distributed("with object and clutter variants", nouns) == "with object variants and clutter variants"
+    assert distributed("light, cam and object variants", nouns) == "light variants, cam variants and object variants"
+    assert distributed("collect demos and convert them", nouns) == "collect demos and convert them"
+
+
+def test_compound_number_words_are_read_and_accounted() -> None:
+    from pipette_cli.agent.numbers import spelled_numbers
+
+    spelled = spelled_numbers(load_vocabulary())
+    assert spelled["twenty-five"] == spelled["twenty five"] == 25 and spelled["ninety-nine"] == 99
+    plan = AGENT.plan("collect twenty-five demos of the water bath task")
+    assert plan.steps[0].args["episodes"] == 25 and plan.unused == []
+
+
+def test_an_indexed_device_keeps_its_index_and_is_no_count() -> None:
+    plan = AGENT.plan("evaluate ckpt/a on the tube pick-up task on cuda:0 with 4 workers")
+    args = plan.steps[0].args
+    assert args["device"] == "cuda:0" and args["workers"] == 4 and "episodes" not in args and plan.unused == []
