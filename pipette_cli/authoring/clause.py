@@ -84,6 +84,10 @@ class Clause:
         return [m for m in self.mentions if m.prep in preps]
 
 
+PARTICLES = ("open", "shut", "up", "out", "off", "down", "back", "over")
+"""Words of a two-word verb that may follow its object ("swing the lid open", "take the tube out")."""
+
+
 def gerund(phrase: str) -> str:
     """A verb phrase with its first word in -ing form: lift -> lifting, put -> putting, place -> placing."""
     head, _, rest = phrase.partition(" ")
@@ -117,9 +121,21 @@ class ClauseReader:
         self.pronouns = sorted(words.pronouns, key=lambda p: -len(p.split()))
         self.runs = sorted(words.runs, key=lambda p: -len(p.split()))
         self.buttons = {p: action for action, ps in words.buttons.items() for p in ps}
-        """A button's name -> the action its press is ("start button" -> run)."""
+        self.buttons |= self._coloured(vocab)
+        """A button's name -> the action its press is ("start button" -> run, "green button" -> run)."""
         self.button_names = sorted(self.buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
+
+    def _coloured(self, vocab: Vocabulary) -> dict[str, str]:
+        """ "green button" -> run where every description that colours a button green calls it a
+        start button ("red lid-release button" -> press); a colour used two ways names none."""
+        colours = "|".join(map(re.escape, vocab.words.colours)) or "(?!)"
+        found: dict[str, set[str]] = {}
+        for info in vocab.assets.values():
+            for m in re.finditer(rf"\b({colours}) ((?:[\w-]+ )?)button\b", info.description.lower()):
+                action = self.buttons.get(f"{m[2]}button", "press")
+                found.setdefault(f"{m[1]} button", set()).add(action)
+        return {name: actions.pop() for name, actions in found.items() if len(actions) == 1}
 
     # ------------------------------------------------------------------ verbs
     def verb_at(self, tokens: list[Token], i: int) -> tuple[str, str, int] | None:
@@ -166,6 +182,10 @@ class ClauseReader:
         i = 0
         while i < len(tokens):
             found = self.verb_at(tokens, i) if tokens[i].kind == "word" else None
+            particle = self._particle(tokens, i) if clause.action is None and (found is None or found[2] == 1) else None
+            if particle is not None:  # "swing the lid open": swing open
+                found, tokens[particle[1]].used = particle[0], True
+                at.add(particle[1])
             # a verb-noun word ("stand", "rack") is a verb only where no action was found yet; after
             # one, a word that starts an object's name ("the sparkly pipette tip box") names it
             if found is not None and clause.action is not None and name_at(tokens, i, self.aliases) is not None:
@@ -195,6 +215,23 @@ class ClauseReader:
                 continue
             i += 1
         return at
+
+    def _particle(self, tokens: list[Token], i: int) -> tuple[tuple[str, str, int], int] | None:
+        """A two-word verb whose particle ends the clause after its object ("swing the lid open",
+        "push the drawer shut"): the verb as found at ``i`` (one word long) and where its particle is."""
+        if tokens[i].kind != "word" or (i > 0 and tokens[i - 1].text in self.articles):
+            return None
+        for phrase, action in self.verbs:
+            verb, _, tail = phrase.partition(" ")
+            if verb != tokens[i].text or tail not in PARTICLES:
+                continue
+            for j in range(i + 2, min(i + 8, len(tokens))):
+                if tokens[j].kind == "punct" or tokens[j].text in ("and", "then"):
+                    break
+                last = j + 1 == len(tokens) or tokens[j + 1].kind == "punct" or tokens[j + 1].text in ("and", "then")
+                if tokens[j].text == tail and last:  # "out of the rack" is where from, not a particle
+                    return (action, phrase, 1), j
+        return None
 
     def _mentions(self, clause: Clause, verbs: set[int]) -> None:
         tokens = clause.tokens

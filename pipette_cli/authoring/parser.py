@@ -20,6 +20,7 @@ from pipette_cli.authoring.text import (
     CONDITIONS,
     extract_thresholds,
     has_negation,
+    inverted_of,
     normalise,
     split_steps,
     subordinates,
@@ -463,7 +464,7 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
             unknown objects, or leaves out what a step needs (each with what to change).
     """
     words = vocab.words
-    text = normalise(description, words)
+    text = inverted_of(normalise(description, words), vocab.alias_to_kind)
     if not re.search(r"[a-z]", text):
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     if has_negation(text):

@@ -9,7 +9,7 @@ phrasing.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Container
 
 from pipette_cli.language.assets import Vocabulary, VocabularySpec
 from pipette_cli.language.clauses import Piece, Separators, split_clauses
@@ -23,6 +23,7 @@ SIZE_PATTERNS: tuple[tuple[str, Callable[[re.Match[str]], list[str]]], ...] = (
     (r"(\d+(?:\.\d+)?)\s*(?:mm|millimet(?:er|re)s?)\b", lambda m: [f"{float(m[1]):g}mm"]),
     (r"(\d+(?:\.\d+)?)\s*(?:cm|centimet(?:er|re)s?)\b", lambda m: [f"{float(m[1]) * 10:g}mm"]),
     (r"(\d+)\s*wells?\b", lambda m: [f"{m[1]}well"]),
+    (r"(\d+)(?=\s*deep\s*wells?\b)", lambda m: [f"{m[1]}well"]),  # "96 deep-well plate": a 96-well deep well plate
     (r"(\d+)\s*channels?\b", lambda m: [f"{m[1]}channel"]),
     (r"\bp\s?(\d+)\b", lambda m: [f"p{m[1]}"]),
     (r"\bt\s?(25|75|150|175|225)\b", lambda m: [f"t{m[1]}"]),
@@ -64,7 +65,9 @@ def normalise(description: str, words: VocabularySpec) -> str:
     s = s.replace("“", '"').replace("”", '"')
     s = re.sub(r"(\d),(\d{3})\b", r"\1\2", s)  # 1,000 -> 1000
     s = re.sub(
-        r"without (?:its |a |the )?caps?\b|\bno caps?\b|\bcap(?:ped)? off\b|\bwith the cap removed\b", " nocap ", s
+        r"without (?:its |a |the )?caps?\b|\b(?:with )?no caps?\b|\bcap(?:ped)? off\b|\bwith the cap removed\b",
+        " nocap ",
+        s,
     )
     s = re.sub(r"(?<=[a-z])-(?=[a-z])", " ", s)  # multi-channel -> multi channel
     s = re.sub(r"(?<=\d)-(?=[a-z])|(?<=[a-z])-(?=\d)", " ", s)  # 96-well, t-75
@@ -74,6 +77,21 @@ def normalise(description: str, words: VocabularySpec) -> str:
         s = re.sub(rf"\b{re.escape(word)}\b{units}", f"{value:g}", s)
     s = any_phrase(tuple(words.polite)).sub(" ", s)
     return re.sub(r"\s+", " ", s).strip()
+
+
+def inverted_of(text: str, names: Container[str]) -> str:
+    """ "a roll of yellow tape" -> "a yellow tape roll" where "tape roll" is a name ("N1 of [words]
+    N2" names an N2 N1: a box of tips, a rack of tubes); other "of"s are left as written."""
+
+    def turn(m: re.Match[str]) -> str:
+        head, after = m[1], m[2].split()
+        for k, noun in enumerate(after):
+            for name in (f"{noun} {head}", f"{singular(noun)} {head}"):
+                if name in names:
+                    return " ".join([*after[:k], name, *after[k + 1 :]])
+        return m[0]
+
+    return re.sub(r"\b([a-z]+) of (?:the |a |an |some )?((?:[a-z]+ ){0,2}[a-z]+)\b", turn, text)
 
 
 def has_negation(text: str) -> bool:
@@ -153,6 +171,8 @@ def split_steps(text: str, reader_is_verb: Callable[[list[Token], int], bool], v
 SUBORDINATORS = {"after": True, "before": False}
 """A word that opens a step inside another ("..., after closing its lid"): True when that step is
 done first."""
+SUBJECTS = ("you", "we", "i", "they")
+"""Who does a subordinate step ("... after you open the lid"): the robot; the word is dropped."""
 CONDITIONS = ("once", "when", "until", "while", "after", "before")
 """Words that open a condition rather than a step ("... once the spin finishes"): a task has no
 such conditions, so their words are listed as not understood, never read as objects."""
@@ -174,10 +194,11 @@ def subordinates(
             (k for k in range(1, len(tokens) - 1) if tokens[k].kind == "word" and tokens[k].text in CONDITIONS),
             None,
         )
-        if k is None:
+        j = k + 1 if k is not None and k + 1 < len(tokens) - 1 and tokens[k + 1].text in SUBJECTS else k
+        if k is None or j is None:
             out.append(tokens)
-        elif tokens[k].text in SUBORDINATORS and is_verb(tokens, k + 1):
-            out += [tokens[:k], tokens[k + 1 :]]
+        elif tokens[k].text in SUBORDINATORS and is_verb(tokens, j + 1):
+            out += [tokens[:k], tokens[j + 1 :]]
             if SUBORDINATORS[tokens[k].text]:
                 first[len(out) - 1] = len(out) - 2
         else:

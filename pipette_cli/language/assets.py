@@ -72,6 +72,9 @@ class VocabularySpec(Spec):
     implied_targets: dict[Phrase, str] = {}
     runs: list[Phrase] = []
     buttons: dict[str, list[Phrase]] = {}
+    colours: list[str] = []
+    """Colour words an asset's description gives its buttons ("red lid-release button"): "the red
+    button" is the one its description calls red."""
     parts: dict[str, list[Phrase]]
     relations: dict[Relation, list[Phrase]]
     prepositions: PrepositionsSpec

@@ -103,6 +103,8 @@ class Footprint:
     origin_in_reach: bool = True  # the scene check wants the origin of a task target within reach
     start_boxes: np.ndarray | None = None  # its boxes as the task starts (default: ``boxes``); only
     # these must clear the robot's home pose: the arm is elsewhere when a door or lid moves later
+    press_boxes: np.ndarray | None = None  # its boxes as a button is pressed (default: ``boxes``): an
+    # instrument runs shut, so a drawer closed before the run does not push its front away
 
 
 class Layout:
@@ -159,8 +161,10 @@ class Layout:
         if fp.origin_in_reach:
             ok &= np.hypot(grid[:, 0], grid[:, 1]) <= ws.origin_reach + 1e-9
         if fp.pressed:  # the nearest point of every box stays press_front away from the base
-            near_x = np.clip(0.0, lo[:, 0], hi[:, 0])
-            near_y = np.clip(0.0, lo[:, 1], hi[:, 1])
+            pressing = world if fp.press_boxes is None else _at_grid(fp.press_boxes, grid, z)
+            p_lo, p_hi = pressing[:, :, :3].min(axis=1), pressing[:, :, 3:].max(axis=1)
+            near_x = np.clip(0.0, p_lo[:, 0], p_hi[:, 0])
+            near_y = np.clip(0.0, p_lo[:, 1], p_hi[:, 1])
             ok &= np.hypot(near_x, near_y) >= ws.press_front
         if away is not None:
             ok &= np.hypot(grid[:, 0] - away[0][0], grid[:, 1] - away[0][1]) >= away[1]

@@ -5,6 +5,7 @@ together so the item fits the holder's holes ("the 15 mL tube in the rack" -> th
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from pipette_cli.language.assets import Vocabulary, size_class
@@ -49,6 +50,13 @@ def candidates(vocab: Vocabulary, wanted: Wanted) -> list[str]:
             )
         members = keep
     wanted_words = set(wanted.modifiers)
+    extreme = next((w for w in ("smallest", "largest") if w in wanted_words), None)
+    sized = {a: capacity(vocab, a) for a in members} if extreme else {}
+    volumes = {a: v for a, v in sized.items() if v is not None and v[0] == "ml"}  # volume before length
+    known = volumes or {a: v for a, v in sized.items() if v is not None}
+    if known:  # "the smallest beaker": the member of least (or most) capacity, whatever else is said
+        goal = (min if extreme == "smallest" else max)(v[1] for v in known.values())
+        members = [a for a in known if known[a][1] == goal]
     scored = []
     for a in members:
         info = vocab.assets[a]
@@ -58,6 +66,16 @@ def candidates(vocab: Vocabulary, wanted: Wanted) -> list[str]:
         score += 0.5 if a == kind.default else 0.0
         scored.append((-score, a))
     return [a for _, a in sorted(scored)]
+
+
+def capacity(vocab: Vocabulary, asset: str) -> tuple[str, float] | None:
+    """An asset's size from its size tags: ``("ml", volume)``, else ``("mm", length)``."""
+    found = []
+    for tag in vocab.assets[asset].size_tags:
+        m = re.fullmatch(r"(\d+(?:\.\d+)?)(ml|ul|mm)", tag)
+        if m:
+            found.append(("ml", float(m[1]) / 1000.0) if m[2] == "ul" else (m[2], float(m[1])))
+    return min(found, key=lambda f: f[0] != "ml", default=None)
 
 
 def hole(vocab: Vocabulary, holder: str) -> float | None:

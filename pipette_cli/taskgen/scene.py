@@ -349,7 +349,7 @@ class SceneBuilder:
                 boxes.append(lid_geom.boxes + np.array([*beside, 0.0, *beside, 0.0]))
                 keys.append(beside)
         spot = self.layout.place(
-            Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed, start_boxes=geom.boxes),
+            Footprint(np.vstack(boxes), keys, preferred, 0.02, pressed, start_boxes=geom.boxes, press_boxes=boxes[1]),
             self.ws.bench_z,
         )
         if spot is None:
