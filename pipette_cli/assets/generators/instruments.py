@@ -196,10 +196,7 @@ def spectrophotometer() -> AssetDef:
     lid = Body("lid", 0.15, pos=hinge)
     length = cx1 + 0.01 - cx0 + 0.01
     p.solid_box(lid, "lid_shell", (length, cy1 - cy0 + 0.02, 0.014), (-length / 2, 0, 0.007), p.DARK_PLASTIC, 0.006)
-    # a ridge along the front edge to take it by from above (the flush lid alone gives fingers nothing)
-    gx, ridge_h = -length + 0.006, 0.016
-    p.solid_box(lid, "lid_grip", (0.008, 0.06, ridge_h), (gx, 0, 0.014 + ridge_h / 2), p.DARK_PLASTIC, 0.002)
-    p.site(lid, "lid_handle", (gx, 0, 0.014 + ridge_h - 0.002))  # just under the ridge's top: taken from above
+    p.site(lid, "lid_handle", (-length, 0, 0.007))
     joint = Joint("lid_hinge", "revolute", "base", "lid", anchor=hinge, axis="y", lower=0.0, upper=110.0, damping=0.05, friction=0.15)
     return _asset("spectrophotometer",
                   "UV-Vis spectrophotometer with a single-cuvette compartment; its lid is hinged at the back (lid_hinge, 0 closed, "
