@@ -255,8 +255,9 @@ class Accountant:
             self._number(words, float(count))
             for phrase in self.vocab.per_each:
                 words.phrase(phrase)
-        value, _, index = value.partition(":") if value.partition(":")[0] in param.indexed else (value, "", "")
-        if index:  # "cuda:1"
+        base, _, index = value.partition(":")
+        if index and base in param.indexed:  # "cuda:1"
+            value = base
             self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]

@@ -293,7 +293,7 @@ class OfflineAgent:
         unknown = self.index.unknown_name(raw)
         cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
         for name in info.params:  # "the paper grid" is a value of --variants, not the paper's tasks
-            for phrase in (p for phrases in self.vocab.values.get(name, {}).values() for p in phrases):
+            for phrase in self._value_phrases(name):
                 raw = phrase_pattern(phrase).sub(" ", raw)
         match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
         in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
@@ -343,9 +343,8 @@ class OfflineAgent:
         the help lists only next to the option's name ("wrist camera")."""
         corrected = _CORRECTION.search(words) is not None
         claims = {  # a value's name of several words claims them: "the cpu reproduction suite" is no --device cpu
-            name: [m.span() for p in phrases if " " in p for m in phrase_pattern(p).finditer(words)]
+            name: [m.span() for p in self._value_phrases(name) if " " in p for m in phrase_pattern(p).finditer(words)]
             for name in info.params
-            for phrases in [[p for ps in self.vocab.values.get(name, {}).values() for p in ps]]
         }
         everything = words
         for param in info.params.values():
@@ -366,7 +365,7 @@ class OfflineAgent:
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
             names = "|".join(phrase_pattern(n).pattern for n in param.names)
-            named = {p.lower() for phrases in self.vocab.values.get(param.name, {}).values() for p in phrases}
+            named = {p.lower() for p in self._value_phrases(param.name)}
             for value in (v for v in param.hinted if v.lower() not in named):  # the lexicon's value wins
                 v = re.escape(value.lower())
                 if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
@@ -384,6 +383,10 @@ class OfflineAgent:
             elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
                 args[param.name] = max(found)[2] if corrected else min(found)[2]
 
+    def _value_phrases(self, name: str) -> list[str]:
+        """The vocabulary's words for every value of the option ``name``."""
+        return [p for phrases in self.vocab.values.get(name, {}).values() for p in phrases]
+
     def _counted(self, words: str, at: int, value: str) -> str:
         """``value`` with the count said just before its words ("three object-pose draws" ->
         ``object*3``), for an option whose help writes ``NAME*N``."""
@@ -400,7 +403,8 @@ class OfflineAgent:
         the value with it, and ``words`` without the index (never a count)."""
         for param in (p for p in info.params.values() if is_empty(args.get(p.name))):
             for value in param.indexed:
-                said = "|".join(phrase_pattern(p).pattern for p in [value, *self.vocab.values[param.name][value]])
+                names = [value, *self.vocab.values.get(param.name, {}).get(value, [])]
+                said = "|".join(phrase_pattern(p).pattern for p in names)
                 m = re.search(rf"(?<![\w-])(?:{said})\s*:?\s*(\d+)(?![\w.-])", words)
                 if m:
                     args[param.name] = f"{value}:{m.group(1)}"

@@ -111,6 +111,12 @@ class ClauseReader:
         verbs = {(p, a) for a, ps in words.actions.items() for p in ps}
         verbs |= {(gerund(p), a) for p, a in verbs}  # "by lifting it", "start by opening the lid"
         self.verbs = sorted(verbs, key=lambda pa: (-len(pa[0].split()), pa[0]))
+        self.separable: dict[str, list[tuple[str, str, str]]] = {}
+        """A verb's first word -> (particle, phrase, action) of its two-word forms whose particle may follow the object."""
+        for phrase, action in self.verbs:
+            verb, _, tail = phrase.partition(" ")
+            if tail in PARTICLES:
+                self.separable.setdefault(verb, []).append((tail, phrase, action))
         self.implied = dict(words.implied_targets)
         self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
         self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
@@ -221,10 +227,7 @@ class ClauseReader:
         "push the drawer shut"): the verb as found at ``i`` (one word long) and where its particle is."""
         if tokens[i].kind != "word" or (i > 0 and tokens[i - 1].text in self.articles):
             return None
-        for phrase, action in self.verbs:
-            verb, _, tail = phrase.partition(" ")
-            if verb != tokens[i].text or tail not in PARTICLES:
-                continue
+        for tail, phrase, action in self.separable.get(tokens[i].text, []):
             for j in range(i + 2, min(i + 8, len(tokens))):
                 if tokens[j].kind == "punct" or tokens[j].text in ("and", "then"):
                     break

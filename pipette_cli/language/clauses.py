@@ -84,8 +84,8 @@ def _pattern(separators: Separators) -> re.Pattern[str]:
         strong.append(phrase_regex(phrase) + guard)
     weak = "|".join(_weak(w) for w in separators.weak)
     return re.compile(
-        rf"(?P<strong>(?:,\s*|\s+and\s+|\s+|(?<=\s)|^)(?<![\w-])(?:{'|'.join(strong)})(?![\w-])[\s,:]*)"
-        rf"|(?P<listed>{_LIST_MARK})|(?P<sentence>{_SENTENCE})|(?P<weak>{weak})",
+        rf"(?P<strong>(?:,\s*|\s+and\s+|\s+|(?<=\s)|^)(?<![\w-])(?:{'|'.join(strong)})(?![\w-])[\s,:]*|{_LIST_MARK})"
+        rf"|(?P<sentence>{_SENTENCE})|(?P<weak>{weak})",
         re.IGNORECASE,
     )
 
@@ -109,7 +109,7 @@ def pieces(text: str, separators: Separators) -> list[Piece]:
             out.append(Piece(piece, kind or "weak", separator) if out else Piece(piece, "start"))
             kind, separator = None, ""
         if m is not None:
-            found = {"listed": "strong"}.get(m.lastgroup or "weak", m.lastgroup or "weak")
+            found = m.lastgroup or "weak"
             kind = found if kind is None or RANK[found] > RANK[kind] else kind
             separator, position = separator + m.group(0), m.end()
     return out

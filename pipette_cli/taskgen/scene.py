@@ -329,7 +329,8 @@ class SceneBuilder:
         asset = self.checked.asset(name)
         states = [(j, v) for (o, j), v in joints.items() if o == name]
         geom = measure_asset(asset, tuple(states))
-        boxes = [geom.boxes, measure_asset(asset).boxes]
+        shut = measure_asset(asset).boxes  # as it is when a button is pressed: instruments run shut
+        boxes = [geom.boxes, shut]
         for joint in movable_joints(geom):  # every state the task visits: closed and open
             if any(j == joint.name for j, _ in states):
                 boxes.append(measure_asset(asset, ((joint.name, open_value(joint)),)).boxes)
@@ -348,10 +349,9 @@ class SceneBuilder:
                 beside = lid_beside(geom, lid_geom, LID_GAP)
                 boxes.append(lid_geom.boxes + np.array([*beside, 0.0, *beside, 0.0]))
                 keys.append(beside)
-        spot = self.layout.place(
-            Footprint(np.vstack(boxes), keys, preferred, 0.02, pressed, start_boxes=geom.boxes, press_boxes=boxes[1]),
-            self.ws.bench_z,
-        )
+        fp = Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed, start_boxes=geom.boxes)
+        fp.press_boxes = shut
+        spot = self.layout.place(fp, self.ws.bench_z)
         if spot is None:
             raise self._no_room(name)
         self.out.placed[name] = PlacedObject(
