@@ -26,7 +26,6 @@ from typing import Any
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
 from pipette_cli.agent.clauses import ANSWER_PREFIX
 from pipette_cli.agent.mentions import SAVE_VERBS
-from pipette_cli.agent.numbers import spelled_numbers
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, distributed
@@ -272,7 +271,7 @@ class Accountant:
             words.phrase(phrase)
 
     def _number(self, words: _Words, value: float) -> None:
-        spelled = {w for w, n in spelled_numbers(self.vocab).items() if n == value}
+        spelled = {w for w, n in self.vocab.spelled.items() if n == value}
         for phrase in spelled:
             words.phrase(phrase)
 

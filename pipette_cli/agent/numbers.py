@@ -16,18 +16,6 @@ _MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|chann
 """Units after a number that make it a size ("50 mL tube"), not a count."""
 
 
-def spelled_numbers(vocab: WorkflowVocabularySpec) -> dict[str, int]:
-    """The vocabulary's number words and the compounds of its tens and units: "twenty-five",
-    "twenty five" -> 25."""
-    out = dict(vocab.numbers)
-    tens = {w: n for w, n in vocab.numbers.items() if " " not in w and n in range(20, 100, 10)}
-    units = {w: n for w, n in vocab.numbers.items() if " " not in w and n in range(1, 10)}
-    for ten, t in tens.items():
-        for unit, u in units.items():
-            out[f"{ten}-{unit}"] = out[f"{ten} {unit}"] = t + u
-    return out
-
-
 def _typed(param: ParamInfo, number: float) -> int | float:
     return int(number) if param.kind == "int" and number == int(number) else number
 
@@ -46,7 +34,7 @@ def read_numbers(
         return
     text = re.sub(r"\b(\d+)\s*[x×]\s*\1\b", r"\1 px", words)  # 64x64 images
     text = _positions(vocab, numeric, text)
-    for word, value in sorted(spelled_numbers(vocab).items(), key=lambda kv: -len(kv[0])):
+    for word, value in sorted(vocab.spelled.items(), key=lambda kv: -len(kv[0])):
         text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
     taken: set[str] = set()
     bare: list[float] = []

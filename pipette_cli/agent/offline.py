@@ -25,7 +25,7 @@ from pipette_cli.agent.catalog import (
 )
 from pipette_cli.agent.clauses import RECIPE_PREFIX, Clause, Intents, split_clauses
 from pipette_cli.agent.mentions import SAVE, assign_paths, option_words
-from pipette_cli.agent.numbers import read_numbers, spelled_numbers
+from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.validate import Validator
@@ -390,7 +390,7 @@ class OfflineAgent:
     def _counted(self, words: str, at: int, value: str) -> str:
         """``value`` with the count said just before its words ("three object-pose draws" ->
         ``object*3``), for an option whose help writes ``NAME*N``."""
-        spelled = spelled_numbers(self.vocab)
+        spelled = self.vocab.spelled
         numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
         m = re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])
         if m is None:

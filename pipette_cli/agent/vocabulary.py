@@ -9,7 +9,7 @@ addresses already taken out).
 from __future__ import annotations
 
 import re
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -153,6 +153,18 @@ class WorkflowVocabularySpec(Spec):
         for suffix, kind in self.files.items():
             commands = dict.fromkeys(key.rsplit(".", 1)[0] for key, k in self.consumes.items() if k == kind)
             out[suffix] = sorted(commands, key=lambda c: order(c, kind))
+        return out
+
+    @cached_property
+    def spelled(self) -> dict[str, int]:
+        """The number words and the compounds of their tens and units: "twenty-five", "twenty five"
+        -> 25 (built once per vocabulary)."""
+        out = dict(self.numbers)
+        tens = {w: n for w, n in self.numbers.items() if " " not in w and n in range(20, 100, 10)}
+        units = {w: n for w, n in self.numbers.items() if " " not in w and n in range(1, 10)}
+        for ten, t in tens.items():
+            for unit, u in units.items():
+                out[f"{ten}-{unit}"] = out[f"{ten} {unit}"] = t + u
         return out
 
     def policy_words(self) -> list[tuple[str, str]]:

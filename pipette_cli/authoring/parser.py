@@ -3,10 +3,10 @@
 Deterministic: the text is normalised (:mod:`.text`), split into steps at sequence words, each
 step read against the vocabulary (:mod:`.clause`), and the steps assembled into one plan. Objects
 named again ("the tube", "it") are the same object; an object of the same kind named with other
-sizes or "other" is a new one ("put the 50 mL beaker in the 250 mL beaker"). A pick followed by a
-placement of the same object is one step. What the simulator cannot do (liquids, screwing caps,
-running instruments without a start button) and words that name nothing known are refused with
-the reason (:mod:`.refusals`).
+sizes or "other" is a new one ("put the 50 mL beaker in the 250 mL beaker"); :mod:`.assembly`
+merges and names them into the plan. What the simulator cannot do (liquids, screwing caps, running
+instruments without a start button) and words that name nothing known are refused with the reason
+(:mod:`.refusals`).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+from pipette_cli.authoring.assembly import Obj, RawStep, assemble
 from pipette_cli.authoring.clause import Clause, ClauseReader, Mention, Part
 from pipette_cli.authoring.refusals import ACTION_WORDS, refuse_unknown, refuse_unsupported
 from pipette_cli.authoring.text import (
@@ -31,13 +32,9 @@ from pipette_cli.language.understanding import not_understood_line
 from pipette_cli.taskgen.plan import (
     INSTRUMENT_ACTIONS,
     PlanError,
-    PlanObjectSpec,
-    PlanStepSpec,
-    PlanThresholdsSpec,
-    Relation,
     TaskPlanSpec,
 )
-from pipette_cli.taskgen.resolve import Wanted, candidates, choose_pair, hole
+from pipette_cli.taskgen.resolve import Wanted
 
 HATCH_PARTS = ("lid", "door", "drawer", "sash")
 REMOVING = ("out of", "off", "off of", "out from", "from inside")
@@ -53,26 +50,6 @@ class ParseResult:
     remarks: list[str]
     not_understood: list[str] = field(default_factory=list)
     """Words of the description the plan does not use (shown with it; never written under --yes)."""
-
-
-@dataclass(eq=False)
-class Obj:
-    """An object of the plan being built."""
-
-    mention: Mention
-    wanted: Wanted
-    asset: str | None = None
-    name: str = ""
-
-
-@dataclass
-class RawStep:
-    action: str
-    object: Obj | None
-    target: Obj | None = None
-    source: Obj | None = None
-    part: str | None = None
-    relation: Relation | None = None
 
 
 @dataclass
@@ -317,26 +294,9 @@ class Builder:
     # ------------------------------------------------------------------ finishing
     def finish(self, robot: str | None, thresholds: dict[str, float], instruction: str) -> TaskPlanSpec:
         self._fill_elided()
-        steps = self._merged()
-        self._choose_assets(steps)
-        used = [o for o in self.objects if any(o in (s.object, s.target, s.source) for s in steps)]
-        extra = [o for o in self.objects if o not in used]
-        self._name(used + extra)
-        roles = _roles(steps)
-        objects = [
-            PlanObjectSpec(name=o.name, asset=o.asset, role=roles.get(id(o), "distractor")) for o in used + extra
-        ]
-        plan_steps = [_plan_step(s) for s in steps]
-        try:
-            return TaskPlanSpec(
-                objects=objects,
-                steps=plan_steps,
-                robot=robot,
-                instruction=instruction,
-                thresholds=PlanThresholdsSpec(**thresholds),
-            )
-        except ValueError as exc:
-            raise PlanError(f"could not make a plan: {exc}") from None
+        plan, remarks = assemble(self.vocab, self.objects, self.steps, robot, thresholds, instruction)
+        self.remarks += remarks
+        return plan
 
     def _fill_elided(self) -> None:
         """A hatch step without its instrument ("open and close the lid", "open the lid, then ...")
@@ -353,97 +313,6 @@ class Builder:
             if not near:
                 raise PlanError(f"say which instrument to {step.action} (e.g. '{step.action} the centrifuge lid')")
             step.object = near[0]
-
-    def _merged(self) -> list[RawStep]:
-        out: list[RawStep] = []
-        for step in self.steps:
-            last = out[-1] if out else None
-            if (
-                last is not None
-                and last.object is step.object
-                and last.action == "pick"
-                and step.action in ("place", "position", "pick", "remove")
-            ):
-                step.source = step.source or last.source
-                out[-1] = step  # "pick up the tube and put it on the balance" is one placement
-                continue
-            if (
-                last is not None
-                and last.object is step.object
-                and last.action == "remove"
-                and step.action in ("place", "position", "remove")
-                and step.source in (None, last.source)
-            ):
-                step.source = step.source or last.source
-                out[-1] = step  # "take the tube out of the rack and put it on the balance"
-                continue
-            if (
-                last is not None
-                and (last.action, last.object, last.part, last.target)
-                == (step.action, step.object, step.part, step.target)
-                and step.action in (*INSTRUMENT_ACTIONS, "position", "place")
-            ):
-                continue  # "hold it over the beaker and keep it there": said twice, done once
-            out.append(step)
-        return out
-
-    def _choose_assets(self, steps: list[RawStep]) -> None:
-        options = {id(o): candidates(self.vocab, o.wanted) for o in self.objects}
-        for step in steps:
-            item = step.object
-            for holder in (step.target if step.action == "place" else None, step.source):
-                if item is None or holder is None or holder.asset:
-                    continue
-                if any(hole(self.vocab, h) is not None for h in options[id(holder)]):
-                    items = [item.asset] if item.asset else options[id(item)]
-                    i, h = choose_pair(self.vocab, items, options[id(holder)])
-                    item.asset, holder.asset = i, h
-        for o in self.objects:
-            choice = options[id(o)]
-            o.asset = o.asset or choice[0]
-            kind = self.vocab.kinds[o.wanted.kind]
-            if len(choice) > 1 and not o.wanted.sizes and o.asset != kind.default:
-                self.remarks.append(f"'{o.mention.phrase}' could be {', '.join(choice[:4])}; chose {o.asset}")
-
-    def _name(self, objects: list[Obj]) -> None:
-        taken: set[str] = set()
-        for o in objects:
-            kind = o.wanted.kind
-            base = re.sub(r"[^a-z0-9]+", "_", kind.split()[-1]).strip("_") or "object"
-            if base in taken and not any(p.name == base and p.wanted.kind == kind for p in objects if p.name):
-                base = re.sub(r"[^a-z0-9]+", "_", kind).strip("_")
-            name, n = base, 2
-            while name in taken:
-                name, n = f"{base}_{n}", n + 1
-            o.name = name
-            taken.add(name)
-
-
-def _plan_step(step: RawStep) -> PlanStepSpec:
-    if step.object is None:  # Builder._fill_elided gives every step its object or refuses the description
-        raise PlanError(f"say what to {step.action}")
-    return PlanStepSpec(
-        action=step.action,
-        object=step.object.name,
-        target=step.target.name if step.target else None,
-        relation=step.relation,
-        source=step.source.name if step.source else None,
-        part=step.part,
-    )
-
-
-def _roles(steps: list[RawStep]) -> dict[int, str]:
-    roles: dict[int, str] = {}
-    for s in steps:
-        if s.action in INSTRUMENT_ACTIONS:
-            roles.setdefault(id(s.object), "instrument")
-            continue
-        roles.setdefault(id(s.object), "item")
-        if s.target is not None:
-            roles.setdefault(id(s.target), "target" if s.action == "position" or s.relation else "destination")
-        if s.source is not None:
-            roles.setdefault(id(s.source), "source")
-    return roles
 
 
 def instruction_from(description: str) -> str:

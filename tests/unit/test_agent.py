@@ -519,9 +519,7 @@ def test_coordinated_words_each_take_the_noun_after_them() -> None:
 
 
 def test_compound_number_words_are_read_and_accounted() -> None:
-    from pipette_cli.agent.numbers import spelled_numbers
-
-    spelled = spelled_numbers(load_vocabulary())
+    spelled = load_vocabulary().spelled
     assert spelled["twenty-five"] == spelled["twenty five"] == 25 and spelled["ninety-nine"] == 99
     plan = AGENT.plan("collect twenty-five demos of the water bath task")
     assert plan.steps[0].args["episodes"] == 25 and plan.unused == []
