@@ -1,21 +1,20 @@
 """The offline agent: a deterministic parser from a request to a :class:`PlanSpec`.
 
-The request is split into clauses, one per command (:mod:`.clauses`). In each clause, paths and
-addresses are taken out first (:mod:`pipette_cli.language.mentions`, then :mod:`.mentions` for where each path goes) and fill the command's path and address
-options; the remaining words give the task (matched against the registry, :mod:`.tasks`), the
-policy, numbers next to the words of an option ("30 demos", "seed 3", "64 px"), values named
-by their words ("on the gpu", "augmented"), flags ("as json", "dry run") and free text. Every
-word list comes from the vocabulary and every option from the CLI's catalog, so an option added
-to the CLI is understood by the words of its own name. The plan then goes through the same
+The request is split into clauses, one per command (:mod:`.clauses`); a clause asking for a
+whole workflow becomes that recipe's steps; each clause's arguments are read from its words
+(:mod:`.arguments`); a clause that only completes the step before ("save the picture to y.png")
+or says what was done before ("after training") adds to that step or plans nothing. Every word
+list comes from the vocabulary and every option from the CLI's catalog, so an option added to
+the CLI is understood by the words of its own name. The plan then goes through the same
 :class:`.validate.Validator` as an LLM's.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Set as AbstractSet
 from typing import Any
 
+from pipette_cli.agent.arguments import ArgumentReader
 from pipette_cli.agent.catalog import (
     AgentError,
     CommandCatalog,
@@ -24,19 +23,15 @@ from pipette_cli.agent.catalog import (
     is_empty,
 )
 from pipette_cli.agent.clauses import RECIPE_PREFIX, Clause, Intents, split_clauses
-from pipette_cli.agent.mentions import SAVE, assign_paths, option_words
-from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
-from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
+from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, distributed, lexicon
-from pipette_cli.language.assets import load_vocabulary as load_asset_words
-from pipette_cli.language.lexicon import short_name, stem
+from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
+from pipette_cli.language.lexicon import stem
 from pipette_cli.language.mentions import find_mentions
-from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 from pipette_cli.registry import Registry
 
-_CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 
@@ -69,6 +64,7 @@ class OfflineAgent:
         self.validator = Validator(catalog, registry, self.vocab, self.index)
         self.intents = Intents(self.vocab, catalog, registry.ids())
         self.readers = self.vocab.readers()
+        self.arguments = ArgumentReader(catalog, registry, self.vocab, self.index, self.intents, self.readers)
 
     def plan(self, text: str, context: Context | None = None) -> CheckedPlan:
         """The checked plan for ``text``.
@@ -117,8 +113,8 @@ class OfflineAgent:
             if command is None or (clauses and self._done_before(clause.text)):
                 continue  # "after training, evaluate ...": what was done before, not a step
             info = self.catalog.get(command)
-            args = self.fill(info, clause.text, problems)
-            both = self._both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            args = self.arguments.fill(info, clause.text, problems)
+            both = self.arguments.both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
             if not both and self._continues(info, clause, args, steps):
                 steps[-1].args.update(args)  # "render X. save the picture to y.png": one step
                 continue
@@ -162,7 +158,7 @@ class OfflineAgent:
         for item in recipe.steps:
             info = self.catalog.get(item.command)
             bound = {float(v) for k, v in filled.items() if isinstance(v, int | float) and not isinstance(v, bool)}
-            args = self.fill(info, text, problems, bound)
+            args = self.arguments.fill(info, text, problems, bound)
             for key, value in recipe.defaults.items():
                 name = "policy_type" if key == "policy" and "policy_type" in info.params else key
                 if name in info.params and is_empty(args.get(name)) and not info.params[name].path:
@@ -218,277 +214,4 @@ class OfflineAgent:
 
     def _policy_only(self, text: str) -> str | None:
         """A clause naming a policy and no command asks to train it ("use VQ-BeT on the tube task")."""
-        return "train" if "train" in self.catalog and self._policy(words_of(text)) else None
-
-    # -- filling one step ---------------------------------------------------------------------
-
-    def fill(
-        self, info: CommandInfo, text: str, problems: list[str] | None = None, bound: AbstractSet[float] = frozenset()
-    ) -> dict[str, Any]:
-        """Arguments of ``info`` that ``text`` gives; a task that is unknown or ambiguous is
-        added to ``problems`` (raised at once without it). Numbers in ``bound`` belong to an
-        option of another step: never a bare count here."""
-        mentions = find_mentions(text, self.registry.ids())
-        words = words_of(distributed(mentions.words, self.vocab.distributes))  # "object and clutter variants"
-        args: dict[str, Any] = {}
-        named = self._registry_names(info, mentions.words)
-        try:
-            self._task(info, named, words_of(named), args, [m.path for m in mentions.paths])
-        except AgentError as exc:
-            if problems is None:
-                raise
-            problems.append(str(exc))
-        for address, raw in mentions.addresses:
-            param = next((p for p in info.params.values() if p.address and is_empty(args.get(p.name))), None)
-            plain = next(
-                (
-                    p
-                    for p in info.params.values()
-                    if p.kind == "str" and "address" in p.names and is_empty(args.get(p.name))
-                ),
-                None,
-            )  # "the ray cluster at host:port"
-            if param is None and plain is None:
-                raise AgentError(f"'pipette {info.name}' takes no address like {raw!r}")
-            if param is not None:
-                args[param.name] = address
-            elif plain is not None:
-                args[plain.name] = raw
-        paths = mentions.paths
-        if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
-            paths = [m for m in paths if SAVE.search(m.before)]
-        assign_paths(info, paths, args, self.catalog, self.readers)
-        saved = [m.path for m in paths]
-        policy = self._policy(words)
-        if policy:
-            param = next((p for p in info.params.values() if set(p.values()) & set(self.vocab.policies)), None)
-            if param is not None:
-                args[param.name] = policy
-        words = self._indexed(info, words, args)
-        copied = self.vocab.task_params.get(info.name)
-        if copied and is_empty(args.get(copied)) and self.index.explicit(mentions.words):
-            args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
-        read_numbers(self.vocab, info, words, args, bound)
-        self._values(info, words, args)
-        self._flags(info, words, args)
-        self._text(info, text, saved, mentions.words, words, args)
-        return args
-
-    def _registry_names(self, info: CommandInfo, text: str) -> str:
-        """``text`` without the suite it names ("the paper benchmark suite" names no task)."""
-        if "suite_id" not in info.params:
-            return text
-        phrases = [p for names in self.vocab.values.get("suite_id", {}).values() for p in names]
-        lowered = words_of(text)
-        m = find_phrase(sorted(phrases, key=len, reverse=True), lowered)
-        return lowered[: m.start()] + " " + lowered[m.end() :] if m else text
-
-    def _task(self, info: CommandInfo, raw: str, words: str, args: dict[str, Any], paths: list[str]) -> None:
-        param = info.task_param()
-        if param is None or info.name == "new-task":  # new-task's --id names the task to create
-            return
-        if self.index.all_tasks(words):
-            args[param.name] = "all"
-            return
-        unknown = self.index.unknown_name(raw)
-        cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
-        for name in info.params:  # "the paper grid" is a value of --variants, not the paper's tasks
-            for phrase in self._value_phrases(name):
-                raw = phrase_pattern(phrase).sub(" ", raw)
-        match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
-        in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
-        if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
-            args[param.name] = in_file  # "my centrifuge demos in data/OpenCentrifugeLid.h5"
-        elif match.explicit:
-            many = param.multiple or param.comma_list
-            args[param.name] = list(match.explicit) if many else match.explicit[0]
-        elif unknown:
-            raise AgentError(f"unknown task {unknown!r}; {self.index.suggest_name(short_name(unknown))}")
-        elif match.task:
-            args[param.name] = match.task
-        elif match.candidates:
-            raise AgentError(f"the request could mean several tasks: {', '.join(match.candidates)}; name one")
-        elif match.opposed:
-            raise AgentError(
-                f"no registered task does what the request asks ({match.action!r} that): {', '.join(match.opposed)} "
-                f"{'does' if len(match.opposed) == 1 else 'do'} the opposite; name a task, or create one "
-                'with `pipette new-task "<what the robot should do>"`'
-            )
-        elif param.required or info.is_answer:
-            named = re.search(
-                r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words
-            )
-            stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
-            if named and not {stem(w) for w in named.group(1).split()} <= stop | {
-                "new",
-                "same",
-                "last",
-                "previous",
-                "first",
-                "next",
-                "one",
-                "which",
-                "what",
-            }:
-                raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
-
-    def _policy(self, words: str) -> str | None:
-        for word, key in self.vocab.policy_words():
-            if re.search(rf"(?<![\w-]){re.escape(word)}(?![\w-])", words):
-                return key
-        return None
-
-    def _values(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
-        """Values named by their words: vocabulary values anywhere, CLI choices anywhere, values
-        the help lists only next to the option's name ("wrist camera")."""
-        corrected = _CORRECTION.search(words) is not None
-        claims = {  # a value's name of several words claims them: "the cpu reproduction suite" is no --device cpu
-            name: [m.span() for p in self._value_phrases(name) if " " in p for m in phrase_pattern(p).finditer(words)]
-            for name in info.params
-        }
-        everything = words
-        for param in info.params.values():
-            if not is_empty(args.get(param.name)) or param.kind in ("bool", "path", "task"):
-                continue
-            if set(param.values()) & set(self.vocab.policies):
-                continue  # policies are read by _policy
-            words = everything
-            for start, end in (span for other, spans in claims.items() if other != param.name for span in spans):
-                words = words[:start] + " " * (end - start) + words[end:]
-            found: list[tuple[int, int, str]] = []  # (start, -length, value): the longest name at a place wins
-            for value, phrases in self.vocab.values.get(param.name, {}).items():
-                m = find_phrase(phrases, words)
-                if m:
-                    found.append((m.start(), -len(m.group(0)), value))
-            for value in param.choices:
-                m = re.search(rf"(?<![\w-]){re.escape(value.lower())}(?![\w-])", words)
-                if m:
-                    found.append((m.start(), -len(m.group(0)), value))
-            names = "|".join(phrase_pattern(n).pattern for n in param.names)
-            named = {p.lower() for p in self._value_phrases(param.name)}
-            for value in (v for v in param.hinted if v.lower() not in named):  # the lexicon's value wins
-                v = re.escape(value.lower())
-                if re.search(r"[\d_]", value):  # "h264", "catmull_rom": never an ordinary word
-                    m = re.search(rf"(?<![\w-]){v}(?![\w-])", words)
-                else:
-                    m = re.search(
-                        rf"(?<![\w-]){v}(?:\s+\S+)?\s+(?:{names})|(?:{names})(?:\s+\S+)?\s+{v}(?![\w-])", words
-                    )
-                if m:
-                    found.append((m.start(), -len(m.group(0)), value))
-            if found and param.comma_list and "NAME*N" in param.help:  # "three object-pose draws": object*3
-                found = [(at, n, self._counted(words, at, value)) for at, n, value in found]
-            if found and param.comma_list and not corrected:  # "object pose and camera shake"
-                args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
-            elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
-                args[param.name] = max(found)[2] if corrected else min(found)[2]
-
-    def _value_phrases(self, name: str) -> list[str]:
-        """The vocabulary's words for every value of the option ``name``."""
-        return [p for phrases in self.vocab.values.get(name, {}).values() for p in phrases]
-
-    def _counted(self, words: str, at: int, value: str) -> str:
-        """``value`` with the count said just before its words ("three object-pose draws" ->
-        ``object*3``), for an option whose help writes ``NAME*N``."""
-        spelled = self.vocab.spelled
-        numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
-        m = re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])
-        if m is None:
-            return value
-        count = int(m.group(1)) if m.group(1).isdigit() else spelled[m.group(1)]
-        return f"{value}*{count}" if count > 1 else value
-
-    def _indexed(self, info: CommandInfo, words: str, args: dict[str, Any]) -> str:
-        """A value the help writes with an index ("cuda[:N]") said with one ("cuda:1", "gpu 1"):
-        the value with it, and ``words`` without the index (never a count)."""
-        for param in (p for p in info.params.values() if is_empty(args.get(p.name))):
-            for value in param.indexed:
-                names = [value, *self.vocab.values.get(param.name, {}).get(value, [])]
-                said = "|".join(phrase_pattern(p).pattern for p in names)
-                m = re.search(rf"(?<![\w-])(?:{said})\s*:?\s*(\d+)(?![\w.-])", words)
-                if m:
-                    args[param.name] = f"{value}:{m.group(1)}"
-                    words = words[: m.start(1)] + " " * len(m.group(1)) + words[m.end(1) :]
-        return words
-
-    def _both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
-        """A parameter the clause gives two values joined by "and" ("the raw and the augmented
-        data"), for a command that takes one: the step is made once per value."""
-        for param in info.params.values():
-            if param.multiple or param.comma_list or param.kind != "str":
-                continue
-            found = sorted(
-                (m.start(), m.end(), value)
-                for value, phrases in self.vocab.values.get(param.name, {}).items()
-                for m in [find_phrase(phrases, words)]
-                if m
-            )
-            values = list(dict.fromkeys(v for _, _, v in found))
-            if len(values) >= 2 and re.search(r"\b(?:and|&)\b", words[found[0][1] : found[1][0]]):
-                return param.name, values
-        return None
-
-    def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
-        for param in info.params.values():
-            if not param.is_flag or param.name in ("yes",):
-                continue
-            stemmed = _stems(words)
-            if param.off_words and find_phrase([_stems(w) for w in param.off_words], stemmed):
-                args[param.name] = False
-            elif find_phrase([_stems(w) for w in param.names], stemmed):  # "allow mixing" = allow mixed
-                args[param.name] = True
-
-    def _text(self, info: CommandInfo, text: str, saved: list[str], raw: str, words: str, args: dict[str, Any]) -> None:
-        """Free text: a description, an asset, what to list tasks about, named strings."""
-        if "description" in info.params and is_empty(args.get("description")):
-            said = text
-            for path in saved:  # "... and save it to x.yaml" is not part of the description
-                said = re.sub(rf"[,;]?\s*(?:and\s+)?\b(?:save|write|store)s?\b[^,;]*?{re.escape(path)}\S*", "", said)
-            sentences = re.split(r"(?<=[.!?;])\s+", said.strip())
-            while len(sentences) > 1 and self._only_options(info, sentences[-1]):  # "... stirrer. check it"
-                sentences.pop()
-            said = " ".join(sentences)
-            quoted = _QUOTED.search(said)
-            cues = self.vocab.intents.get(info.name, None)
-            cue = find_phrase([*cues.phrases, *cues.verbs], said.lower()) if cues else None
-            rest = said[cue.end() :] if cue else said
-            rest = re.sub(r"^[\s\-—:,.]*(?:(?:where|in which|which|that|so that|for|to|of|:)\s+)?", "", rest)
-            rest = re.sub(r"^(?:please|kindly)\b[\s:,.-]*", "", rest, flags=re.IGNORECASE)  # "new task please: ..."
-            if quoted or rest.strip(" ."):
-                args["description"] = quoted.group(1) if quoted else rest.strip(" .")
-        if "about" in info.params and is_empty(args.get("about")):
-            about = self.index.filter_words(words)
-            if about:
-                args["about"] = " ".join(about)
-        if "asset_id" in info.params and info.params["asset_id"].required and is_empty(args.get("asset_id")):
-            asset = self._asset(words)
-            if asset:
-                args["asset_id"] = asset
-        for param in info.params.values():
-            if (
-                param.kind != "str"
-                or param.values()
-                or param.name in self.vocab.values  # named by its values' words ("lighting only"), never the next word
-                or not is_empty(args.get(param.name))
-                or param.name in ("description", "about", "asset_id", "backend", "model", "base_url")
-            ):
-                continue
-            pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
-            m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
-            if m and m.group(1).lower() not in {*self.vocab.tasks.stop, *self.vocab.filler}:
-                args[param.name] = m.group(1).strip("\"'")
-
-    def _only_options(self, info: CommandInfo, sentence: str) -> bool:
-        """Whether ``sentence`` says nothing but options of ``info`` ("check it", "and write it to x")."""
-        named = {w for p in info.params.values() if p.name != "description" for w in option_words(p)}
-        said = [w for w in words_of(sentence).split() if w not in self.vocab.filler]
-        return bool(said) and all(singular(w) in named for w in said)
-
-    def _asset(self, words: str) -> str | None:
-        assets = load_asset_words()
-        squashed = words.replace(" ", "_")
-        explicit = next((a for a in sorted(assets.assets, key=len, reverse=True) if a in squashed), None)
-        if explicit:
-            return explicit
-        kind = next((kind for _, kind in assets.names_in(words)), None)
-        return assets.kinds[kind].default if kind else None
+        return "train" if "train" in self.catalog and self.arguments.policy(words_of(text)) else None
