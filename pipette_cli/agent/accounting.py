@@ -29,6 +29,7 @@ from pipette_cli.agent.mentions import SAVE_VERBS
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, distributed
+from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import LIST_MARK
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
@@ -39,7 +40,7 @@ FREE_TEXT = ("description", "about", "name", "asset_id")
 _NUMBER = re.compile(r"^-?\d+(?:,\d{3})*(?:\.\d+)?(k)?(%)?$")
 _SIZE = re.compile(r"^(\d+)[x×](\d+)$")
 _GLUED = re.compile(r"^(\d+(?:\.\d+)?)([a-z]+)$")
-SAVE_VERB = re.compile(rf"(?:{SAVE_VERBS})[sd]?|saved|written|stored|wrote")
+SAVE_VERB = re.compile(rf"(?:{SAVE_VERBS})[sd]?|saved|written|stored|wrote|writing|saving|storing")
 
 
 def _suffix(n: int) -> str:
@@ -123,8 +124,9 @@ class _Words:
                     self.used[i] = True
 
     def where(self, test: Any) -> None:
+        """Mark the tokens ``test`` accepts, a possessive by its noun ("PlaceTubeOnBalance's")."""
         for i, token in enumerate(self.tokens):
-            if not self.used[i] and test(token):
+            if not self.used[i] and (test(token) or (token.endswith("'s") and test(token[:-2]))):
                 self.used[i] = True
 
     def unused(self) -> list[str]:
@@ -154,7 +156,7 @@ class Accountant:
             m = phrase_pattern(phrase.lower()).match(words.text)
             if m:
                 words.used[: len(m.group(0).split())] = [True] * len(m.group(0).split())
-        for phrase in self.vocab.chain.strong:
+        for phrase in [*self.vocab.chain.strong, *self.vocab.happened]:  # "then"; "... was killed": what happened
             words.phrase(phrase)
         for kind in self._kinds(plan):
             for phrase in self.vocab.tasks.all if kind == "all tasks" else self.vocab.refers.get(kind, []):
@@ -238,6 +240,8 @@ class Accountant:
                     words.phrase(ordinal)
             for phrase in [*param.units, *param.names]:
                 words.phrase(phrase)
+        elif param.takes_assets and isinstance(value, str):
+            self._asset(words, value)
         elif param.name in FREE_TEXT or (
             param.kind == "str" and not param.values() and param.name not in self.vocab.values
         ):
@@ -269,6 +273,18 @@ class Accountant:
             words.phrase(phrase)
         for phrase in param.names:
             words.phrase(phrase)
+
+    def _asset(self, words: _Words, asset: str) -> None:
+        """The asset's id as written ("beaker_50ml", "microplate reader") and its kinds' names, in
+        the plural too ("the beakers")."""
+        said = set(words_of(asset).split()) | set(words_of(asset.replace("_", " ")).split())
+        words.where(lambda t: t in said)
+        library = load_asset_words()
+        info = library.assets.get(asset)
+        kinds = set(info.kinds) if info else set()
+        for alias, kind in library.alias_to_kind.items():
+            if kind in kinds:
+                words.phrase(f"{alias}*")
 
     def _number(self, words: _Words, value: float) -> None:
         spelled = {w for w, n in self.vocab.spelled.items() if n == value}

@@ -137,6 +137,12 @@ class ArgumentReader:
                 f"{'does' if len(match.opposed) == 1 else 'do'} the opposite; name a task, or create one "
                 'with `pipette new-task "<what the robot should do>"`'
             )
+        elif match.other:
+            raise AgentError(
+                f"no registered task does what the request asks ({match.action!r}): {', '.join(match.other)} "
+                f"{'does' if len(match.other) == 1 else 'do'} something else with what it names; name a task, or "
+                'create one with `pipette new-task "<what the robot should do>"`'
+            )
         elif param.required or info.is_answer:
             named = re.search(
                 r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words
@@ -283,17 +289,19 @@ class ArgumentReader:
             about = self.index.filter_words(words)
             if about:
                 args["about"] = " ".join(about)
-        if "asset_id" in info.params and info.params["asset_id"].required and is_empty(args.get("asset_id")):
-            asset = self._asset(words)
-            if asset:
-                args["asset_id"] = asset
+        for param in info.params.values():  # "the microplate reader", "beaker_50ml, beaker_100ml and ..."
+            if param.takes_assets and (param.required or param.multiple) and is_empty(args.get(param.name)):
+                assets = self._assets(words)
+                if assets:
+                    args[param.name] = assets if param.multiple else assets[0]
         for param in info.params.values():
             if (
                 param.kind != "str"
                 or param.values()
                 or param.name in self.vocab.values  # named by its values' words ("lighting only"), never the next word
                 or not is_empty(args.get(param.name))
-                or param.name in ("description", "about", "asset_id", "backend", "model", "base_url")
+                or param.takes_assets
+                or param.name in ("description", "about", "backend", "model", "base_url")
             ):
                 continue
             pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
@@ -307,11 +315,22 @@ class ArgumentReader:
         said = [w for w in words_of(sentence).split() if w not in self.vocab.filler]
         return bool(said) and all(singular(w) in named for w in said)
 
-    def _asset(self, words: str) -> str | None:
+    def _assets(self, words: str) -> list[str]:
+        """The asset ids ``words`` writes out, in order; else each kind it names: every asset of a
+        kind named in the plural ("the beakers"), the kind's default asset otherwise."""
         assets = load_asset_words()
-        squashed = words.replace(" ", "_")
-        explicit = next((a for a in sorted(assets.assets, key=len, reverse=True) if a in squashed), None)
+        ids = "|".join(re.escape(a) for a in sorted(assets.assets, key=len, reverse=True))
+        explicit = (
+            re.findall(rf"(?<![\w-])(?:{ids})(?![\w-])", words)
+            or [  # "microplate reader" -> microplate_reader
+                a for a in sorted(assets.assets, key=len, reverse=True) if a in words.replace(" ", "_")
+            ][:1]
+        )
         if explicit:
-            return explicit
-        kind = next((kind for _, kind in assets.names_in(words)), None)
-        return assets.kinds[kind].default if kind else None
+            return list(dict.fromkeys(explicit))
+        named: list[str | None] = []
+        for name, kind in assets.names_in(words):
+            written = words[name.span[0] : name.span[1]]
+            plural = singular(written.split()[-1]) != written.split()[-1]
+            named += assets.members(kind) if plural else [assets.kinds[kind].default]
+        return list(dict.fromkeys(a for a in named if a))

@@ -93,6 +93,11 @@ class ParamInfo:
         return self.choices or self.hinted
 
     @property
+    def takes_assets(self) -> bool:
+        """An asset id (``assets show ID``) or several (``assets render [ID...]``: help "Asset ids ...")."""
+        return self.name == "asset_id" or self.help.lower().startswith("asset id")
+
+    @property
     def indexed(self) -> tuple[str, ...]:
         """Values the help writes with an index ("cuda[:N]"): "cuda:1", "gpu 1" keep theirs."""
         return tuple(re.findall(r"([\w-]+)\[:N\]", self.help))
@@ -322,7 +327,10 @@ def own_names(param: ParamInfo) -> tuple[str, ...]:
 
 def _with_words(command: str, param: ParamInfo) -> ParamInfo:
     spec = load_vocabulary().words_for(param.name, command)
-    return replace(param, names=(*spec.names, *own_names(param)), units=tuple(spec.units), off_words=tuple(spec.off))
+    units = tuple(spec.units)
+    if not units and param.kind in ("int", "float"):  # "4 threads", "3 distractors": a plural name follows its number
+        units = tuple(n for n in own_names(param) if " " not in n and n.endswith("s"))
+    return replace(param, names=(*spec.names, *own_names(param)), units=units, off_words=tuple(spec.off))
 
 
 def _command(path: tuple[str, ...], command: Any) -> CommandInfo:

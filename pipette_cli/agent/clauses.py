@@ -117,12 +117,30 @@ class Intents:
         """Whether the words of ``text`` asking for ``command`` belong to the name of an option of
         ``previous`` said there ("..., with the full render profile": ``--render-profile`` of the
         collect before, not a ``sim render``; "render it again" names no option)."""
-        cue = self.cue_words(text, command)
         words = words_of(find_mentions(text, self.names).words)
+        cue = self.cue_words(text, command)
+        verb = self.verb(text, command)
+        asks = {verb} & cue if verb else set()  # "render": the word that asks for it
+        # a name of several words said whole ("yield report", "render profile") shares any word of the
+        # cue; a one-word name ("episodes" of "move the pending episodes") only the word that asks
         return any(
-            set(name.split()) & cue and phrase_pattern(name).search(words)
+            set(name.split()) & (cue if " " in name else asks) and phrase_pattern(name).search(words)
             for name in self.option_names.get(previous, [])
         )
+
+    def verb(self, text: str, command: str) -> str | None:
+        """The first word of the verb or phrase cue of ``command`` in ``text`` ("show" in "show me
+        the microplate reader asset")."""
+        words = words_of(find_mentions(text, self.names).words)
+        for c, weight, phrase in self.cues:
+            m = phrase_pattern(phrase).search(words) if c == command and weight > WEIGHTS["nouns"] else None
+            if m:
+                return m.group(0).split()[0]
+        return None
+
+    def happened(self, text: str) -> bool:
+        """Whether ``text`` reports what happened ("the collect writing x.h5 was killed") and asks nothing."""
+        return not text.rstrip().endswith("?") and find_phrase(self.vocab.happened, words_of(text)) is not None
 
     def best(self, text: str) -> tuple[str | None, int]:
         scores = self.scores(text)
@@ -147,6 +165,9 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
             commands.append(intents.best(before.text)[0])
         command, score = intents.best(piece.text)
         previous = commands[-1]
+        verb = intents.verb(before.text, previous) if previous and command is None else None
+        if verb and piece.after == "strong":  # "show me X, then the ReadPlate protocol": the verb said once
+            command, score = intents.best(f"{verb} {piece.text}")
         new = (
             command is not None
             and previous is not None
@@ -167,11 +188,17 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
 
     separators = Separators(strong=tuple(intents.vocab.chain.strong))
     found = language.split_clauses(text, separators, starts)
-    clauses = []
-    for clause, command in zip(found, commands or [None], strict=False):
+    clauses: list[Clause] = []
+    told = ""  # what earlier clauses reported as having happened
+    for i, (clause, command) in enumerate(zip(found, commands or [None], strict=False)):
+        if i + 1 < len(found) and intents.happened(clause.text):
+            told += f"{clause.text}; "  # "the collect writing x.h5 was killed overnight; pack it": only the pack
+            continue
+        text = told + clause.text
         best, score = intents.best(clause.text)
         if best is not None and best.startswith(RECIPE_PREFIX):
             command = best  # "train X with and without augmentation": the workflow, not its first command
-        after = "strong" if clause.after == "start" else clause.after
-        clauses.append(Clause(clause.text, command or best, score, after))
+        after = "strong" if clause.after == "start" or (told and not clauses) else clause.after
+        clauses.append(Clause(text, command or best, score, after))
+        told = ""
     return clauses

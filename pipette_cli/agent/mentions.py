@@ -29,7 +29,9 @@ def option_words(param: ParamInfo) -> set[str]:
     """Words that name ``param`` (its name's parts and its vocabulary names, singular), without
     the generic "path"/"file"/"root" unless they are its whole name (``convert --root``)."""
     words = set(param.name.split("_")) | {w for name in param.names for w in name.split()}
-    generic = {"path", "root", "file", "the", "a", "in", "of", "to"} - {param.name}
+    generic = {"path", "root", "file", "the", "a", "in", "of", "to", "from", "at", "with", "for", "on", "by"} - {
+        param.name
+    }
     return {singular(w) for w in words} - generic
 
 

@@ -75,7 +75,13 @@ class OfflineAgent:
             AgentError: nothing to run can be read from ``text``, a task is unknown or
                 ambiguous, or a value is wrong (see :class:`.validate.Validator`).
         """
-        spec, problems = self._read(text)
+        try:
+            spec, problems = self._read(text)
+        except AgentError:  # a path or value it could not place: the unsupported policy still comes first
+            policy = self.arguments.policy(words_of(text))
+            if policy:
+                self.validator.refuse_unsupported_policy(policy)
+            raise
         if problems:
             try:
                 self.validator.check(spec, request=text, context=context)

@@ -7,8 +7,9 @@ mapped through the vocabulary's synonyms ("shut" -> close, "scale" -> balance); 
 term adds ``weight x idf`` (terms many tasks share count less), and a small bonus for how much
 of the task's name (as written) the request covers breaks ties toward the task named most
 completely. A task doing the opposite of the request's action (vocabulary ``tasks.opposites``) is
-never chosen. An explicit id or name always wins; equal best scores are reported as ambiguous,
-never guessed.
+never chosen; where several tasks tie and none of them does the request's action ("open the
+incubator door": one incubator task places a dish, the other removes it), none is. An explicit id or
+name always wins; equal best scores are reported as ambiguous, never guessed.
 """
 
 from __future__ import annotations
@@ -43,6 +44,15 @@ def _longest_run(name: list[str], words: list[str]) -> int:
     return best
 
 
+_COMPOUND = re.compile(r"(?<![\w-])[a-z0-9]+(?:-[a-z0-9]+){2,}(?![\w-])")
+"""Three or more words joined by hyphens ("the dish-out-of-the-incubator scene"): read as words,
+where two ("pick-up", "fine-tune") stay one."""
+
+
+def _unhyphenated(text: str) -> str:
+    return _COMPOUND.sub(lambda m: m.group(0).replace("-", " "), text)
+
+
 def task_in_file_name(path: str, task_ids: list[str]) -> str | None:
     """The registered task whose name a file name holds (``data/PickUpTestTube_augmented.h5``),
     the longest such name if several."""
@@ -63,7 +73,10 @@ class TaskMatch:
     """Tasks about what the request names that do the opposite of its action ("open the
     spectrophotometer" when only CloseSpectrophotometerLid exists): never chosen."""
     action: str = ""
-    """The request's action the ``opposed`` tasks undo ("open")."""
+    """The request's action the ``opposed`` tasks undo ("open"), or that the ``other`` tasks lack."""
+    other: tuple[str, ...] = ()
+    """The tasks about what the request names when none of them does its action ("open the
+    incubator door" when the incubator's tasks place and remove a dish): never chosen."""
 
 
 @dataclass
@@ -144,7 +157,7 @@ class TaskIndex:
 
     def concepts(self, text: str) -> set[str]:
         """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out."""
-        lowered = text.lower()
+        lowered = _unhyphenated(text.lower())
         for pattern, word in self._synonyms:
             lowered = pattern.sub(f" {word} ", lowered)
         sized = {f"{n}{u}" for n, u in re.findall(r"\b(\d+)\s*(ml|ul|l|mm|cm)\b", lowered)}  # "50 mL": 50ml
@@ -223,6 +236,11 @@ class TaskIndex:
             return TaskMatch(None, opposed=tuple(sorted(opposed)), action=action)
         best = max(scores.values())
         top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
+        if len(top) > 1 and said and not any(said & self.terms[t].keys() for t in top):  # one task left is meant
+            words = {stem(w): w for w in ACTIONS} | {
+                stem(w): w for pair in self.vocab.tasks.opposites.items() for w in pair
+            }
+            return TaskMatch(None, other=tuple(top), action=words.get(min(said), min(said)))
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
 
     def _opposes(self, task: str, actions: set[str]) -> bool:
@@ -246,7 +264,7 @@ class TaskIndex:
         """``text``'s words without the multi-word asset names it holds (whole before their
         parts, :meth:`~pipette_cli.language.assets.Vocabulary.names_in`), and those names as
         written with their kinds (``every``: the one-word names too, which stay in the words)."""
-        lowered = plain(text)
+        lowered = _unhyphenated(plain(text))
         names: list[tuple[str, str]] = []
         for name, kind in self._assets.names_in(text):
             (start, end), multi = name.span, name.end - name.start > 1

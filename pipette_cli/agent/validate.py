@@ -150,6 +150,14 @@ class Validator:
             value = self._choice(param, value, label)
         return value
 
+    def refuse_unsupported_policy(self, policy: str) -> None:
+        """Raise :class:`Unsupported` when no command takes ``policy`` (a vocabulary policy key)."""
+        for info in self.catalog.commands.values():
+            for param in info.params.values():
+                if set(param.values()) & set(self.vocab.policies):
+                    self._choice(param, policy, param.flag or param.name)
+                    return
+
     def _choice(self, param: ParamInfo, value: str, label: str) -> str:
         """A value of a parameter with listed values: the CLI's spelling, or a clear refusal."""
         policies = self.vocab.policies

@@ -128,6 +128,9 @@ class WorkflowVocabularySpec(Spec):
     """Words that, with a command's cue alone ("after training"), say what was done before."""
     corrections: list[str] = Field(default_factory=list)
     """Words that take back what came before ("actually", "no -")."""
+    happened: list[str] = Field(default_factory=list)
+    """Phrases that report what happened ("... was killed overnight"): such a clause before another
+    plans nothing itself; it tells the next one what it is about (its file, its task)."""
     per_each: list[str] = Field(default_factory=list)
     """Words that say a count is for each input ("per demo"): ``--variants object*3``."""
     distributes: list[str] = Field(default_factory=list)

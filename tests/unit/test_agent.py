@@ -529,3 +529,50 @@ def test_an_indexed_device_keeps_its_index_and_is_no_count() -> None:
     plan = AGENT.plan("evaluate ckpt/a on the tube pick-up task on cuda:0 with 4 workers")
     args = plan.steps[0].args
     assert args["device"] == "cuda:0" and args["workers"] == 4 and "episodes" not in args and plan.unused == []
+
+
+def test_a_clause_reporting_what_happened_plans_nothing_and_gives_its_file() -> None:
+    plan = AGENT.plan("the recording into data/night.h5 crashed; merge its leftover parts")
+    assert [s.command for s in plan.steps] == ["data pack"] and plan.steps[0].args["file"] == "data/night.h5"
+    assert plan.unused == []
+    alone = AGENT.plan("collect 5 demos of the tube pick-up task, it crashed")  # the last clause: nothing follows
+    assert [s.command for s in alone.steps] == ["collect"]
+
+
+def test_a_clause_after_then_without_a_verb_takes_the_verb_before() -> None:
+    plan = AGENT.plan("describe the water bath lid task, then the ReadPlate protocol")
+    assert [(s.command, s.args.get("task_id")) for s in plan.steps] == [
+        ("tasks show", "pipette/OpenWaterBathLid-v1"),
+        ("tasks show", "protocols/ReadPlate-v1"),
+    ]
+
+
+def test_asset_options_take_every_id_written_and_a_plural_kind_whole() -> None:
+    plan = AGENT.plan("make a contact sheet of beaker_50ml and beaker_100ml, 2 per row")
+    assert plan.steps[0].args["targets"] == ["beaker_50ml", "beaker_100ml"] and plan.steps[0].args["columns"] == 2
+    beakers = AGENT.plan("a contact sheet of the beakers")
+    assert set(beakers.steps[0].args["targets"]) >= {"beaker_50ml", "beaker_250ml", "beaker_1000ml"}
+    assert beakers.unused == []
+
+
+def test_a_plural_option_name_after_a_number_sets_it_and_a_possessive_is_its_noun() -> None:
+    plan = AGENT.plan("train act on PickUpTestTube's raw data with 3 threads")
+    assert plan.steps[0].args["threads"] == 3 and plan.unused == []
+
+
+def test_an_unsupported_policy_is_refused_before_a_path_it_cannot_place() -> None:
+    with pytest.raises(Unsupported, match="Octo is not supported"):
+        AGENT.plan("fine-tune octo on the shaker task, weights at some/where")
+
+
+def test_tied_tasks_none_of_which_does_the_action_are_not_guessed() -> None:
+    with pytest.raises(AgentError, match=r"no registered task does what the request asks \('open'\)"):
+        AGENT.plan("record 4 demos of opening the incubator")
+    assert AGENT.plan("record 4 demos of putting the dish in the incubator").steps[0].args["task_id"] == (
+        "pipette/PlacePetriDishInIncubator-v1"
+    )
+
+
+def test_three_hyphenated_words_are_read_as_words_for_the_task() -> None:
+    plan = AGENT.plan("render the pull-the-dish-out-of-the-incubator task")  # "pull out", "out of": a removal
+    assert plan.steps[0].args["task_id"] == "pipette/RemovePetriDishFromIncubator-v1"
