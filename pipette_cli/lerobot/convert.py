@@ -375,6 +375,17 @@ def _read_images(planned: PlannedEpisode) -> dict[str, np.ndarray]:
         return {cam: images[cam][planned.steps] for cam in CAMERAS}
 
 
+def _quiet_encoders() -> None:
+    """Only errors from the video encoders: LeRobot hands FFmpeg back its default logger after each
+    video (``av.logging.restore_default_callback``), which then prints every encoder's info lines
+    (x264's statistics, "Starting second pass"), and SVT-AV1 logs its own (``SVT_LOG``; about 60
+    lines per episode in all). A level the user set in the environment is kept."""
+    import av.logging
+
+    os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: 1 = errors (read when an encoder starts)
+    av.logging.set_libav_level(av.logging.ERROR)
+
+
 def _write(
     plan: ConversionPlan, options: ConvertOptions, tmp: Path, on_episode: Callable[[int, int], None] | None
 ) -> None:
@@ -384,6 +395,8 @@ def _write(
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     datasets.disable_progress_bars()  # one "Map" bar per episode otherwise; pipette reports progress itself
+    if options.video:
+        _quiet_encoders()
     dataset = LeRobotDataset.create(
         repo_id=options.repo_id,
         fps=options.fps,

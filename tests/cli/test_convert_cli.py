@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -68,3 +70,18 @@ def test_errors_are_one_line_and_leave_nothing(run_cli, recording: Path, tmp_pat
     assert run_cli("data", "stats", tmp_path).exit_code == 1
     missing = run_cli("convert", tmp_path / "nope.h5", "--repo-id", "local/x", "--root", root)
     assert missing.exit_code == 1 and "no such file" in missing.stderr
+
+
+def test_video_conversion_prints_no_encoder_logs(recording: Path, tmp_path: Path) -> None:
+    """FFmpeg's and the encoders' info lines (x264's statistics, about 60 per episode) stay out of
+    the terminal; only pipette's own progress is printed (a separate process: they are C-level)."""
+    run = subprocess.run(
+        [sys.executable, "-m", "pipette_cli.cli.main", "convert", str(recording), "--root", str(tmp_path / "v")]
+        + ["--video", "--vcodec", "h264", "--include-failed"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")},
+    )
+    assert run.returncode == 0, run.stderr
+    assert "[libx264" not in run.stderr and "Svt[" not in run.stderr, run.stderr[:2000]
+    assert run.stderr.strip().splitlines()[-1].startswith("convert: 2/2 episodes"), run.stderr
