@@ -380,7 +380,7 @@ def _quiet_encoders() -> None:
     video (``av.logging.restore_default_callback``), which then prints every encoder's info lines
     (x264's statistics, "Starting second pass"), and SVT-AV1 logs its own (``SVT_LOG``; about 60
     lines per episode in all). A level the user set in the environment is kept."""
-    import av.logging
+    import av.logging  # deferred: PyAV, with LeRobot's video encoder (~0.1 s; `pipette --help` imports this module)
 
     os.environ.setdefault("SVT_LOG", "1")  # SVT-AV1: 1 = errors (read when an encoder starts)
     av.logging.set_libav_level(av.logging.ERROR)

@@ -30,6 +30,7 @@ from typing import IO, Any
 
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.lerobot.convert import DatasetVersion, slug
+from pipette_cli.lerobot.output import Abridged
 from pipette_cli.specs.base import described
 
 logger = logging.getLogger(__name__)
@@ -186,6 +187,14 @@ def policy_flags(options: TrainOptions) -> list[str]:
     return flags
 
 
+DECODER = "--dataset.video_backend=pyav"
+"""PyAV decodes video datasets on every machine (it bundles its FFmpeg), so a training reads the same
+frames everywhere. Left unset, LeRobot picks torchcodec where it loads, which needs the system's
+FFmpeg libraries, and where they are missing it prints the loader's tracebacks once more before
+falling back to PyAV (:mod:`.output` shortens the one it prints anyway). Image datasets (the
+default) decode nothing."""
+
+
 def train_argv(
     task_id: str, options: TrainOptions, *, resume: bool = False, executable: str = "lerobot-train"
 ) -> list[str]:
@@ -196,12 +205,13 @@ def train_argv(
         config = output_dir / LAST_CHECKPOINT / "train_config.json"
         more = [f"--steps={options.steps}"] if options.steps else []
         more += [f"--policy.device={options.device}"] if options.device else []
-        return [executable, f"--config_path={config}", "--resume=true", *more, *options.extra]
+        return [executable, f"--config_path={config}", "--resume=true", DECODER, *more, *options.extra]
     defaults = PAPER_DEFAULTS[options.policy]
     return [
         executable,
         f"--dataset.repo_id=local/{name}",
         f"--dataset.root={dataset_root(task_id, options.dataset_version, options.datasets_root)}",
+        DECODER,
         *policy_flags(options),
         f"--policy.repo_id=local/{options.policy.value}_{name}",
         f"--output_dir={output_dir}",
@@ -365,16 +375,19 @@ def run_job(job: TrainJob, *, echo: IO[str] | None = None, on_step: Callable[[in
             text=True,
             bufsize=1,
         )
+        shown = Abridged(echo) if echo is not None else None  # known library warnings: one line each
         try:
             assert proc.stdout is not None
             for line in proc.stdout:
                 log.write(line)
-                if echo is not None:
-                    echo.write(line)
-                    echo.flush()
+                if shown is not None:
+                    shown.write(line)
+                    shown.flush()
                 if on_step is not None and (step := logged_step(line)) is not None:
                     on_step(step)
             code = proc.wait()
+            if shown is not None:
+                shown.close()
         except KeyboardInterrupt:
             proc.send_signal(2)
             try:

@@ -14,6 +14,7 @@ import pytest
 
 from pipette_cli.lerobot.convert import DatasetVersion
 from pipette_cli.lerobot.train import (
+    DECODER,
     LAST_CHECKPOINT,
     IfExists,
     Policy,
@@ -62,6 +63,7 @@ def test_act_command_has_paper_defaults_and_needs_no_download(workdir: Path, run
     assert flags(job["argv"]) == {
         "dataset.repo_id": f"local/{NAME}_raw",
         "dataset.root": f"datasets/{NAME}/raw",
+        "dataset.video_backend": "pyav",
         "policy.type": "act",
         "policy.pretrained_backbone_weights": "null",
         "policy.push_to_hub": "false",
@@ -237,7 +239,7 @@ def test_if_exists_skip_overwrite_continue(tmp_path: Path) -> None:
 
     [cont] = plan([TASK], options(tmp_path, IfExists.continue_), executable=exe)
     config = first.output_dir / LAST_CHECKPOINT / "train_config.json"
-    assert cont.action == "continue" and list(cont.argv) == [exe, f"--config_path={config}", "--resume=true"]
+    assert cont.action == "continue" and list(cont.argv) == [exe, f"--config_path={config}", "--resume=true", DECODER]
     assert "--steps=30000" in train_argv(TASK, TrainOptions(policy=Policy.act, steps=30000), resume=True)
 
     [over] = plan([TASK], options(tmp_path, IfExists.overwrite), executable=exe)
