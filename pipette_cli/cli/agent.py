@@ -91,7 +91,9 @@ def show_not_understood(plan: CheckedPlan) -> None:
 def show_answer(found: Answer) -> None:
     out_console.print(found.text, markup=False, highlight=False)
     if found.rows:
-        table = Table(*found.columns, show_header=True)
+        table = Table(show_header=True)
+        for column in found.columns:
+            table.add_column(column, overflow="fold")  # ids are never cut
         for row in found.rows:
             table.add_row(*(escape(cell) for cell in row))
         out_console.print(table)

@@ -82,6 +82,8 @@ def show(
         print_json(info)
         return
     table = Table(title=info["id"], show_header=False)
+    table.add_column("key")
+    table.add_column("value", overflow="fold")  # paths are never cut
     for key, value in info.items():
         table.add_row(key, ", ".join(map(str, value)) if isinstance(value, list) else str(value))
     out_console.print(table)

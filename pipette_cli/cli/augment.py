@@ -37,7 +37,7 @@ from pipette_cli.specs.perturbations import (
 def _table(report: dict) -> Table:
     table = Table(title=f"yield: {report['kept']}/{report['attempts']} kept ({report['yield']:.0%})")
     for col in ("variant", "magnitude", "attempts", "kept", "yield", "failures"):
-        table.add_column(col, justify="right" if col in ("attempts", "kept", "yield") else "left")
+        table.add_column(col, justify="right" if col in ("attempts", "kept", "yield") else "left", overflow="fold")
     for row in report["variants"]:
         failures = ", ".join(f"{k} {v}" for k, v in row["failures"].items())
         if row.get("failed_at_stage"):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -11,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from pydantic import BaseModel
-from rich.console import Console
+from rich.console import Console, ConsoleDimensions
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.text import Text
 
@@ -23,8 +24,27 @@ from pipette_cli.registry import load_registry
 if TYPE_CHECKING:
     from pipette_cli.specs.task import TaskSpec
 
-err_console = Console(stderr=True, highlight=False)
-out_console = Console(highlight=False, soft_wrap=True)
+
+class _Console(Console):
+    """A rich console that, writing to a file or a pipe (a log, ``| tee``, ``> out.txt``), is wide
+    enough that no table cuts an id or a path (rich's default there is 80 columns); ``COLUMNS``
+    still sets the width, and a terminal keeps its own."""
+
+    @property
+    def size(self) -> ConsoleDimensions:
+        size = super().size
+        if self._width is None and not self.is_terminal and not os.environ.get("COLUMNS"):
+            return ConsoleDimensions(NOT_A_TERMINAL_WIDTH, size.height)
+        return size
+
+    @size.setter
+    def size(self, new_size: tuple[int, int]) -> None:
+        self._width, self._height = new_size
+
+
+NOT_A_TERMINAL_WIDTH = 320
+err_console = _Console(stderr=True, highlight=False)
+out_console = _Console(highlight=False, soft_wrap=True)
 
 
 @dataclass

@@ -83,7 +83,7 @@ def check(
         return
     table = Table(title=f"scripted experts, {plural(episodes, 'seed')} from {seed}")
     for column in ("task", "success", "rate", "stages (progress)", "failures"):
-        table.add_column(column)
+        table.add_column(column, overflow="fold")  # ids are never cut
     for r in reports:
         failures = ", ".join(f"{k}: {v}" for k, v in r.failures.most_common()) or "-"
         stages = f"{r.stage_count} ({100 * r.mean_progress:.0f} %)" if r.stage_count else "-"

@@ -100,8 +100,8 @@ def step_rate(
         print_json({"task": spec.id, **results})
         return
     table = Table(title=f"{spec.id}")
-    table.add_column("measure")
-    table.add_column("value", justify="right")
+    table.add_column("measure", overflow="fold")
+    table.add_column("value", justify="right", overflow="fold")
     for key, value in results.items():
         table.add_row(key, f"{value:.2f}")
     out_console.print(table)

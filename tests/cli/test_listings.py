@@ -237,3 +237,15 @@ def test_the_layout_follows_the_width() -> None:
         assert ("┃ instruction" in printed) is table and listing.fits_table(width) is table
         assert all(cell_len(line) <= width for line in printed.splitlines()), printed
     assert printed.splitlines()[2:5] == ["    instruction", "pipette/PickUpTestTu", "be-v1"]
+
+
+def test_output_to_a_file_or_pipe_cuts_no_id(run_cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Written to a log or a pipe (no terminal, no COLUMNS), a table is as wide as its cells: rich's
+    80 columns there had cut ids ("generated/CloseMicrocentrifu…") in the agent's and the experts' tables."""
+    monkeypatch.delenv("COLUMNS", raising=False)
+    result = run_cli("agent", "which tasks involve the centrifuge?")
+    assert result.exit_code == 0, result.stderr
+    assert "generated/CloseMicrocentrifugeLid-v1" in result.stdout and "…" not in result.stdout
+    monkeypatch.setenv("COLUMNS", "80")  # a width given is kept
+    narrow = run_cli("agent", "which tasks involve the centrifuge?")
+    assert max(map(cell_len, narrow.stdout.splitlines())) <= 80 and "…" not in narrow.stdout
