@@ -11,7 +11,7 @@ from rich.markup import escape
 from rich.syntax import Syntax
 
 from pipette_cli.cli import assets as assets_cli
-from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import BACKEND_HELP, STATE, err_console, out_console, print_json, wrote_task_line
 from pipette_cli.errors import plural
 from pipette_cli.language.understanding import not_understood_line, refused_under_yes
 from pipette_cli.registry import load_registry
@@ -143,9 +143,7 @@ def new_task(
         err_console.print("not written")
         raise typer.Exit(1)
     path = write_task(drafted, target, force=force)
-    err_console.print(
-        f"wrote {path}; check the VERIFY fields, then: pipette tasks validate {path}", markup=False, soft_wrap=True
-    )
+    err_console.print(wrote_task_line(path, drafted.spec.id, verify=True), markup=False, soft_wrap=True)
 
 
 @assets_cli.app.command("new")

@@ -19,7 +19,7 @@ from rich.text import Text
 from pipette_cli.demos.check import placed_on
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.progress import ProgressLines
-from pipette_cli.registry import load_registry
+from pipette_cli.registry import load_registry, registry_dirs
 
 if TYPE_CHECKING:
     from pipette_cli.specs.task import TaskSpec
@@ -208,3 +208,15 @@ def show_progress(stage: str, unit: str = "") -> BarOrLines:
     terminal, else a line every few seconds (``PIPETTE_PROGRESS_INTERVAL``); hidden with ``--quiet``.
     A :data:`~pipette_cli.progress.ProgressFactory`."""
     return BarOrLines(stage, unit)
+
+
+def wrote_task_line(path: Path, task_id: str, verify: bool) -> str:
+    """What to do after writing a task file: check it, then use it, with ``--registry-dir`` when its
+    folder is not one the registry reads (a task written to ``my_tasks/`` is unknown without it)."""
+    searched = [d.resolve() for d in registry_dirs(STATE.registry_dirs)]
+    found = any(path.resolve().is_relative_to(d) for d in searched)
+    flag = "" if found else f" --registry-dir {path.parent}"
+    check = "check the VERIFY fields, then: " if verify else "edit it, then: "
+    use = f"; then use it, e.g. pipette{flag} sim render {task_id}"
+    away = "" if found else f" ({path.parent} is not a registry folder: give --registry-dir or PIPETTE_REGISTRY_PATH)"
+    return f"wrote {path}; {check}pipette tasks validate {path}{use}{away}"

@@ -8,7 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json, show_progress
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json, show_progress, wrote_task_line
 from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.experts.base import expert_program
 from pipette_cli.demos.feasibility import scene_problems
@@ -340,5 +340,4 @@ def new_task(
     validate_task_document(parse_yaml(text, str(target)), str(target))
     target.parent.mkdir(parents=True, exist_ok=True)
     target.write_text(text, encoding="utf-8")
-    check = "check the VERIFY fields, then: " if "VERIFY" in text else "edit it, then: "
-    err_console.print(f"wrote {target}; {check}pipette tasks validate {target}", soft_wrap=True)
+    err_console.print(wrote_task_line(target, new_id, verify="VERIFY" in text), markup=False, soft_wrap=True)

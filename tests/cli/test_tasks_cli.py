@@ -268,3 +268,17 @@ def test_validate_names_the_seed_whose_randomised_layout_interpenetrates(run_cli
     assert result.exit_code == 1
     assert f"{near}:{_line(near, 'pose:')}: scene.objects.0.pose: centrifuge and robot interpenetrate by " in said
     assert "on seed 1 (a randomised layout)" in said
+
+
+def test_a_task_written_outside_the_registry_says_how_to_use_it(run_cli, tmp_path: Path) -> None:
+    out = tmp_path / "my_tasks"
+    result = run_cli(
+        "tasks", "new", "mylab/PickUpCryovial-v1", "--from", "pick", "--asset", "cryovial_2ml", "--out", out
+    )
+    assert result.exit_code == 0, result.stderr
+    hint = f"pipette --registry-dir {out} sim render mylab/PickUpCryovial-v1"
+    assert hint in result.stderr and "is not a registry folder" in result.stderr
+    shown = run_cli("--registry-dir", out, "sim", "render", "mylab/PickUpCryovial-v1", "--out", tmp_path / "v.png")
+    assert shown.exit_code == 0, shown.stderr  # the command it suggests works
+    inside = run_cli("--registry-dir", out, "tasks", "new", "mylab/PickUpVial-v1", "--from", "pick", "--out", out)
+    assert "--registry-dir" not in inside.stderr.split("then use it")[1]  # already read: no flag needed
