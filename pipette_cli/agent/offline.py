@@ -134,6 +134,12 @@ class OfflineAgent:
             filler = {w.lower() for w in self.vocab.filler}
             said = [w for w in words_of(find_mentions(text, self.registry.ids()).words).split() if w not in filler]
             asked = f" (nothing in {', '.join(map(repr, said[:6]))} names a command)" if said else ""
+            if "new-task" in self.catalog and self.index.describes_work(text):  # "put the 15 mL tube in the rack"
+                raise AgentError(
+                    f"cannot tell what to run from this request{asked}; it reads as something for the robot to "
+                    f'do: to make it a task, say \'new task: {text.strip()}\' (pipette new-task "..."); to record '
+                    "it, name a registered task ('collect 20 demos of PickUpTestTube')"
+                )
             raise AgentError(
                 f"cannot tell what to run from this request{asked}; say e.g. 'list the tasks', "
                 "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"

@@ -252,6 +252,12 @@ class TaskIndex:
         undo |= {stem(a) for a, b in self.vocab.tasks.opposites.items() if stem(b) in actions}
         return bool(undo & self.terms[task].keys())
 
+    def describes_work(self, text: str) -> bool:
+        """Whether ``text`` names an action a task does and an object of the asset library ("put the
+        15 mL tube in the rack"): a description of a task."""
+        terms = self.request_terms(text)
+        return bool(terms & self._actions) and any(t.startswith("kind:") for t in terms)
+
     def all_tasks(self, text: str) -> bool:
         """ "all tasks", "every task", "the whole benchmark"."""
         return find_phrase(self.vocab.tasks.all, text.lower()) is not None

@@ -576,3 +576,17 @@ def test_tied_tasks_none_of_which_does_the_action_are_not_guessed() -> None:
 def test_three_hyphenated_words_are_read_as_words_for_the_task() -> None:
     plan = AGENT.plan("render the pull-the-dish-out-of-the-incubator task")  # "pull out", "out of": a removal
     assert plan.steps[0].args["task_id"] == "pipette/RemovePetriDishFromIncubator-v1"
+
+
+def test_a_task_description_that_names_no_command_is_pointed_at_new_task() -> None:
+    with pytest.raises(AgentError, match="reads as something for the robot to do.*new task: put the 15 mL tube"):
+        AGENT.plan("put the 15 mL tube in the rack")
+    with pytest.raises(AgentError) as plain:
+        AGENT.plan("the weather is nice")
+    assert "new task" not in str(plain.value)
+
+
+def test_a_file_a_command_does_not_read_names_only_real_commands() -> None:
+    with pytest.raises(AgentError) as exc:
+        AGENT.plan("train smolvla on data/pick.h5 for 500 steps")
+    assert "pipette answer" not in str(exc.value) and "pipette convert" in str(exc.value)
