@@ -162,8 +162,6 @@ class ConvertResult:
 
 
 def _check_target(options: ConvertOptions) -> None:
-    if not REPO_ID.match(options.repo_id):
-        raise DatasetError(f"--repo-id {options.repo_id!r} is not of the form OWNER/NAME (for example local/tube_raw)")
     root = options.root
     if root.exists():
         if not options.overwrite:
@@ -187,7 +185,8 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
     """
     if not inputs:
         raise DatasetError("no input files given")
-    _check_target(options)
+    if not REPO_ID.match(options.repo_id):
+        raise DatasetError(f"--repo-id {options.repo_id!r} is not of the form OWNER/NAME (for example local/tube_raw)")
     first: DatasetInfo | None = None
     episodes: list[PlannedEpisode] = []
     skipped: list[dict[str, Any]] = []
@@ -228,7 +227,8 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
             if augmented != (options.dataset_version is DatasetVersion.augmented):
                 kind = "augmented" if augmented else "raw"
                 raise DatasetError(
-                    f"episode {ref.index} of {path} is {kind} but this is a {options.dataset_version.value} dataset; "
+                    f"episode {ref.index} of {path} is {kind} but this is {'a' if augmented else 'an'} "
+                    f"{options.dataset_version.value} dataset; "
                     f"raw and augmented episodes go to separate datasets (--dataset-version {kind})"
                 )
             if not ref.summary.success and not options.include_failed:
@@ -246,6 +246,7 @@ def plan_conversion(inputs: Sequence[Path], options: ConvertOptions) -> Conversi
             stale = int(np.count_nonzero(record.arrays["frame_age"][steps] > 0))
             episodes.append(PlannedEpisode(path, ref, info, record.attrs, steps, stale))
     assert first is not None
+    _check_target(options)  # after the inputs: what they hold says more about what was meant than a taken folder
     if options.video and options.vcodec == "libsvtav1" and min(first.image_height, first.image_width) < AV1_MIN_SIDE:
         raise DatasetError(
             f"{first.image_height}x{first.image_width} images are too small for the libsvtav1 codec "

@@ -192,6 +192,16 @@ def test_raw_and_augmented_episodes_go_to_separate_datasets(recording: Path, tmp
             [recording],
             ConvertOptions(repo_id="local/a", root=tmp_path / "a2", dataset_version=DatasetVersion.augmented),
         )
+    # a raw dataset already there: the augmented file's version is the error that names the fix, not the folder
+    (tmp_path / "taken").mkdir()
+    with pytest.raises(DatasetError, match=r"is augmented but this is a raw dataset.*--dataset-version augmented"):
+        convert([augmented], ConvertOptions(repo_id="local/r", root=tmp_path / "taken", video=False))
+    with pytest.raises(DatasetError, match="already exists; pass --overwrite"):
+        convert([recording], ConvertOptions(repo_id="local/r", root=tmp_path / "taken", video=False))
+    (tmp_path / "taken" / "precious.txt").write_text("keep me")
+    with pytest.raises(DatasetError, match="not a LeRobot dataset"):
+        convert([recording], ConvertOptions(repo_id="local/r", root=tmp_path / "taken", video=False, overwrite=True))
+    assert (tmp_path / "taken" / "precious.txt").read_text() == "keep me"
 
 
 def test_stats_count_unperturbed_originals_apart_from_perturbed_variants(recording: Path, tmp_path: Path) -> None:

@@ -113,15 +113,15 @@ def test_augmented_episodes_are_recognised() -> None:
     assert is_augmented({"source": "scripted", "augment_variant": "lighting"})
 
 
-def test_bad_repo_id_and_taken_target_are_refused_before_reading(tmp_path: Path) -> None:
+def test_bad_repo_id_is_refused_before_reading_and_a_taken_target_after(tmp_path: Path) -> None:
     missing = tmp_path / "none.h5"
     with pytest.raises(DatasetError, match="OWNER/NAME"):
         plan_conversion([missing], ConvertOptions(repo_id="noslash", root=tmp_path / "ds"))
     (tmp_path / "taken").mkdir()
-    with pytest.raises(DatasetError, match="--overwrite"):
+    with pytest.raises(DatasetError, match="no such file"):  # what the inputs are says more than the folder
         plan_conversion([missing], ConvertOptions(repo_id="local/x", root=tmp_path / "taken"))
     (tmp_path / "taken" / "precious.txt").write_text("keep me")
-    with pytest.raises(DatasetError, match="not a LeRobot dataset"):
+    with pytest.raises(DatasetError, match="no such file"):
         plan_conversion([missing], ConvertOptions(repo_id="local/x", root=tmp_path / "taken", overwrite=True))
     assert (tmp_path / "taken" / "precious.txt").read_text() == "keep me"
 
