@@ -137,7 +137,7 @@ class OfflineAgent:
             if "new-task" in self.catalog and self.index.describes_work(text):  # "put the 15 mL tube in the rack"
                 raise AgentError(
                     f"cannot tell what to run from this request{asked}; it reads as something for the robot to "
-                    f'do: to make it a task, say \'new task: {text.strip()}\' (pipette new-task "..."); to record '
+                    f"do: to make it a task, say 'new task: {text.strip()}' (pipette new-task \"...\"); to record "
                     "it, name a registered task ('collect 20 demos of PickUpTestTube')"
                 )
             raise AgentError(
