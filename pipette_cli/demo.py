@@ -207,7 +207,7 @@ def plot_run(out_png: Path, losses: list[tuple[int, float]], episodes: list[dict
     from PIL import Image, ImageDraw  # deferred: PIL (~15 ms of `pipette --help`, which imports this module)
 
     w, h, pad = 360, 200, 40
-    image = Image.new("RGB", (2 * w + 3 * pad, h + 2 * pad + 20), "white")
+    image = Image.new("RGB", (2 * w + 3 * pad, h + 2 * pad + 34), "white")
     draw = ImageDraw.Draw(image)
     draw.text((pad, 6), title, fill="black")
     x0, y0 = pad, pad
@@ -219,19 +219,19 @@ def plot_run(out_png: Path, losses: list[tuple[int, float]], episodes: list[dict
         sx = (steps - steps.min()) / max(np.ptp(steps), 1e-9)
         sy = (logs - logs.min()) / max(np.ptp(logs), 1e-9)
         draw.line([(x0 + w * a, y0 + h - h * b) for a, b in zip(sx, sy)], fill=(40, 90, 170), width=2)
-        draw.text((x0 + 4, y0 + 2), f"{10 ** logs.max():.3g}", fill="black")
-        draw.text((x0 + 4, y0 + h - 14), f"{10 ** logs.min():.3g}", fill="black")
-        draw.text((x0 + w - 40, y0 + h - 14), f"{int(steps.max())}", fill="black")
+        draw.text((x0 + 4, y0 + 2), f"loss {10 ** logs.max():.3g}", fill="black")
+        draw.text((x0 + 4, y0 + h - 14), f"loss {10 ** logs.min():.3g}", fill="black")
+        draw.text((x0, y0 + h + 18), f"step {int(steps.min())}", fill="black")
+        draw.text((x0 + w - 60, y0 + h + 18), f"step {int(steps.max())}", fill="black")
     x1 = 2 * pad + w
     draw.text((x1, y0 + h + 4), "evaluation episodes (green: success)", fill="black")
     cell = w / max(len(episodes), 1)
     for i, e in enumerate(episodes):
         color = (60, 160, 80) if e["success"] else (200, 70, 60)
         draw.rectangle([x1 + i * cell + 2, y0, x1 + (i + 1) * cell - 2, y0 + h], fill=color)
-        label = "ok" if e["success"] else str(e.get("failure_reason") or "fail")
         draw.text((x1 + i * cell + 4, y0 + 4), f"{i}", fill="white")
-        for j, chunk in enumerate(label[k : k + 5] for k in range(0, min(len(label), 30), 5)):
-            draw.text((x1 + i * cell + 4, y0 + 24 + 12 * j), chunk, fill="white")
+    failed = [f"{i} {e.get('failure_reason') or 'failed'}" for i, e in enumerate(episodes) if not e["success"]]
+    draw.text((x1, y0 + h + 18), "failed: " + (", ".join(failed[:6]) if failed else "none"), fill="black")
     image.save(out_png)
 
 
@@ -375,15 +375,22 @@ def run_demo(
         "dataset_mb": folder_size(root) / 1e6,
         "dataset": str(root),
         "checkpoint": str(checkpoint),
+        "image_size": size.image_size,
         "train_steps": size.train_steps,
         "batch_size": size.batch_size,
         "eval_episodes": summary["episodes"],
         "eval_successes": summary["successes"],
         "success_rate": summary["success_rate"],
         "failures": summary["failures"],
+        "failed_episodes": [
+            {"episode": e["episode"], "seed": e["seed"], "reason": e.get("failure_reason") or "failed"}
+            for e in episodes
+            if not e["success"]
+        ],
         "learned": learned,
         "min_success_rate": MIN_SUCCESS if size.judged else None,
-        "videos": [str(p) for p in videos] + [str(out / "augmented.gif")],
+        "videos": [str(p) for p in videos],
+        "augmented_video": str(out / "augmented.gif"),
         "plots": [str(out / "summary.png"), str(out / "augmented_sheet.png")],
         "seconds": {k: round(v, 1) for k, v in timings.items()},
         "total_seconds": round(sum(timings.values()), 1),
@@ -408,6 +415,15 @@ def verdict_line(report: dict[str, Any]) -> str:
     )
 
 
+def next_steps(report: dict[str, Any]) -> str:
+    """What to try with the policy the demo trained: more episodes, or serve it."""
+    checkpoint, task = report["checkpoint"], report["task"]
+    return (
+        f"next: evaluate it on more episodes (pipette eval {task} --policy {checkpoint} --episodes 50 --image-size "
+        f"{report.get('image_size', 64)} --out evals/demo) or serve it (pipette serve --policy {checkpoint})"
+    )
+
+
 def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
     return [
         ("task", report["task"]),
@@ -421,8 +437,10 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         ("ACT training", f"{report['train_steps']} steps of batch {report['batch_size']}"),
         (
             "evaluation success rate",
-            f"{100 * report['success_rate']:.0f} % ({report['eval_successes']} of {report['eval_episodes']})",
+            f"{100 * report['success_rate']:.0f} % ({report['eval_successes']} of {report['eval_episodes']})"
+            + "".join(f"; episode {f['episode']}: {f['reason']}" for f in report["failed_episodes"][:5]),
         ),
+        ("policy", report["checkpoint"]),
         (
             "time (s)",
             ", ".join(f"{k} {v}" for k, v in report["seconds"].items()) + f"; total {report['total_seconds']}",
@@ -430,11 +448,13 @@ def summary_rows(report: dict[str, Any]) -> list[tuple[str, str]]:
         (
             "videos",
             ", ".join(
-                report["videos"][:1] + ([f"... ({len(report['videos'])} GIFs)"] if len(report["videos"]) > 1 else [])
+                report["videos"][:1]
+                + ([f"... ({len(report['videos'])} evaluation GIFs)"] if len(report["videos"]) > 1 else [])
+                + [f"augmented: {report['augmented_video']}"]
             ),
         ),
         ("plots", ", ".join(report["plots"])),
     ]
 
 
-__all__ = ["DEFAULT_TASK", "FAST", "FULL", "MIN_SUCCESS", "run_demo", "summary_rows", "verdict_line"]
+__all__ = ["DEFAULT_TASK", "FAST", "FULL", "MIN_SUCCESS", "next_steps", "run_demo", "summary_rows", "verdict_line"]

@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from pipette_cli.cli.common import RobotOption, err_console, load_task, out_console, print_json, show_progress
-from pipette_cli.demo import DEFAULT_TASK, FAST, FULL, run_demo, summary_rows, verdict_line
+from pipette_cli.demo import DEFAULT_TASK, FAST, FULL, next_steps, run_demo, summary_rows, verdict_line
 
 
 def demo(
@@ -28,7 +28,7 @@ def demo(
     robot: RobotOption = None,
 ) -> None:
     """Scripted demos -> success-verified augmentation -> LeRobot dataset -> ACT training ->
-    evaluation, on one task, on a CPU (about 10 minutes on 2 cores); prints a summary table, where
+    evaluation, on one task, on a CPU (5-7 minutes on 2 cores); prints a summary table, where
     the dataset, videos and plots are, and whether the learned policy works. Exits 1 when the
     policy succeeds in fewer than half of its evaluation episodes. Each stage shows a progress bar,
     or, when stderr is not a terminal (`pipette demo > log.txt 2>&1`), a line every 10 s.
@@ -57,3 +57,5 @@ def demo(
         err_console.print(f"[bold red]{line}[/]", soft_wrap=True)
         raise typer.Exit(1)
     err_console.print(f"[bold green]{line}[/]" if report["learned"] else line, soft_wrap=True)
+    if report["learned"]:
+        err_console.print(next_steps(report), markup=False, soft_wrap=True)

@@ -31,8 +31,10 @@ def test_fast_demo_runs_every_stage(run_cli, tmp_path) -> None:
     assert report["learned"] is None and "smoke run" in result.stderr  # 2 steps: not judged, and says so
     for stage in ("collect: 2/2 episodes", "augment: 2/2 demos", "train: 2/2 steps", "eval: 2/2 episodes"):
         assert f"{stage} (100 %), " in result.stderr, stage  # no terminal: every stage's progress as lines
-    assert (out / "summary.png").stat().st_size > 0 and len(report["videos"]) == 3  # 2 evaluation GIFs + augmented
-    assert all(Path(p).stat().st_size > 0 for p in report["videos"] + report["plots"])
+    assert (out / "summary.png").stat().st_size > 0 and len(report["videos"]) == 2  # one GIF per evaluation episode
+    assert all(Path(p).stat().st_size > 0 for p in [*report["videos"], *report["plots"], report["augmented_video"]])
+    logs = [json.loads(p.read_text()) for p in sorted((out / "eval").glob("episode_*.json"))]
+    assert [f["episode"] for f in report["failed_episodes"]] == [e["episode"] for e in logs if not e["success"]]
     again = run_cli("demo", "--fast", "--out", out)
     assert again.exit_code == 1 and "is not empty" in again.stderr
 
