@@ -84,8 +84,9 @@ class Clause:
         return [m for m in self.mentions if m.prep in preps]
 
 
-PARTICLES = ("open", "shut", "up", "out", "off", "down", "back", "over")
-"""Words of a two-word verb that may follow its object ("swing the lid open", "take the tube out")."""
+PARTICLES = ("open", "shut", "up", "out", "off", "on", "down", "back", "over")
+"""Words of a two-word verb that may follow its object ("swing the lid open", "take the tube out",
+"switch it on")."""
 
 
 def gerund(phrase: str) -> str:
@@ -166,7 +167,7 @@ class ClauseReader:
         """Whether a verb starts at ``i`` (used to split steps at "and" / ",")."""
         found = self.verb_at(tokens, i)
         if found is None:
-            return False
+            return self._particle(tokens, i) is not None  # "..., and switch it on"
         # "and rack" after a noun list is a noun; a verb phrase is followed by an object or a pronoun
         return found[0] != "place" or i + found[2] >= len(tokens) or tokens[i + found[2]].text not in ("and", ",")
 

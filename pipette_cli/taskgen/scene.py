@@ -392,8 +392,8 @@ class SceneBuilder:
         )
 
     def _rack_for(self, name: str) -> str | None:
-        """A rack for an item that cannot stand on the bench by itself, added to the scene (its
-        name), or ``None`` when the item stands or no rack of the library fits it."""
+        """A rack for an item that cannot stand on the bench by itself (not the scene's own where
+        another fits), added to the scene (its name), or ``None`` when it stands or none fits."""
         asset = self.checked.asset(name)
         if stands_alone(asset):
             return None
@@ -403,7 +403,8 @@ class SceneBuilder:
         ]
         if not racks:
             return None
-        _, rack = choose_pair(vocab, [asset], racks)
+        used = {self.checked.asset(n) for n in self.checked.objects} | set(self.added.values())
+        _, rack = choose_pair(vocab, [asset], [a for a in racks if a not in used] or racks)  # "the rack" stays one
         rack_name = f"{name}_rack"
         self.added[rack_name] = rack
         reason = f"the {self.human(name)} cannot stand on the bench by itself: it starts here"

@@ -342,3 +342,18 @@ def test_an_item_taken_out_of_a_holder_starts_outside_the_region_it_goes_to() ->
     within = spec.success.within
     assert within is not None and within.center == "beaker"
     assert np.hypot(*(pos["tube"][:2] - pos["beaker"][:2])) > within.radius + 0.05
+
+
+def test_a_tube_that_cannot_stand_starts_in_another_rack_than_the_one_it_goes_to() -> None:
+    d = drafted("Put the 15 mL tube in the rack")
+    racks = [o.asset for o in d.spec.scene.objects if "rack" in o.name]
+    assert len(racks) == 2 and len(set(racks)) == 2 and d.spec.object("rack").asset == "conical_tube_rack_15ml"
+
+
+def test_a_separable_switch_on_is_a_run_and_capped_is_the_capped_tube() -> None:
+    steps = parse_description("Close the thermal cycler lid and switch it on", load_vocabulary()).plan.steps
+    assert [s.action for s in steps] == ["close", "run"]
+    with pytest.raises(PlanError, match="no start button"):
+        drafted("Set the 250 mL Erlenmeyer flask on the orbital shaker and switch it on")
+    capped = parse_description("Put the capped 50 mL tube in the 50 mL rack", load_vocabulary())
+    assert capped.not_understood == [] and "conical_tube_50ml" in [o.asset for o in capped.plan.objects]
