@@ -9,7 +9,7 @@ its traceback.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 
 class PipetteError(Exception):
@@ -68,13 +68,14 @@ class DatasetError(PipetteError):
     """A recorded HDF5 file or a LeRobot dataset is unusable."""
 
 
-def suggest(name: str, choices: Iterable[str], *, n: int = 3) -> str:
+def suggest(name: str, choices: Iterable[str], *, n: int = 3, shown_as: Mapping[str, str] | None = None) -> str:
     """Return a "did you mean" hint for ``name`` among ``choices``, or a list of valid names.
 
     Args:
         name: The unknown name the user gave.
         choices: The valid names.
         n: How many close matches to offer.
+        shown_as: A choice's name as shown (a task's short name -> its id), each shown once.
 
     Returns:
         A sentence fragment such as ``"did you mean 'a' or 'b'?"``.
@@ -85,7 +86,8 @@ def suggest(name: str, choices: Iterable[str], *, n: int = 3) -> str:
         lowered = {c.lower(): c for c in pool}
         close = [lowered[c] for c in difflib.get_close_matches(name.lower(), list(lowered), n=n, cutoff=0.4)]
     if close:
-        return "did you mean " + " or ".join(repr(c) for c in close) + "?"
+        once = dict.fromkeys((shown_as or {}).get(c, c) for c in close)  # one task named two ways: once
+        return "did you mean " + " or ".join(repr(c) for c in once) + "?"
     shown = ", ".join(pool[:12]) + (", ..." if len(pool) > 12 else "")
     return f"valid names: {shown}" if pool else "none are defined"
 

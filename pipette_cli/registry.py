@@ -229,7 +229,8 @@ def resolve_versioned(name: str, ids: Iterable[str], what: str, error: type[Pipe
     if len(candidates) > 1:
         raise error(f"{what} {name!r} is ambiguous: {', '.join(sorted(candidates))}")
     names = ids + [tid.split("/", 1)[1] for tid in ids]
-    raise error(f"unknown {what} {name!r}; {suggest(name, names)}")
+    full = {tid.split("/", 1)[1]: tid for tid in ids}
+    raise error(f"unknown {what} {name!r}; {suggest(name, names, shown_as=full)}")
 
 
 class Identified(Protocol):

@@ -119,6 +119,8 @@ def collect(
     successes = sum(s.success for s in result.added)
     summary = (
         f"{out}: {plural(result.total, 'episode')} ({added} new, {successes} successful{', ' + rate if rate else ''})"
+        if added
+        else f"{out}: {plural(result.total, 'episode')}, all recorded before (nothing new to collect)"
     )
     if result.interrupted:
         err_console.print(f"interrupted; {summary}; run the same command again to resume", soft_wrap=True)

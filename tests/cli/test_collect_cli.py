@@ -67,7 +67,7 @@ def test_collect_then_resume_to_more_episodes(run_cli, wiggle, tmp_path: Path, m
     assert again.exit_code == 0, again.stderr
     assert "2 episodes already recorded; 1 to go" in again.stderr and "3 episodes (1 new" in again.stdout
     done = _collect(run_cli, out, "--episodes", "3", "--seed", "3")
-    assert "3 episodes (0 new" in done.stdout
+    assert "3 episodes, all recorded before (nothing new to collect)" in done.stdout
     report = json.loads(run_cli("data", "inspect", out, "--json").stdout)
     assert [e["seed"] for e in report["episodes"]] == [3, 4, 5]
     assert all(e["steps"] == 15 and e["source"] == "scripted" for e in report["episodes"])
