@@ -18,6 +18,7 @@ from pipette_cli.lerobot.train import (
     Policy,
     TrainError,
     TrainOptions,
+    cpu_warning,
     job_steps,
     lerobot_train_executable,
     missing_datasets,
@@ -117,6 +118,9 @@ def train(
     )
     executable = "lerobot-train" if dry_run else lerobot_train_executable()
     jobs = plan(task_ids, options, executable=executable)
+    slow = cpu_warning(options, [j for j in jobs if j.action != "skip"])
+    if slow:
+        err_console.print(f"[yellow]warning:[/yellow] {escape(slow)}", soft_wrap=True)
     if dry_run:
         for root in missing_datasets(task_ids, version, datasets_root):
             err_console.print(

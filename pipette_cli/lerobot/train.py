@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+import platform
 import re
 import shutil
 import subprocess
@@ -28,7 +29,7 @@ from enum import Enum
 from pathlib import Path
 from typing import IO, Any
 
-from pipette_cli.errors import DatasetError, PipetteError
+from pipette_cli.errors import DatasetError, PipetteError, plural
 from pipette_cli.lerobot.convert import DatasetVersion, slug
 from pipette_cli.lerobot.output import Abridged
 from pipette_cli.specs.base import described
@@ -193,6 +194,26 @@ frames everywhere. Left unset, LeRobot picks torchcodec where it loads, which ne
 FFmpeg libraries, and where they are missing it prints the loader's tracebacks once more before
 falling back to PyAV (:mod:`.output` shortens the one it prints anyway). Image datasets (the
 default) decode nothing."""
+
+
+CPU_STEPS = 2000
+"""Steps beyond which a training on a CPU is warned about (the CPU presets train 300-2000)."""
+
+
+def cpu_warning(options: TrainOptions, jobs: Sequence[TrainJob]) -> str | None:
+    """A warning when these jobs would train long on a CPU: the device is the CPU, or left to LeRobot
+    on a machine with no accelerator (no NVIDIA driver, not Apple silicon)."""
+    steps = max((job_steps(j) or 0 for j in jobs), default=0)
+    accelerated = Path("/proc/driver/nvidia/version").exists() or shutil.which("nvidia-smi") is not None
+    accelerated |= sys.platform == "darwin" and platform.machine() == "arm64"
+    on_cpu = options.device == "cpu" or (options.device is None and not accelerated)
+    if not on_cpu or steps <= CPU_STEPS:
+        return None
+    return (
+        f"{plural(len(jobs), 'training')} of {steps} steps on the CPU (no GPU found): at the paper's sizes that takes "
+        "hours to days here; give --steps and --batch-size for a CPU run (`pipette demo` trains a small ACT for "
+        "300 steps in about 3 minutes), or --device cuda on a machine with a GPU"
+    )
 
 
 def train_argv(

@@ -170,7 +170,7 @@ def test_dry_run_previews_commands_before_the_datasets_exist(workdir: Path, run_
     result = run_cli("train", "--tasks", f"{TASK},{OTHER}", "--policy", "act", "--dry-run")
     assert result.exit_code == 0, result.stderr
     assert len([line for line in result.stdout.splitlines() if "lerobot-train" in line]) == 2
-    [warning] = [line for line in result.stderr.splitlines() if line.startswith("warning:")]
+    [warning] = [line for line in result.stderr.splitlines() if line.startswith("warning: no LeRobot dataset")]
     assert "datasets/pipette_OpenCentrifugeLid-v1/raw" in warning and "pipette convert" in warning
     assert NAME not in result.stderr  # the dataset that exists is not listed
     jobs = dry_run(run_cli, "--tasks", OTHER, "--policy", "act")
@@ -374,3 +374,14 @@ def test_the_cpu_small_act_loads_in_one_worker_on_one_thread() -> None:
     )
     [job] = plan([TASK], options)
     assert job.env["OMP_NUM_THREADS"] == "1"
+
+
+def test_a_long_training_on_the_cpu_is_warned_about(workdir: Path) -> None:
+    from pipette_cli.lerobot.train import CPU_STEPS, cpu_warning
+
+    long = plan([TASK], TrainOptions(policy=Policy.act, device="cpu"), executable="lerobot-train")
+    assert "15000 steps on the CPU" in (cpu_warning(TrainOptions(policy=Policy.act, device="cpu"), long) or "")
+    short = TrainOptions(policy=Policy.act, device="cpu", steps=CPU_STEPS, batch_size=8)
+    assert cpu_warning(short, plan([TASK], short, executable="lerobot-train")) is None
+    gpu = TrainOptions(policy=Policy.act, device="cuda")
+    assert cpu_warning(gpu, plan([TASK], gpu, executable="lerobot-train")) is None
