@@ -13,7 +13,7 @@ from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
-from pipette_cli.demos.store import file_size, parts_dir, scan
+from pipette_cli.demos.store import episode_layout, file_size, parts_dir, scan
 from pipette_cli.demos.store import pack as pack_parts
 from pipette_cli.errors import DatasetError, plural
 from pipette_cli.registry import load_registry
@@ -39,20 +39,27 @@ def inspect(
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
     info = status.info
+    layouts = [episode_layout(ref) for ref in status.episodes]
     episodes: list[dict[str, Any]] = [
         {
             "index": ref.index,
             "seed": ref.summary.seed,
             "source": ref.summary.source,
+            "variant": variant,
             "steps": ref.summary.num_steps,
             "success": ref.summary.success,
             "reason": ref.summary.reason,
             "metrics": ref.summary.metrics,
             "pending": ref.pending,
         }
-        for ref in status.episodes
+        for ref, (variant, _) in zip(status.episodes, layouts, strict=True)
     ]
     successes = sum(e["success"] for e in episodes)
+    arrays = (
+        {name: {"shape": list(shape), "dtype": dtype} for name, (shape, dtype) in layouts[0][1].items()}
+        if layouts
+        else {}
+    )
     report = {
         "file": str(file),
         "task_id": info.task_id,
@@ -68,6 +75,9 @@ def inspect(
         "success_rate": successes / len(episodes) if episodes else 0.0,
         "steps": sum(e["steps"] for e in episodes),
         "size_mb": round(file_size(file) / 1e6, 3),
+        "arrays": arrays,
+        "action": (", ".join(info.action_names) if info.action_names else f"{info.action_dim - 1} joint targets (rad)")
+        + " (joint targets in rad; gripper 1 open, 0 closed)",
         "episodes": episodes,
     }
     if as_json:
@@ -77,6 +87,7 @@ def inspect(
         Column("episode", justify="right"),
         Column("seed", justify="right"),
         Column("source"),
+        *([Column("variant")] if any(e["variant"] for e in episodes) else []),
         Column("steps", justify="right"),
         Column("outcome", wrap=True, min_width=20),
         Column("note"),
@@ -86,6 +97,7 @@ def inspect(
             str(e["index"]),
             str(e["seed"]),
             e["source"],
+            *([e["variant"] or "-"] if any(e["variant"] for e in episodes) else []),
             str(e["steps"]),
             Text("success", "green") if e["success"] else Text.assemble(("failed", "red"), f" {e['reason']}"),
             "pending" if e["pending"] else "",
@@ -99,6 +111,11 @@ def inspect(
     err_console.print(
         f"{plural(len(episodes), 'episode')}, {successes} successful, {plural(report['steps'], 'control step')}"
     )
+    if arrays:  # what a training or a script reads (docs/data_format.md)
+        shapes = ", ".join(
+            f"{n} {tuple(a['shape'])} {a['dtype']}" for n, a in arrays.items() if not n.startswith("final")
+        )
+        err_console.print(f"arrays of episode 0: {shapes}; action = {report['action']}", soft_wrap=True, markup=False)
     if status.pending:
         pending = len(status.pending)
         err_console.print(

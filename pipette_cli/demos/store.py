@@ -270,3 +270,18 @@ def file_size(path: Path) -> int:
     if folder.is_dir():
         total += sum(p.stat().st_size for p in folder.iterdir() if p.is_file())
     return total
+
+
+def episode_layout(ref: EpisodeRef) -> tuple[str, dict[str, tuple[tuple[int, ...], str]]]:
+    """One episode's augmentation variant ("" for a recording) and each of its arrays' shape and
+    dtype (``images/top``: ``(T, H, W, 3)``, ``uint8``), read without loading them."""
+    arrays: dict[str, tuple[tuple[int, ...], str]] = {}
+    with open_h5(ref.file) as f:
+        group = f[ref.group]
+
+        def visit(name: str, node: object) -> None:
+            if isinstance(node, h5py.Dataset):
+                arrays[name] = (tuple(node.shape), str(node.dtype))
+
+        group.visititems(visit)
+        return str(group.attrs.get("augment_variant", "")), arrays

@@ -146,3 +146,15 @@ def test_a_file_that_is_not_a_pipette_file(run_cli, tmp_path: Path) -> None:
 def test_pack_of_a_file_without_parts_changes_nothing(copy: Path) -> None:
     before = copy.read_bytes()
     assert pack(copy) == 0 and copy.read_bytes() == before
+
+
+def test_inspect_shows_the_arrays_and_an_augmented_episodes_variant(run_cli, copy: Path) -> None:
+    with h5py.File(copy, "r+") as f:  # as `pipette augment` marks its episodes
+        f["episodes/episode_000001"].attrs["augment_variant"] = "light+cam"
+    report = json.loads(run_cli("data", "inspect", copy, "--json").stdout)
+    assert [e["variant"] for e in report["episodes"]] == ["", "light+cam", ""]
+    assert report["arrays"]["images/top"] == {"shape": [15, 16, 16, 3], "dtype": "uint8"}
+    assert report["arrays"]["action"]["shape"][0] == 15 and "gripper 1 open, 0 closed" in report["action"]
+    text = run_cli("data", "inspect", copy)
+    assert "light+cam" in text.stdout and "variant" in text.stdout
+    assert "arrays of episode 0: action (15," in text.stderr and "images/top (15, 16, 16, 3) uint8" in text.stderr
