@@ -72,6 +72,8 @@ class Validator:
             self._defaults(info, args, task, notes, {step.product for step in steps if step.product})
             missing = self.catalog.missing(info.name, args)
             product, kind = product_of(info, args, task, self.vocab)
+            if product and "overwrite" in info.params and not args.get("overwrite") and Path(product).exists():
+                notes.append(f"{product} exists: this step stops unless you say 'overwrite' (or leave it out)")
             steps.append(CheckedStep(index, info.name, args, missing, product, kind, notes))
             if task:
                 carried["task"] = task

@@ -590,3 +590,12 @@ def test_a_file_a_command_does_not_read_names_only_real_commands() -> None:
     with pytest.raises(AgentError) as exc:
         AGENT.plan("train smolvla on data/pick.h5 for 500 steps")
     assert "pipette answer" not in str(exc.value) and "pipette convert" in str(exc.value)
+
+
+def test_a_step_whose_output_exists_and_would_stop_says_so(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "datasets" / "pipette_PickUpTestTube-v1" / "raw").mkdir(parents=True)
+    plan = AGENT.plan("convert data/PickUpTestTube.h5 and train act on it")
+    assert "exists: this step stops unless you say 'overwrite'" in " ".join(plan.steps[0].notes)
+    again = AGENT.plan("convert data/PickUpTestTube.h5 and overwrite it, then train act on it")
+    assert not any("exists" in n for n in again.steps[0].notes)
