@@ -141,7 +141,10 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
         image = Image.fromarray(main[2 * len(main) // 3])
         scale = max(1, tile // image.width)
         image = image.resize((image.width * scale, image.height * scale), Image.Resampling.NEAREST)
-        ImageDraw.Draw(image).text((3, 2), str(record.attrs.get("augment_variant", "")), fill="yellow")
+        label = f"{i} {record.attrs.get('augment_variant', '')}".strip()  # episode index and variant, on black
+        draw = ImageDraw.Draw(image)
+        draw.rectangle(draw.textbbox((3, 2), label), fill="black")
+        draw.text((3, 2), label, fill="white")
         tiles.append(image)
         if i == 0:
             for k in range(0, len(main), 3):
