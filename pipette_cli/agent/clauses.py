@@ -13,12 +13,15 @@ command listed first in the vocabulary wins.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from pipette_cli.agent.catalog import CommandCatalog
 from pipette_cli.agent.vocabulary import WEIGHTS, WorkflowVocabularySpec
 from pipette_cli.language import clauses as language
+from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import Piece, Separators, join_words
+from pipette_cli.language.lexicon import short_name
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 
@@ -44,6 +47,9 @@ class Intents:
     def __init__(self, vocab: WorkflowVocabularySpec, catalog: CommandCatalog, task_names: list[str]) -> None:
         self.vocab = vocab
         self.names = task_names
+        ids = {short_name(t).lower() for t in task_names} | set(load_asset_words().assets)
+        self.ids = sorted(name for name in ids if len(name) > 5)
+        """Task names and asset ids a verbless clause may name (:meth:`names_one`)."""
         commands = set(catalog.commands)
         filler = set(vocab.filler)
         self.option_names = {  # an option's name and its multi-word names ("render profile"), as phrases
@@ -138,6 +144,13 @@ class Intents:
                 return m.group(0).split()[0]
         return None
 
+    def names_one(self, text: str) -> bool:
+        """Whether ``text`` names a registered task or an asset by its id or name ("the ReadPlate
+        protocol", "beaker_50ml"): a clause without a verb that does is another step of the verb
+        before; one that does not ("then save it to x.png") completes the step before."""
+        squashed = re.sub(r"[^a-z0-9_]+", "", text.lower())
+        return any(name in squashed for name in self.ids)
+
     def happened(self, text: str) -> bool:
         """Whether ``text`` reports what happened ("the collect writing x.h5 was killed") and asks nothing."""
         return not text.rstrip().endswith("?") and find_phrase(self.vocab.happened, words_of(text)) is not None
@@ -166,8 +179,8 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         command, score = intents.best(piece.text)
         previous = commands[-1]
         verb = intents.verb(before.text, previous) if previous and command is None else None
-        if verb and piece.after == "strong":  # "show me X, then the ReadPlate protocol": the verb said once
-            command, score = intents.best(f"{verb} {piece.text}")
+        if verb and piece.after == "strong" and intents.names_one(piece.text):
+            command, score = intents.best(f"{verb} {piece.text}")  # "show me X, then the ReadPlate protocol"
         new = (
             command is not None
             and previous is not None

@@ -599,3 +599,8 @@ def test_a_step_whose_output_exists_and_would_stop_says_so(tmp_path: Path, monke
     assert "exists: this step stops unless you say 'overwrite'" in " ".join(plan.steps[0].notes)
     again = AGENT.plan("convert data/PickUpTestTube.h5 and overwrite it, then train act on it")
     assert not any("exists" in n for n in again.steps[0].notes)
+
+
+def test_a_verbless_clause_after_then_that_names_nothing_completes_the_step_before() -> None:
+    plan = AGENT.plan("render the water bath task, then save it to figs/bath.png")
+    assert [(s.command, s.args.get("out")) for s in plan.steps] == [("sim render", "figs/bath.png")]
