@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import shlex
 import sys
+from collections.abc import Callable
 from functools import cache
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 # Offscreen rendering on a headless Linux machine needs EGL (MuJoCo's default, GLFW, needs a
 # display); MuJoCo reads this when it is first imported, so it is set before anything imports it.
@@ -51,20 +53,37 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     add_completion=False,
 )
-app.add_typer(tasks_cli.app, name="tasks")
-app.command("agent")(agent_cli.agent)
-app.add_typer(assets_cli.app, name="assets")
-app.add_typer(experts_cli.app, name="experts")
-app.command("eval", cls=evaluate_cli.EvalCommand)(evaluate_cli.eval_command)
-app.command("demo")(demo_cli.demo)
-app.add_typer(sim_cli.app, name="sim")
-app.command("new-task")(authoring_cli.new_task)
-app.command("collect")(collect_cli.collect)
-app.add_typer(data_cli.app, name="data")
-app.command("augment")(augment_cli.augment)
-app.command("convert")(convert_cli.convert)
-app.command("serve")(serve_cli.serve)
-app.command("train")(train_cli.train)
+START, PIPELINE, LOOK = "Start here", "The pipeline, step by step", "Tasks, assets, data and the simulator"
+"""The panels of `pipette --help`, in the order a newcomer meets them."""
+
+
+def _short(command: Callable[..., Any]) -> str:
+    """A command's first sentence on one line (its help keeps the rest)."""
+    text = " ".join((command.__doc__ or "").split("\n\n", 1)[0].split())
+    return re.split(r"(?<=\.)\s", text, maxsplit=1)[0].rstrip(".")
+
+
+for name, command, panel in (
+    ("demo", demo_cli.demo, START),
+    ("agent", agent_cli.agent, START),
+    ("new-task", authoring_cli.new_task, START),
+    ("collect", collect_cli.collect, PIPELINE),
+    ("augment", augment_cli.augment, PIPELINE),
+    ("convert", convert_cli.convert, PIPELINE),
+    ("train", train_cli.train, PIPELINE),
+    ("eval", evaluate_cli.eval_command, PIPELINE),
+    ("serve", serve_cli.serve, PIPELINE),
+):
+    kind = evaluate_cli.EvalCommand if name == "eval" else None  # `eval report ...` goes to the report command
+    app.command(name, cls=kind, short_help=_short(command), rich_help_panel=panel)(command)
+for name, group in (
+    ("tasks", tasks_cli.app),
+    ("assets", assets_cli.app),
+    ("experts", experts_cli.app),
+    ("sim", sim_cli.app),
+    ("data", data_cli.app),
+):
+    app.add_typer(group, name=name, rich_help_panel=LOOK)
 
 
 @cache
