@@ -8,7 +8,10 @@ clause ("..., 64 px images", "pick and place").
 
 A clause's command is the one whose cues (vocabulary ``intents``) weigh most: phrases 3,
 verbs 2, nouns 1, and the agent's answers 1 more when the clause is a question. On a tie the
-command listed first in the vocabulary wins.
+command listed first in the vocabulary wins. After a chain word, a clause with no command of its
+own that names a task or an asset takes the verb of the clause before ("show me X, then the
+ReadPlate protocol"); a clause that reports what happened ("the collect writing x.h5 was killed
+overnight; ...") plans nothing and is read with the clause after it.
 """
 
 from __future__ import annotations
@@ -178,9 +181,9 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
             commands.append(intents.best(before.text)[0])
         command, score = intents.best(piece.text)
         previous = commands[-1]
-        verb = intents.verb(before.text, previous) if previous and command is None else None
-        if verb and piece.after == "strong" and intents.names_one(piece.text):
-            command, score = intents.best(f"{verb} {piece.text}")  # "show me X, then the ReadPlate protocol"
+        if command is None and previous and piece.after == "strong" and intents.names_one(piece.text):
+            verb = intents.verb(before.text, previous)  # "show me X, then the ReadPlate protocol": said once
+            command, score = intents.best(f"{verb} {piece.text}") if verb else (None, 0)
         new = (
             command is not None
             and previous is not None
