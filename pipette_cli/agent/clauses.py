@@ -208,10 +208,12 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
     told = ""  # what earlier clauses reported as having happened
     for i, (clause, command) in enumerate(zip(found, commands or [None], strict=False)):
         if i + 1 < len(found) and intents.happened(clause.text):
-            told += f"{clause.text}; "  # "the collect writing x.h5 was killed overnight; pack it": only the pack
+            # "the collect writing x.h5 was killed overnight; pack it": only the pack, told the file and task
+            # (not the report's numbers: "stopped after 30 episodes" is no count for what follows)
+            told += re.sub(r"(?<![\w/.-])\d[\d,.]*(?![\w/.-])", " ", clause.text) + "; "
             continue
         text = told + clause.text
-        best, score = intents.best(clause.text)
+        best, score = intents.best(clause.text) if command or not told else intents.best(text)  # "...; resume it"
         if best is not None and best.startswith(RECIPE_PREFIX):
             command = best  # "train X with and without augmentation": the workflow, not its first command
         after = "strong" if clause.after == "start" or (told and not clauses) else clause.after
