@@ -144,7 +144,10 @@ def test_resolve_policy_type(tmp_path: Path) -> None:
 
 def test_eval_names_what_is_wrong_with_a_suite_request(run_cli, tmp_path: Path) -> None:
     unknown = run_cli("eval", "--suite", "PaperBenchmrk", "--endpoint", "tcp://127.0.0.1:1")
-    assert unknown.exit_code == 1 and "unknown suite 'PaperBenchmrk'; did you mean 'pipette/PaperBenchmark-v1'" in unknown.stderr
+    assert (
+        unknown.exit_code == 1
+        and "unknown suite 'PaperBenchmrk'; did you mean 'pipette/PaperBenchmark-v1'" in unknown.stderr
+    )
     fixed = run_cli(
         "eval", "--suite", "PaperBenchmark", "--endpoint", "tcp://127.0.0.1:1", "--episodes", "5", "--seed", "3"
     )

@@ -50,7 +50,9 @@ def test_two_plans_of_a_suite_are_identical_and_use_instructions_in_turn() -> No
     ]
     with pytest.raises(SuiteNotFound, match="task testlab/StagedHoldTube-v1 is not in suite testlab/Tiny-v2"):
         episode_plan(suites.get("Tiny-v2").spec, ["testlab/StagedHoldTube-v1"])
-    with pytest.raises(SuiteNotFound, match="unknown suite 'Tiyn'; did you mean 'testlab/Tiny-v2' or 'testlab/Tiny-v1'"):
+    with pytest.raises(
+        SuiteNotFound, match="unknown suite 'Tiyn'; did you mean 'testlab/Tiny-v2' or 'testlab/Tiny-v1'"
+    ):
         suites.get("Tiyn")
     assert "testlab/Tiny-v1" not in SUITES.ids()  # fixtures stay out
 
