@@ -423,7 +423,7 @@ def next_steps(report: dict[str, Any]) -> str:
     checkpoint, task = report["checkpoint"], report["task"]
     return (
         f"next: evaluate it on more episodes (pipette eval {task} --policy {checkpoint} --episodes 50 --image-size "
-        f"{report.get('image_size', 64)} --out evals/demo) or serve it (pipette serve --policy {checkpoint})"
+        f"{report['image_size']} --out evals/demo) or serve it (pipette serve --policy {checkpoint})"
     )
 
 

@@ -24,11 +24,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
-from pipette_cli.agent.clauses import ANSWER_PREFIX
 from pipette_cli.agent.mentions import SAVE_VERBS
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
-from pipette_cli.agent.vocabulary import RecipeSpec, WorkflowVocabularySpec, distributed
+from pipette_cli.agent.vocabulary import ANSWER_PREFIX, RecipeSpec, WorkflowVocabularySpec, distributed
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import LIST_MARK
 from pipette_cli.language.lexicon import short_name, stem
@@ -240,15 +239,17 @@ class Accountant:
                     words.phrase(ordinal)
             for phrase in [*param.units, *param.names]:
                 words.phrase(phrase)
-        elif param.takes_assets and isinstance(value, str):
-            self._asset(words, value)
-        elif param.name in FREE_TEXT or (
-            param.kind == "str" and not param.values() and param.name not in self.vocab.values
+        elif (
+            param.takes_assets
+            or param.name in FREE_TEXT
+            or (param.kind == "str" and not param.values() and param.name not in self.vocab.values)
         ):
             said = set(words_of(str(value)).split()) | set(words_of(str(value).replace("_", " ")).split())
             words.where(lambda t: t in said)
             for phrase in param.names:
                 words.phrase(phrase)
+            if param.takes_assets:
+                self._asset_kinds(words, str(value))
         else:
             self._choice(words, param, str(value))
 
@@ -274,11 +275,8 @@ class Accountant:
         for phrase in param.names:
             words.phrase(phrase)
 
-    def _asset(self, words: _Words, asset: str) -> None:
-        """The asset's id as written ("beaker_50ml", "microplate reader") and its kinds' names, in
-        the plural too ("the beakers")."""
-        said = set(words_of(asset).split()) | set(words_of(asset.replace("_", " ")).split())
-        words.where(lambda t: t in said)
+    def _asset_kinds(self, words: _Words, asset: str) -> None:
+        """The names of an asset's kinds, in the plural too ("the beakers" for ``beaker_50ml``)."""
         library = load_asset_words()
         info = library.assets.get(asset)
         kinds = set(info.kinds) if info else set()

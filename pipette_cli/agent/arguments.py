@@ -319,11 +319,12 @@ class ArgumentReader:
         """The asset ids ``words`` writes out, in order; else each kind it names: every asset of a
         kind named in the plural ("the beakers"), the kind's default asset otherwise."""
         assets = load_asset_words()
-        ids = "|".join(re.escape(a) for a in sorted(assets.assets, key=len, reverse=True))
+        longest_first = sorted(assets.assets, key=len, reverse=True)
+        ids = "|".join(map(re.escape, longest_first))
         explicit = (
             re.findall(rf"(?<![\w-])(?:{ids})(?![\w-])", words)
-            or [  # "microplate reader" -> microplate_reader
-                a for a in sorted(assets.assets, key=len, reverse=True) if a in words.replace(" ", "_")
+            or [  # "microplate reader": microplate_reader
+                a for a in longest_first if a in words.replace(" ", "_")
             ][:1]
         )
         if explicit:

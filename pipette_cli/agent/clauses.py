@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 
 from pipette_cli.agent.catalog import CommandCatalog
-from pipette_cli.agent.vocabulary import WEIGHTS, WorkflowVocabularySpec
+from pipette_cli.agent.vocabulary import ANSWER_PREFIX, WEIGHTS, WorkflowVocabularySpec
 from pipette_cli.language import clauses as language
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import Piece, Separators, join_words
@@ -28,7 +28,6 @@ from pipette_cli.language.lexicon import short_name
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 
-ANSWER_PREFIX = "answer "
 RECIPE_PREFIX = "recipe: "
 """A clause's command for a whole workflow (vocabulary ``recipes``): ``recipe: compare augmentation``."""
 

@@ -89,9 +89,7 @@ def assign_paths(
         ]
         target = next((p for p in candidates if p is not None), None)
         suffix = mention.path.rsplit(".", 1)[-1].lower() if "." in mention.path else ""
-        others = [
-            c for c in (readers or {}).get(suffix, []) if c != info.name and not c.startswith("answer ")
-        ]  # the agent's own answers are no commands
+        others = [c for c in (readers or {}).get(suffix, []) if c != info.name]
         if target is None and others:  # "train on data/x.h5": a file this command does not read
             said = ", ".join(f"pipette {c}" for c in others)
             raise AgentError(

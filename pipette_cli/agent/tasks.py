@@ -131,6 +131,12 @@ class TaskIndex:
         return {stem(w) for w in ACTIONS}
 
     @cached_property
+    def _action_word(self) -> dict[str, str]:
+        """An action's stem -> the word said in refusals ("clos" -> "close")."""
+        opposites = [w for pair in self.vocab.tasks.opposites.items() for w in pair]
+        return {stem(w): w for w in [*ACTIONS, *opposites]}
+
+    @cached_property
     def _synonyms(self) -> list[tuple[re.Pattern[str], str]]:
         """(phrase, canonical word), longest phrase first."""
         pairs = [(syn.lower(), word) for word, syns in self.vocab.tasks.synonyms.items() for syn in syns]
@@ -231,16 +237,14 @@ class TaskIndex:
             tid: score for tid, score in scores.items() if tid not in opposed and objects <= self.terms[tid].keys()
         }
         if not scores:
-            words = {stem(w): w for pair in self.vocab.tasks.opposites.items() for w in pair}
-            action = next((words.get(a, a) for a in sorted(said) if any(self._opposes(t, {a}) for t in opposed)), "")
+            action = next(
+                (self._action_word.get(a, a) for a in sorted(said) if any(self._opposes(t, {a}) for t in opposed)), ""
+            )
             return TaskMatch(None, opposed=tuple(sorted(opposed)), action=action)
         best = max(scores.values())
         top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
         if len(top) > 1 and said and not any(said & self.terms[t].keys() for t in top):  # one task left is meant
-            words = {stem(w): w for w in ACTIONS} | {
-                stem(w): w for pair in self.vocab.tasks.opposites.items() for w in pair
-            }
-            return TaskMatch(None, other=tuple(top), action=words.get(min(said), min(said)))
+            return TaskMatch(None, other=tuple(top), action=self._action_word.get(min(said), min(said)))
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
 
     def _opposes(self, task: str, actions: set[str]) -> bool:

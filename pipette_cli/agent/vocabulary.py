@@ -26,6 +26,10 @@ VOCABULARY_FILE = Path(__file__).with_name("vocabulary.yaml")
 WEIGHTS = {"phrases": 3, "verbs": 2, "nouns": 1}
 
 
+ANSWER_PREFIX = "answer "
+"""The agent's own answers ("answer demos"), which the vocabulary names like commands but the CLI has not."""
+
+
 class IntentCuesSpec(Spec):
     """Phrases that ask for one command (weights in :data:`WEIGHTS`)."""
 
@@ -154,7 +158,11 @@ class WorkflowVocabularySpec(Spec):
 
         out = {}
         for suffix, kind in self.files.items():
-            commands = dict.fromkeys(key.rsplit(".", 1)[0] for key, k in self.consumes.items() if k == kind)
+            commands = dict.fromkeys(
+                key.rsplit(".", 1)[0]
+                for key, k in self.consumes.items()
+                if k == kind and not key.startswith(ANSWER_PREFIX)  # only commands a user can run
+            )
             out[suffix] = sorted(commands, key=lambda c: order(c, kind))
         return out
 

@@ -13,7 +13,7 @@ from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
-from pipette_cli.demos.store import episode_layout, file_size, parts_dir, scan
+from pipette_cli.demos.store import episode_arrays, file_size, parts_dir, scan
 from pipette_cli.demos.store import pack as pack_parts
 from pipette_cli.errors import DatasetError, plural
 from pipette_cli.registry import load_registry
@@ -39,27 +39,24 @@ def inspect(
     if status.info is None:
         raise DatasetError(f"{file}: no such file")
     info = status.info
-    layouts = [episode_layout(ref) for ref in status.episodes]
     episodes: list[dict[str, Any]] = [
         {
             "index": ref.index,
             "seed": ref.summary.seed,
             "source": ref.summary.source,
-            "variant": variant,
+            "variant": ref.summary.variant,
             "steps": ref.summary.num_steps,
             "success": ref.summary.success,
             "reason": ref.summary.reason,
             "metrics": ref.summary.metrics,
             "pending": ref.pending,
         }
-        for ref, (variant, _) in zip(status.episodes, layouts, strict=True)
+        for ref in status.episodes
     ]
     successes = sum(e["success"] for e in episodes)
-    arrays = (
-        {name: {"shape": list(shape), "dtype": dtype} for name, (shape, dtype) in layouts[0][1].items()}
-        if layouts
-        else {}
-    )
+    first = episode_arrays(status.episodes[0]) if status.episodes else {}  # every episode holds the same arrays
+    arrays = {name: {"shape": list(shape), "dtype": dtype} for name, (shape, dtype) in first.items()}
+    varied = any(e["variant"] for e in episodes)
     report = {
         "file": str(file),
         "task_id": info.task_id,
@@ -87,7 +84,7 @@ def inspect(
         Column("episode", justify="right"),
         Column("seed", justify="right"),
         Column("source"),
-        *([Column("variant")] if any(e["variant"] for e in episodes) else []),
+        *([Column("variant")] if varied else []),
         Column("steps", justify="right"),
         Column("outcome", wrap=True, min_width=20),
         Column("note"),
@@ -97,7 +94,7 @@ def inspect(
             str(e["index"]),
             str(e["seed"]),
             e["source"],
-            *([e["variant"] or "-"] if any(e["variant"] for e in episodes) else []),
+            *([e["variant"] or "-"] if varied else []),
             str(e["steps"]),
             Text("success", "green") if e["success"] else Text.assemble(("failed", "red"), f" {e['reason']}"),
             "pending" if e["pending"] else "",

@@ -190,6 +190,8 @@ class EpisodeSummary:
     reason: str
     metrics: dict[str, float]
     uid: str
+    variant: str = ""
+    """The augmentation variant a replay was made under (its ``augment_variant``); "" for a recording."""
 
 
 def fsync_dir(path: Path) -> None:
@@ -440,4 +442,5 @@ def read_summary(group: h5py.Group) -> EpisodeSummary:
         reason=str(a["reason"]),
         metrics=json.loads(str(a["metrics"])),
         uid=str(a["uid"]),
+        variant=str(a.get("augment_variant", "")),
     )

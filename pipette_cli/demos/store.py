@@ -272,9 +272,9 @@ def file_size(path: Path) -> int:
     return total
 
 
-def episode_layout(ref: EpisodeRef) -> tuple[str, dict[str, tuple[tuple[int, ...], str]]]:
-    """One episode's augmentation variant ("" for a recording) and each of its arrays' shape and
-    dtype (``images/top``: ``(T, H, W, 3)``, ``uint8``), read without loading them."""
+def episode_arrays(ref: EpisodeRef) -> dict[str, tuple[tuple[int, ...], str]]:
+    """Each array of one episode with its shape and dtype (``images/top``: ``(T, H, W, 3)``,
+    ``uint8``), read without loading them."""
     arrays: dict[str, tuple[tuple[int, ...], str]] = {}
     with open_h5(ref.file) as f:
         group = f[ref.group]
@@ -284,4 +284,4 @@ def episode_layout(ref: EpisodeRef) -> tuple[str, dict[str, tuple[tuple[int, ...
                 arrays[name] = (tuple(node.shape), str(node.dtype))
 
         group.visititems(visit)
-        return str(group.attrs.get("augment_variant", "")), arrays
+    return arrays

@@ -209,8 +209,9 @@ def cpu_warning(options: TrainOptions, jobs: Sequence[TrainJob]) -> str | None:
     on_cpu = options.device == "cpu" or (options.device is None and not accelerated)
     if not on_cpu or steps <= CPU_STEPS:
         return None
+    found = "" if options.device == "cpu" else " (no GPU found)"  # asked for, or what LeRobot would pick here
     return (
-        f"{plural(len(jobs), 'training')} of {steps} steps on the CPU (no GPU found): at the paper's sizes that takes "
+        f"{plural(len(jobs), 'training')} of {steps} steps on the CPU{found}: at the paper's sizes that takes "
         "hours to days here; give --steps and --batch-size for a CPU run (`pipette demo` trains a small ACT for "
         "300 steps in about 3 minutes), or --device cuda on a machine with a GPU"
     )

@@ -349,8 +349,7 @@ class SceneBuilder:
                 beside = lid_beside(geom, lid_geom, LID_GAP)
                 boxes.append(lid_geom.boxes + np.array([*beside, 0.0, *beside, 0.0]))
                 keys.append(beside)
-        fp = Footprint(np.vstack(boxes), keys, preferred, margin=0.02, pressed=pressed, start_boxes=geom.boxes)
-        fp.press_boxes = shut
+        fp = Footprint(np.vstack(boxes), keys, preferred, 0.02, pressed, start_boxes=geom.boxes, press_boxes=shut)
         spot = self.layout.place(fp, self.ws.bench_z)
         if spot is None:
             raise self._no_room(name)
