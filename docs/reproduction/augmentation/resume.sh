@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Resume the augmentation experiment of docs/reproduction/plan.md on this machine, in the plan's order:
-# the registered cells, then amendment 8's training-seed replicates, amendment 5 (segmented retargeting,
-# PlaceTubeOnBalance only) and amendment 6 (as many passes). Each stage resumes where its work stopped
+# the registered cells, amendment 8's training-seed replicates on the first two tasks, then (amendment 9) two
+# lanes at once: amendment 6 (as many passes) on PickUpTestTube and CloseCentrifugeLid; amendment 5 (segmented
+# retargeting, PlaceTubeOnBalance only) and amendment 6 on PlaceTubeOnBalance and RemoveTubeFromBalance; then
+# amendment 8 on the last two tasks. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
 # "Machines": such a restart is written into the plan first).
@@ -50,7 +52,8 @@ stage() {  # stage WORKTREE [--settings ...]: one `run` of the driver from that 
         return
     fi
     say "run from $dir $*"
-    (cd "$dir" && "${cmd[@]}" >> "$RUN/logs/run.log" 2>&1)
+    # a stage that fails (its log says why) does not stop the others; a restart runs it again
+    (cd "$dir" && "${cmd[@]}" >> "$RUN/logs/run.log" 2>&1) || say "stage $* exited with $?; going on"
 }
 
 # exp2: the run's code with all three driver commits (the registered settings' commands are the
@@ -58,8 +61,24 @@ stage() {  # stage WORKTREE [--settings ...]: one `run` of the driver from that 
 # the first commit only and exp2 all three.
 worktree exp2 exp-run.patch
 stage exp2                                                                 # registered cells
-stage exp2 --settings raw_seed1001,aug_all_seed1001,raw_seed1002,aug_all_seed1002  # amendment 8
+A8=raw_seed1001,aug_all_seed1001,raw_seed1002,aug_all_seed1002
+PICK=pipette/PickUpTestTube-v1 PLACE=pipette/PlaceTubeOnBalance-v1
+REMOVE=pipette/RemoveTubeFromBalance-v1 CLOSE=pipette/CloseCentrifugeLid-v1
+stage exp2 --settings $A8 --tasks $PICK,$PLACE                              # amendment 8, first two tasks
 worktree seg exp-run.patch exp-seg.patch
-stage seg --settings aug_all_seg,aug_object_seg                            # amendment 5
-stage exp2 --settings aug_all_ep,more_demos_ep                             # amendment 6
+# amendment 9's order: two lanes at once, each one cell at a time; then amendment 8's last two tasks
+lane1() { stage exp2 --settings aug_all_ep,more_demos_ep --tasks $PICK,$CLOSE --jobs 1; }  # amendment 6
+lane2() {
+    stage seg --settings aug_all_seg,aug_object_seg --tasks $PLACE --jobs 1               # amendment 5
+    stage exp2 --settings aug_all_ep,more_demos_ep --tasks $PLACE,$REMOVE --jobs 1        # amendment 6
+}
+if [ -n "${DRY:-}" ]; then
+    lane1
+    lane2
+else
+    lane1 &
+    lane2 &
+    wait
+fi
+stage exp2 --settings $A8 --tasks $REMOVE,$CLOSE                            # amendment 8, last two tasks
 say "all stages done: run main's report (benchmarks/augmentation_experiment.py report)"
