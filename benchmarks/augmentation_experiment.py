@@ -580,15 +580,25 @@ LOG_FREQ = 20
 """lerobot-train's --log_freq in SMALL_ACT: a loss line every 20 steps."""
 
 
+def training_log(ex: Experiment, task: TaskSpec, setting: str) -> str:
+    """lerobot-train's log of the run ``setting`` used (this machine's, else the kept one; "" without)."""
+    logs = sorted(ex.folder(task, setting).glob("train*/act/*.log"))
+    if not logs and ex.keep is not None:
+        logs = sorted((ex.keep / ex.folder(task, setting).relative_to(ex.work)).glob("train*/act/*.log"))
+    return logs[-1].read_text(errors="replace") if logs else ""
+
+
+def resumed(log: str) -> bool:
+    """Whether a training continued from a checkpoint after an interruption (amendment 9)."""
+    return "--resume=true" in log
+
+
 def training_loss(ex: Experiment, task: TaskSpec, setting: str, marks: list[int]) -> dict[str, float | None]:
     """lerobot-train's logged loss near each of ``marks`` (mean of the five lines up to it) for the
     run ``setting`` used; None where the log does not reach it or the run was resumed (its lines
     then no longer say their step)."""
-    logs = sorted(ex.folder(task, setting).glob("train*/act/*.log"))
-    if not logs and ex.keep is not None:
-        logs = sorted((ex.keep / ex.folder(task, setting).relative_to(ex.work)).glob("train*/act/*.log"))
-    text = logs[-1].read_text(errors="replace") if logs else ""
-    if "--resume=true" in text:
+    text = training_log(ex, task, setting)
+    if resumed(text):
         return {str(m): None for m in marks}
     losses = [float(v) for v in re.findall(r"step:\S+ smpl:\S+ ep:\S+ epch:\S+ loss:([0-9.]+)", text)]
     out: dict[str, float | None] = {}
@@ -665,12 +675,13 @@ def replicate_rows(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
             base: [cells.get((task, s), {}) for s in (base, *(f"{base}_seed{n}" for n in REPLICATE_SEEDS))]
             for base in ("raw", "aug_all")
         }
-        if not all(runs["raw"] + runs["aug_all"]):
-            continue  # a seed not run yet
+        found = runs["raw"] + runs["aug_all"]
+        if not all(found) or any(set(o) != set(found[0]) for o in found):
+            continue  # a seed not run yet, or not every episode of it
         counts = {base: [sum(o.values()) for o in found] for base, found in runs.items()}
         crossed = [a - r for a in counts["aug_all"] for r in counts["raw"]]
         left, right = ({(f"{i}:{t}", e): v for i, o in enumerate(runs[b]) for (t, e), v in o.items()} for b in runs)
-        test = compare(left, right).as_dict() if set(left) == set(right) else None
+        test = compare(left, right).as_dict()
         rows.append(
             {
                 "task": task,
@@ -681,10 +692,10 @@ def replicate_rows(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
                 "mean_difference": (fmean(counts["aug_all"]) - fmean(counts["raw"])) / len(runs["raw"][0]),
                 "crossed_differences": crossed,
                 "same_sign": all(d > 0 for d in crossed) or all(d < 0 for d in crossed),
-                "p_value": None if test is None else test["p_value"],
+                "p_value": test["p_value"],
             }
         )
-    for row, p in zip(rows, holm([r["p_value"] if r["p_value"] is not None else 1.0 for r in rows]), strict=True):
+    for row, p in zip(rows, holm([r["p_value"] for r in rows]), strict=True):
         row["p_holm"], row["significant"] = p, p < ALPHA
     return rows
 
@@ -710,15 +721,30 @@ def replicate_section(name: str, rows: list[dict[str, Any]]) -> list[str]:
     return [*lines, ""]
 
 
-def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str, Any]]) -> list[str]:
-    settings = SUITE_SETTINGS[name]
-    lines = [
-        f"### {name.capitalize()} suite",
-        "",
+def cell_table(cells: Cells, tasks: list[str], settings: Sequence[str]) -> list[str]:
+    """Successes / episodes (95 % Wilson interval) per task and setting; a cell with fewer episodes
+    than its task's raw cell is still being evaluated and says so (no test reads it)."""
+    full = {t: len(cells.get((t, "raw"), {})) for t in tasks}
+
+    def text(t: str, s: str) -> str:
+        found = cells.get((t, s), {})
+        return cell_text(found) + (" (running)" if found and len(found) < full[t] else "")
+
+    return [
         "| task | " + " | ".join(settings) + " |",
         "|---" * (len(settings) + 1) + "|",
+        *(f"| {t} | " + " | ".join(text(t, s) for s in settings) + " |" for t in tasks),
     ]
-    lines += [f"| {t} | " + " | ".join(cell_text(cells.get((t, s), {})) for s in settings) + " |" for t in tasks]
+
+
+def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str, Any]]) -> list[str]:
+    settings = SUITE_SETTINGS[name]
+    registered = [s for s in settings if s in SETTINGS]
+    added = [s for s in settings if s not in SETTINGS and any(cells.get((t, s)) for t in tasks)]
+    lines = [f"### {name.capitalize()} suite", "", *cell_table(cells, tasks, registered), ""]
+    if added:
+        lines += ["Settings added by amendments (5: *_seg, 6: *_ep, 8: *_seed*):", ""]
+        lines += [*cell_table(cells, tasks, added), ""]
     lines += [
         "",
         "| comparison | task | difference | discordant (b only / a only) | p | p (Holm) | significant from |",
@@ -729,6 +755,26 @@ def suite_section(name: str, cells: Cells, tasks: list[str], rows: list[dict[str
         f"| {r['p_value']:.3g} | {r['p_holm']:.3g}{' *' if r['significant'] else ''} "
         f"| {points(r['detectable'])} |"
         for r in rows
+    ]
+    return [*lines, ""]
+
+
+def failure_section(name: str, modes: dict[str, dict[str, Any]]) -> list[str]:
+    """Each evaluated cell's failures of one suite: the evaluator's reasons, counted, and the mean of
+    each of its metrics over the failed episodes (the plan's failure modes)."""
+    rows = [(key, found) for key, found in modes.items() if found["reasons"]]
+    if not rows:
+        return []
+    lines = [
+        f"Failures on the {name} suite (reasons counted; the evaluator's metrics, mean over the failed episodes):",
+        "",
+        "| task, setting | reasons | metrics at failure |",
+        "|---|---|---|",
+    ]
+    lines += [
+        f"| {key} | {', '.join(f'{r} {n}' for r, n in sorted(found['reasons'].items(), key=lambda kv: -kv[1]))} "
+        f"| {', '.join(f'{k} {v:g}' for k, v in found['mean_metric_at_failure'].items())} |"
+        for key, found in rows
     ]
     return [*lines, ""]
 
@@ -855,13 +901,13 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
         lines += suite_section(name, cells, ids, rows)
         replicated = replicate_rows(cells, ids) if name != "clutter" else []
         lines += replicate_section(name, replicated) if replicated else []
+        modes = {f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings}
+        lines += failure_section(name, modes)
         results["suites"][name] = {
             "cells": {f"{t} {s}": {"successes": sum(o.values()), "episodes": len(o)} for (t, s), o in cells.items()},
             "comparisons": rows,
             "replicates": replicated,
-            "failure_modes": {
-                f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings
-            },
+            "failure_modes": modes,
         }
     marks = [steps // 4, steps // 2]
     curve = {
@@ -885,6 +931,14 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
     ]
     results["learning_curves"] = curve
     results["training_loss"] = loss
+    settings_run = sorted({s for found in SUITE_SETTINGS.values() for s in found})
+    results["resumed"] = [f"{t.id} {s}" for t in tasks for s in settings_run if resumed(training_log(ex, t, s))]
+    lines += [
+        "",
+        "Trainings resumed from a checkpoint after an interruption (amendment 9): "
+        + (", ".join(results["resumed"]) or "none")
+        + ".",
+    ]
     results["yield"] = {
         t.id: json.loads(ex.folder(t, "yield.json").read_text()) if ex.folder(t, "yield.json").is_file() else {}
         for t in tasks

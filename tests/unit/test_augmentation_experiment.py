@@ -97,6 +97,10 @@ def test_paired_tests_per_task_and_pooled_with_holm() -> None:
         8 / 20
     )  # of 8 discordant pairs only 8-0 is significant (7-1: p=0.07)
     assert primary[HINGE]["detectable"] is None  # one discordant pair can never be significant
+    cells[(PICK, "aug_all_seed1001")] = outcomes(PICK, [1] * 5)  # 5 of 20 episodes evaluated so far
+    text = "\n".join(experiment.suite_section("nominal", cells, [PICK, HINGE], rows))
+    assert "| pipette/PickUpTestTube-v1 | 5/5 (57-100) (running) |" in text  # amendments' settings apart
+    assert "aug_all_seg" not in text  # no cell of it yet: no column
 
 
 class Task:
@@ -155,6 +159,20 @@ def test_training_loss_is_read_from_the_lerobot_log_near_each_mark(tmp_path) -> 
     assert loss["4000"] is None  # the log stops at 2000
     (log / "run.log").write_text("\n".join([*lines, "--resume=true"]))
     assert set(experiment.training_loss(ex, task, "raw", [100]).values()) == {None}
+
+
+def test_a_training_continued_from_a_checkpoint_is_named_as_resumed(tmp_path) -> None:
+    ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast", keep=tmp_path / "kept")
+    task = Task(PICK)
+    assert experiment.training_log(ex, task, "raw") == "" and not experiment.resumed("")
+    kept = ex.keep / ex.folder(task, "raw", "train", "act").relative_to(ex.work)
+    kept.mkdir(parents=True)
+    (kept / "run.log").write_text("lerobot-train --steps=2000 --resume=true\nINFO step:1K loss:0.5")
+    assert experiment.resumed(experiment.training_log(ex, task, "raw"))  # read from the kept copy
+    here = ex.folder(task, "raw", "train", "act")
+    here.mkdir(parents=True)
+    (here / "run.log").write_text("lerobot-train --steps=2000\nINFO step:20 loss:0.5")
+    assert not experiment.resumed(experiment.training_log(ex, task, "raw"))  # this machine's run first
 
 
 def test_a_kept_training_log_loses_its_progress_bar_and_keeps_every_loss_line(tmp_path) -> None:
@@ -353,6 +371,8 @@ def test_amendment_8_replicates_train_the_same_data_with_other_seeds_and_are_rea
     assert row["p_value"] == pytest.approx(2 / 2**13) and row["significant"]
     cells[(PICK, "raw_seed1002")] = outcomes(PICK, [1] * 10 + [0] * 10)  # one seed pair now goes the other way
     assert not experiment.replicate_rows(cells, [PICK])[0]["same_sign"]
+    cells[(PICK, "aug_all_seed1002")] = outcomes(PICK, [1] * 12 + [0] * 3)  # still being evaluated: not read yet
+    assert experiment.replicate_rows(cells, [PICK]) == []
     text = "\n".join(experiment.replicate_section("nominal", rows))
     assert "| 5, 7, 4 | 9, 8, 12 | +22 pt | +1 to +8 | yes |" in text
     assert "PickUpTestTube-v1 aug_object: 14/50" in text  # the lost run's realization beside it
@@ -406,3 +426,21 @@ def test_the_report_holds_the_training_step_before_and_after_from_the_side_by_si
     assert found["shared"]["load_average"] == [3.5, 7.0]
     assert "| idle | 0.370 | 0.450 | 0.82x | abc1234 | 0.2-1.7 |" in lines
     assert all(path.is_file() for path in experiment.SPEED_RUNS.values())  # the committed runs the report reads
+
+
+def test_failures_are_counted_by_reason_with_the_metrics_of_the_failed_episodes(tmp_path) -> None:
+    import json
+
+    def log(i: int, success: bool, reason: str | None, gain: float) -> None:
+        entry = {"task": PICK, "episode": i, "seed": 100000 + i, "success": success, "failure_reason": reason}
+        (tmp_path / f"episode_{i:04d}.json").write_text(json.dumps(entry | {"metrics": {"height_gain": gain}}))
+
+    log(0, True, None, 0.1)  # a success's metrics are not a failure's
+    log(1, False, "not_lifted", 0.002)
+    log(2, False, "tilted", 0.004)
+    log(3, False, "not_lifted", 0.0)
+    modes = experiment.failure_modes(tmp_path)
+    assert modes == {"reasons": {"not_lifted": 2, "tilted": 1}, "mean_metric_at_failure": {"height_gain": 0.002}}
+    text = "\n".join(experiment.failure_section("nominal", {f"{PICK} raw": modes, f"{PICK} aug_all": {"reasons": {}}}))
+    assert f"| {PICK} raw | not_lifted 2, tilted 1 | height_gain 0.002 |" in text
+    assert "aug_all" not in text  # a cell without failures (or not run) has no row
