@@ -37,7 +37,7 @@ from pipette_cli.lerobot.convert import ConvertOptions, DatasetVersion, convert
 from pipette_cli.lerobot.train import IfExists, Policy, TrainOptions, logged_step, train_checkpoint
 from pipette_cli.progress import ProgressFactory, ProgressLines, StageProgress
 from pipette_cli.sim.scene import CAMERA_NAMES
-from pipette_cli.sim.views import views_sheet
+from pipette_cli.sim.views import save_animation, views_sheet
 from pipette_cli.specs.task import TaskSpec
 
 log = logging.getLogger(__name__)
@@ -149,14 +149,14 @@ def contact_sheet(aug: Path, out_png: Path, out_gif: Path, *, tile: int = 128) -
         if i == 0:
             for k in range(0, len(main), 3):
                 views = {cam: record.images[cam][k] for cam in CAMERA_NAMES}
-                frames.append(Image.fromarray(views_sheet(views, scale=scale)))
+                frames.append(views_sheet(views, scale=scale))
     w, h = tiles[0].size
     cols = min(6, len(tiles))
     sheet = Image.new("RGB", (cols * w, ((len(tiles) + cols - 1) // cols) * h), "white")
     for i, image in enumerate(tiles):
         sheet.paste(image, ((i % cols) * w, (i // cols) * h))
     sheet.save(out_png)
-    frames[0].save(out_gif, save_all=True, append_images=frames[1:], duration=100, loop=0)
+    save_animation(frames, out_gif)
 
 
 class RecordingSource:
@@ -181,17 +181,11 @@ class RecordingSource:
         return self.source.act(observation, task=task, reset=reset, chunk=chunk)
 
     def write_gifs(self, folder: Path, *, scale: int = 2) -> list[Path]:
-        from PIL import Image  # deferred: PIL (as above)
-
-        paths = []
-        for i, frames in enumerate(self.episodes):
-            if not frames:
-                continue
-            images = [Image.fromarray(views_sheet(views, scale=scale)) for views in frames]
-            path = folder / f"episode_{i:04d}.gif"
-            images[0].save(path, save_all=True, append_images=images[1:], duration=100, loop=0)
-            paths.append(path)
-        return paths
+        return [
+            save_animation([views_sheet(views, scale=scale) for views in frames], folder / f"episode_{i:04d}.gif")
+            for i, frames in enumerate(self.episodes)
+            if frames
+        ]
 
 
 def training_losses(log_file: Path) -> list[tuple[int, float]]:

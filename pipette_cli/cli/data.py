@@ -15,6 +15,7 @@ from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
 from pipette_cli.demos.store import episode_arrays, file_size, parts_dir, scan
 from pipette_cli.demos.store import pack as pack_parts
+from pipette_cli.demos.video import VideoFormat, write_episode_video
 from pipette_cli.errors import DatasetError, plural
 from pipette_cli.registry import load_registry
 
@@ -145,6 +146,62 @@ def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> No
     if scan(file).info is None:
         raise DatasetError(f"{file}: no such file")
     err_console.print(f"packed {plural(pack_parts(file), 'pending episode')} into {file}", soft_wrap=True)
+
+
+@app.command("video")
+def video(
+    file: Annotated[Path, typer.Argument(help="HDF5 episode file.")],
+    episode: Annotated[
+        list[int] | None, typer.Option("--episode", "-e", help="Episode index (repeatable; default 0).")
+    ] = None,
+    all_episodes: Annotated[bool, typer.Option("--all", help="Every episode of the file.")] = False,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="A .gif or .mp4 file (one episode), or a folder (default: the current one) for "
+            "<file>_episode_NNNN.<format>.",
+        ),
+    ] = None,
+    video_format: Annotated[
+        VideoFormat, typer.Option("--format", help="The videos' format when --out is a folder.")
+    ] = VideoFormat.gif,
+    camera: Annotated[
+        list[str] | None,
+        typer.Option("--camera", "-c", help="A view to show: top, main or wrist (repeatable; default every one)."),
+    ] = None,
+    fps: Annotated[float, typer.Option("--fps", help="Frames per second, played in real time.")] = 10.0,
+    scale: Annotated[
+        int, typer.Option("--scale", help="Enlarge each view this many times (0: small ones to 128 px).")
+    ] = 0,
+) -> None:
+    """Write recorded episodes as GIF or MP4 videos: the camera views side by side, labelled, in real time.
+
+    Works on raw and augmented files alike (an augmented episode shows its perturbed views). Never
+    modifies the file.
+
+    Example: pipette data video tube.h5 --episode 3 --out ep3.mp4
+    """
+    status = scan(file)
+    if status.info is None:
+        raise DatasetError(f"{file}: no such file")
+    indices = [ref.index for ref in status.episodes] if all_episodes else (episode or [0])
+    for index in indices:
+        status.episode(index)  # every range checked before anything is written
+    to_file = out is not None and out.suffix != ""
+    if to_file and len(indices) > 1:
+        raise DatasetError(f"--out {out}: one file for {plural(len(indices), 'episode')}; give a folder instead")
+    folder = out or Path(".")
+    for index in indices:
+        target = (
+            out if out is not None and to_file else folder / f"{file.stem}_episode_{index:04d}.{video_format.value}"
+        )
+        written = write_episode_video(status, index, target, cameras=camera or (), fps=fps, scale=scale)
+        ref = status.episode(index)
+        outcome = "success" if ref.summary.success else f"failed ({ref.summary.reason})"
+        variant = f", {ref.summary.variant}" if ref.summary.variant else ""
+        out_console.print(f"episode {index} (seed {ref.summary.seed}{variant}, {outcome}) -> {written}", soft_wrap=True)
 
 
 @app.command("replay")

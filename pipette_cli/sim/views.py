@@ -1,12 +1,15 @@
 """Camera views side by side, each labelled with its camera's name in its top-left corner.
 
 The one way Pipette shows several views at once: the PNG of ``pipette sim render``, the gym env's
-``rgb_array`` frame, the demo's augmentation GIF and the evaluation GIFs.
+``rgb_array`` frame, the demo's augmentation GIF, the evaluation GIFs and ``pipette data video``; and the one way it writes
+them as an animation (:func:`save_animation`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 
@@ -60,3 +63,44 @@ def views_sheet(
         spacer = np.full((tiles[0].shape[0], gap, 3), 255, np.uint8)
         tiles = [part for tile in tiles for part in (tile, spacer)][:-1]
     return np.concatenate(tiles, axis=1)
+
+
+ANIMATION_SUFFIXES = (".gif", ".mp4")
+
+
+def save_animation(frames: Sequence[np.ndarray], path: Path, *, fps: float = 10.0) -> Path:
+    """Write RGB ``(H, W, 3)`` uint8 frames as an animation, its format from ``path``'s suffix:
+    ``.gif`` (looping; PIL) or ``.mp4`` (H.264 through PyAV, which bundles its own FFmpeg; the
+    frame's odd rows and columns are padded white, as the encoder needs even sizes).
+
+    Raises:
+        ValueError: no frames, or a suffix other than those of :data:`ANIMATION_SUFFIXES`.
+    """
+    suffix = path.suffix.lower()
+    if suffix not in ANIMATION_SUFFIXES:
+        raise ValueError(
+            f"{path}: cannot write a {suffix or 'suffixless'} animation (use {' or '.join(ANIMATION_SUFFIXES)})"
+        )
+    if not frames:
+        raise ValueError(f"{path}: no frames to write")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".gif":
+        from PIL import Image  # deferred: PIL (as above)
+
+        images = [Image.fromarray(np.ascontiguousarray(frame)) for frame in frames]
+        images[0].save(path, save_all=True, append_images=images[1:], duration=round(1000 / fps), loop=0)
+        return path
+    import av  # deferred: PyAV (comes with LeRobot)
+
+    height, width = frames[0].shape[:2]
+    even = (height + height % 2, width + width % 2)
+    with av.open(str(path), mode="w") as container:
+        stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
+        stream.height, stream.width = even
+        stream.pix_fmt = "yuv420p"
+        for frame in frames:
+            padded = np.full((*even, 3), 255, np.uint8)
+            padded[:height, :width] = frame[..., :3]
+            container.mux(stream.encode(av.VideoFrame.from_ndarray(padded, format="rgb24")))
+        container.mux(stream.encode())
+    return path

@@ -158,3 +158,66 @@ def test_inspect_shows_the_arrays_and_an_augmented_episodes_variant(run_cli, cop
     text = run_cli("data", "inspect", copy)
     assert "light+cam" in text.stdout and "variant" in text.stdout
     assert "arrays of episode 0: action (15," in text.stderr and "images/top (15, 16, 16, 3) uint8" in text.stderr
+
+
+def test_video_writes_an_episode_as_a_real_time_gif_of_its_views(run_cli, copy: Path, tmp_path: Path) -> None:
+    from PIL import Image
+
+    from pipette_cli.demos.store import read_episode, scan
+    from pipette_cli.demos.video import episode_frames
+
+    result = run_cli("data", "video", copy, "--episode", "1", "--out", tmp_path / "ep1.gif")
+    assert result.exit_code == 0, result.stderr
+    assert f"episode 1 (seed 1, failed (not_lifted)) -> {tmp_path / 'ep1.gif'}" in result.stdout
+    status = scan(copy)
+    # 15 control steps at 30 Hz, one frame every 3 and the last: 0, 3, 6, 9, 12, 14; 100 ms each
+    assert len(episode_frames(status, 1)) == 6
+    with Image.open(tmp_path / "ep1.gif") as gif:
+        durations = []
+        for k in range(gif.n_frames):  # PIL merges identical neighbours into one longer frame
+            gif.seek(k)
+            durations.append(gif.info["duration"])
+        assert sum(durations) == 600 and gif.n_frames >= 2
+        assert gif.size == (3 * 16 * 8 + 2 * 4, 16 * 8)  # three 16 px views enlarged to 128, 4 px apart
+    recorded = read_episode(status.episode(1), images=True).images["main"]
+    frames = episode_frames(status, 1, cameras=["main"], fps=30, scale=1)
+    assert len(frames) == len(recorded) == 15
+    for frame, image in zip(frames, recorded, strict=True):  # below the label, the recorded pixels
+        assert np.array_equal(frame[10:], image[10:])
+
+
+def test_video_of_every_episode_into_a_folder_as_mp4(run_cli, copy: Path, tmp_path: Path) -> None:
+    import av
+
+    result = run_cli("data", "video", copy, "--all", "--format", "mp4", "--camera", "wrist", "--out", tmp_path)
+    assert result.exit_code == 0, result.stderr
+    written = sorted(tmp_path.glob("*.mp4"))
+    assert [p.name for p in written] == [f"copy_episode_{i:04d}.mp4" for i in range(3)]
+    with av.open(str(written[0])) as container:
+        frames = list(container.decode(video=0))
+    assert len(frames) == 6 and (frames[0].width, frames[0].height) == (128, 128)
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["--all", "--out", "one.gif"], "one file for 3 episodes; give a folder instead"),
+        (["--camera", "side"], "no camera side (recorded: top, main, wrist)"),
+        (["--fps", "60"], "between 0 and the recording's control rate (30 Hz)"),
+        (["--out", "ep.avi"], "cannot write a .avi animation (use .gif or .mp4)"),
+        (["--episode", "0", "--episode", "7"], "episode 7 is out of range"),
+    ],
+)
+def test_video_refuses_what_it_cannot_write_and_writes_nothing(
+    run_cli, copy: Path, tmp_path: Path, monkeypatch, args: list[str], said: str
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = run_cli("data", "video", copy, *args)
+    assert result.exit_code == 1 and said in result.stderr, result.stderr
+    assert not [p for p in tmp_path.iterdir() if p.suffix in (".gif", ".mp4", ".avi")]
+
+
+def test_video_formats_are_the_two_it_writes(run_cli, copy: Path, tmp_path: Path) -> None:
+    result = run_cli("data", "video", copy, "--format", "webm", "--out", tmp_path)
+    assert result.exit_code == 2 and "'webm' is not one of 'gif', 'mp4'" in result.stderr, result.stderr
+    assert [p.name for p in tmp_path.iterdir()] == ["copy.h5"]
