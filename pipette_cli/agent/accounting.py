@@ -32,7 +32,7 @@ from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import LIST_MARK
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
-from pipette_cli.language.phrases import phrase_pattern, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
 
 FREE_TEXT = ("description", "about", "name", "asset_id")
 """Parameters whose value is the request's own words."""
@@ -157,6 +157,9 @@ class Accountant:
                 words.used[: len(m.group(0).split())] = [True] * len(m.group(0).split())
         for phrase in [*self.vocab.chain.strong, *self.vocab.happened]:  # "then"; "... was killed": what happened
             words.phrase(phrase)
+        if find_phrase(self.vocab.happened, words.text) is not None:  # "...; resume it": that step again
+            for phrase in self.vocab.resumes:
+                words.phrase(phrase)
         for kind in self._kinds(plan):
             for phrase in self.vocab.tasks.all if kind == "all tasks" else self.vocab.refers.get(kind, []):
                 words.phrase(phrase)

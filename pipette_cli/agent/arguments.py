@@ -118,6 +118,8 @@ class ArgumentReader:
         for name in info.params:  # "the paper grid" is a value of --variants, not the paper's tasks
             for phrase in self._value_phrases(name):
                 raw = phrase_pattern(phrase).sub(" ", raw)
+        for phrase in [*self.vocab.happened, *self.vocab.resumes]:  # "was stopped", "resume it": no task's words
+            raw = phrase_pattern(phrase).sub(" ", raw)
         match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
         in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
         if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):

@@ -157,6 +157,10 @@ class Intents:
         """Whether ``text`` reports what happened ("the collect writing x.h5 was killed") and asks nothing."""
         return not text.rstrip().endswith("?") and find_phrase(self.vocab.happened, words_of(text)) is not None
 
+    def resumes(self, text: str) -> bool:
+        """Whether ``text`` asks for a step again ("resume it", "continue where it stopped")."""
+        return find_phrase(self.vocab.resumes, words_of(text)) is not None
+
     def best(self, text: str) -> tuple[str | None, int]:
         scores = self.scores(text)
         if not scores:
@@ -180,6 +184,9 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
             commands.append(intents.best(before.text)[0])
         command, score = intents.best(piece.text)
         previous = commands[-1]
+        if intents.happened(before.text) and not intents.happened(piece.text) and intents.resumes(piece.text):
+            commands.append(command)  # "the eval ... was stopped after 30 episodes; resume it": a step of its own
+            return True
         if command is None and previous and piece.after == "strong" and intents.names_one(piece.text):
             verb = intents.verb(before.text, previous)  # "show me X, then the ReadPlate protocol": said once
             command, score = intents.best(f"{verb} {piece.text}") if verb else (None, 0)

@@ -135,6 +135,9 @@ class WorkflowVocabularySpec(Spec):
     happened: list[str] = Field(default_factory=list)
     """Phrases that report what happened ("... was killed overnight"): such a clause before another
     plans nothing itself; it tells the next one what it is about (its file, its task)."""
+    resumes: list[str] = Field(default_factory=list)
+    """Phrases that, after a clause reporting what happened, ask for that step again ("...; resume it"):
+    they start a clause of their own, which takes its command from the report (every stage resumes)."""
     per_each: list[str] = Field(default_factory=list)
     """Words that say a count is for each input ("per demo"): ``--variants object*3``."""
     distributes: list[str] = Field(default_factory=list)

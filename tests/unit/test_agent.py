@@ -539,6 +539,17 @@ def test_a_clause_reporting_what_happened_plans_nothing_and_gives_its_file() -> 
     assert [s.command for s in alone.steps] == ["collect"]
 
 
+def test_resuming_after_a_report_runs_that_step_again_and_takes_no_count_from_the_report() -> None:
+    plan = AGENT.plan("the eval of runs/act on the tube pick-up task was stopped after 30 episodes; resume it")
+    [step] = plan.steps
+    assert step.command == "eval" and step.args.get("policy") == "runs/act" and "episodes" not in step.args
+    assert step.args["task_id"] == "pipette/PickUpTestTube-v1"
+    assert plan.unused == ["30", "episodes"]  # said, and not used: the report's count is not the step's
+    assert "resume" not in plan.unused
+    counted = AGENT.plan("evaluate runs/act on the tube pick-up task for 30 episodes, then resume it")
+    assert counted.steps[0].args.get("episodes") == 30  # no report: the count is the step's
+
+
 def test_a_clause_after_then_without_a_verb_takes_the_verb_before() -> None:
     plan = AGENT.plan("describe the water bath lid task, then the ReadPlate protocol")
     assert [(s.command, s.args.get("task_id")) for s in plan.steps] == [
