@@ -146,11 +146,31 @@ def stats(
         Column("min", wrap=True, min_width=12),
         Column("max", wrap=True, min_width=12),
     ]
+    vectors = {name: f for name, f in report["features"].items() if len(f.get("names") or ()) > 1}
     rows = [
-        [name, f["dtype"], "x".join(map(str, f["shape"])), _values(f.get("min")), _values(f.get("max"))]
+        [name, f["dtype"], "x".join(map(str, f["shape"]))]
+        + (["per dimension below"] * 2 if name in vectors else [_values(f.get("min")), _values(f.get("max"))])
         for name, f in report["features"].items()
     ]
     out_console.print(Listing("features", columns, rows))
+    if vectors:  # one row per dimension, named: readable at any width
+        dims = [Column("feature"), Column("dim"), Column("name"), Column("min"), Column("mean"), Column("max")]
+        out_console.print(
+            Listing(
+                "dimensions",
+                dims,
+                [
+                    [
+                        name,
+                        str(i),
+                        dim,
+                        *(_values(None if f.get(k) is None else [f[k][i]]) for k in ("min", "mean", "max")),
+                    ]
+                    for name, f in vectors.items()
+                    for i, dim in enumerate(f["names"])
+                ],
+            )
+        )
     prov = report.get("provenance")
     if prov:
         reasons = ", ".join(f"{k} {v}" for k, v in prov["failure_reasons"].items())

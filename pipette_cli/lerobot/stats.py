@@ -73,6 +73,9 @@ def dataset_stats(root: Path) -> dict[str, Any]:
         if name in ("timestamp", "frame_index", "episode_index", "index", "task_index"):
             continue
         entry: dict[str, Any] = {"dtype": spec["dtype"], "shape": list(spec["shape"])}
+        names = spec.get("names")
+        if spec["dtype"] not in ("image", "video") and isinstance(names, list) and [len(names)] == entry["shape"]:
+            entry["names"] = [str(n) for n in names]  # what each dimension of a vector is ("joint1", "gripper")
         stats = (meta.stats or {}).get(name)
         if stats is not None:
             lo, hi = np.asarray(stats["min"]), np.asarray(stats["max"])

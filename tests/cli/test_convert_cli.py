@@ -49,6 +49,12 @@ def test_convert_then_stats(run_cli, recording: Path, tmp_path: Path) -> None:
         and "1 episode, 5 frames at 10 Hz" in text.stdout
         and "1 successful, 0 failed" in text.stdout
     )
+    action = data["features"]["action"]  # a vector: one named row per dimension, min, mean and max
+    assert action["names"][0] == "joint1_target" and action["names"][-1] == "gripper_open"
+    [row] = [line for line in text.stdout.splitlines() if "gripper_open" in line]
+    cells = [c.strip() for c in row.strip("│ ").split("│")]
+    assert cells == ["action", "7", "gripper_open", *(f"{action[k][7]:.3g}" for k in ("min", "mean", "max"))]
+    assert "per dimension below" in text.stdout and "observation.images" not in text.stdout.split("dimensions")[-1]
 
 
 def test_errors_are_one_line_and_leave_nothing(run_cli, recording: Path, tmp_path: Path) -> None:
