@@ -54,7 +54,14 @@ class ArgumentReader:
         mentions = find_mentions(text, self.registry.ids())
         words = words_of(distributed(mentions.words, self.vocab.distributes))  # "object and clutter variants"
         args: dict[str, Any] = {}
-        named = self._registry_names(info, mentions.words)
+        unplaced = text  # "into data/x.h5" says where a file goes, not that the task places something
+        for path in mentions.paths:
+            unplaced = re.sub(
+                rf"(?<![\w-])(?:into|onto|to|in|under|at|from|as)\s+{re.escape(path.path)}", " ", unplaced
+            )
+        named = self._registry_names(
+            info, mentions.words if unplaced == text else find_mentions(unplaced, self.registry.ids()).words
+        )
         try:
             self._task(info, named, words_of(named), args, [m.path for m in mentions.paths])
         except AgentError as exc:

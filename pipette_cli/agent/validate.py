@@ -269,7 +269,7 @@ class Validator:
         if (
             param is not None
             and is_empty(args.get(param.name))
-            and param.required
+            and (param.required or (steps and not _reads_a_step(args)))  # "render X, then check its expert"
             and (inferred or carried.get("task"))
         ):
             task = inferred or carried["task"]
@@ -360,3 +360,9 @@ class Validator:
 
 def _single(param: ParamInfo) -> ParamInfo:
     return replace(param, multiple=False)
+
+
+def _reads_a_step(args: dict[str, Any]) -> bool:
+    """Whether a step reads an earlier step's product (``@N``): it then has its task from that input."""
+    values = [v for value in args.values() for v in (value if isinstance(value, list) else [value])]
+    return any(isinstance(v, StepRef) for v in values)

@@ -550,6 +550,27 @@ def test_resuming_after_a_report_runs_that_step_again_and_takes_no_count_from_th
     assert counted.steps[0].args.get("episodes") == 30  # no report: the count is the step's
 
 
+def test_a_later_step_with_an_optional_task_takes_the_task_before_unless_it_reads_a_step() -> None:
+    plan = AGENT.plan(
+        "render the ReadPlate protocol with seed 7 into r.png, then check its scripted expert on ten seeds"
+    )
+    assert [(s.command, s.args.get("task_id") or s.args.get("tasks")) for s in plan.steps] == [
+        ("sim render", "protocols/ReadPlate-v1"),
+        ("experts check", ["protocols/ReadPlate-v1"]),  # not every task: "its" expert
+    ]
+    alone = AGENT.plan("check the scripted experts on ten seeds")
+    assert not alone.steps[0].args.get("tasks")  # a first step without a task: every task, as the CLI does
+    asked = AGENT.plan("record 8 demos of the spectrophotometer lid, then tell me how many succeeded")
+    assert "task" not in asked.steps[1].args  # it reads step 1's file, which has its task
+
+
+def test_where_a_file_goes_is_no_action_of_the_task() -> None:
+    with pytest.raises(AgentError, match="could mean several tasks"):  # "into" is no "place": four tube tasks
+        AGENT.plan("record 5 demos of the tube task into data/x.h5")
+    plan = AGENT.plan("record 5 demos of putting the tube on the balance into data/x.h5")
+    assert plan.steps[0].args["task_id"] == "pipette/PlaceTubeOnBalance-v1"
+
+
 def test_a_clause_after_then_without_a_verb_takes_the_verb_before() -> None:
     plan = AGENT.plan("describe the water bath lid task, then the ReadPlate protocol")
     assert [(s.command, s.args.get("task_id")) for s in plan.steps] == [
