@@ -171,6 +171,8 @@ class Accountant:
         values = [v for s in plan.steps for v in s.args.values()]
         if len(set(commands)) < len(commands) or any(_several(v) for v in values):
             words.where(lambda t: t == "both")  # two steps of one command, or two values of one option
+        if len(set(commands)) < len(commands):  # "... and another 15 on the Piper": the command once more
+            words.where(lambda t: t in self.vocab.repeats)
         for step in plan.steps:
             info = self.catalog.get(step.command)
             product = self.vocab.products.get(step.command)

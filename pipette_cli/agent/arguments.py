@@ -87,7 +87,7 @@ class ArgumentReader:
         paths = mentions.paths
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
-        assign_paths(info, paths, args, self.catalog, self.readers)
+        assign_paths(info, paths, args, self.catalog, self.readers, self.vocab.file_inputs(info.name))
         saved = [m.path for m in paths]
         policy = self.policy(words)
         if policy:
@@ -267,13 +267,18 @@ class ArgumentReader:
         return None
 
     def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
-        for param in info.params.values():
-            if not param.is_flag or param.name in ("yes",):
-                continue
-            stemmed = _stems(words)
+        stemmed = _stems(words)
+        flags = [p for p in info.params.values() if p.is_flag and p.name not in ("yes",)]
+        said = {p.name: find_phrase([_stems(w) for w in p.names], stemmed) for p in flags}
+        for param in flags:
+            on = said[param.name]
+            inside = on is not None and any(  # "allow mixed robots" is no "allow mixed" (tasks) as well
+                m is not None and m.start() <= on.start() and on.end() <= m.end() and m.span() != on.span()
+                for m in said.values()
+            )
             if param.off_words and find_phrase([_stems(w) for w in param.off_words], stemmed):
                 args[param.name] = False
-            elif find_phrase([_stems(w) for w in param.names], stemmed):  # "allow mixing" = allow mixed
+            elif on is not None and not inside:  # "allow mixing" = allow mixed
                 args[param.name] = True
 
     def _text(self, info: CommandInfo, text: str, saved: list[str], raw: str, words: str, args: dict[str, Any]) -> None:

@@ -8,6 +8,7 @@ required choice (``eval --policy``), or its only path option.
 from __future__ import annotations
 
 import re
+from collections.abc import Set as AbstractSet
 from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, is_empty
@@ -47,8 +48,10 @@ def assign_paths(
     args: dict[str, Any],
     catalog: CommandCatalog,
     readers: dict[str, list[str]] | None = None,
+    file_inputs: AbstractSet[str] = frozenset(),
 ) -> None:
-    """Put each of ``paths`` into the path option of ``info`` it is for (``args`` is updated).
+    """Put each of ``paths`` into the path option of ``info`` it is for (``args`` is updated);
+    a path written as a folder ("videos/") never goes to one of ``file_inputs``.
 
     Raises:
         AgentError: a path that fits none of the command's free path options.
@@ -76,7 +79,12 @@ def assign_paths(
         # of a choice (eval: endpoint or policy), one given bars the others
         barred = set(choice) if any(not free(info.params[c]) for c in choice) else set()
         writes = [p for p in options if p.writes and free(p) and p.name not in barred]
-        reads = [p for p in options if not p.writes and free(p) and p.name not in barred]
+        folder = mention.path.endswith("/")  # "GIFs of them in videos/incub/": an output, not the input file
+        reads = [
+            p
+            for p in options
+            if not p.writes and free(p) and p.name not in barred and not (folder and p.name in file_inputs)
+        ]
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
         candidates = [
@@ -86,6 +94,7 @@ def assign_paths(
             next((p for p in reads if p.name in choice), None),
             reads[0] if len(reads) == 1 else None,
             writes[0] if len(options) == 1 and writes else None,
+            writes[0] if folder and len(writes) == 1 else None,  # a folder no input takes: where output goes
         ]
         target = next((p for p in candidates if p is not None), None)
         suffix = mention.path.rsplit(".", 1)[-1].lower() if "." in mention.path else ""

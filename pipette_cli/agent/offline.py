@@ -199,6 +199,8 @@ class OfflineAgent:
             ]
             if len(made) > 1:
                 many = info.params[name].multiple
+                if many and find_phrase(self.vocab.together, words_of(text)):  # "convert both into one dataset"
+                    return [{name: [{"from_step": i} for i in made]}]
                 return [{name: [{"from_step": i}] if many else {"from_step": i}} for i in made]
         return []
 

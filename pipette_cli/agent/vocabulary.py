@@ -124,6 +124,9 @@ class WorkflowVocabularySpec(Spec):
     """Command -> words its plan explains without asking for the command."""
     each: list[str] = Field(default_factory=list)
     """Words that mean every earlier output of a kind ("convert both")."""
+    together: list[str] = Field(default_factory=list)
+    """Words that put every earlier output of a kind into one step, where its input takes several
+    ("convert both into one dataset"): one step, not one per output."""
     opening: list[str] = Field(default_factory=list)
     """Words that only open a request ("first, ...")."""
     repeats: list[str] = Field(default_factory=list)
@@ -150,6 +153,16 @@ class WorkflowVocabularySpec(Spec):
     def words_for(self, param: str, command: str = "") -> OptionWordsSpec:
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
         return self.options.get(f"{command}.{param}") or self.options.get(param, OptionWordsSpec())
+
+    def file_inputs(self, command: str) -> set[str]:
+        """The options of ``command`` that read a kind of file named by its suffix (``data video``'s
+        ``file``: an ``.h5`` file of demos): a folder is never their value."""
+        kinds = set(self.files.values())
+        return {
+            key.rsplit(".", 1)[1]
+            for key, kind in self.consumes.items()
+            if key.rsplit(".", 1)[0] == command and kind in kinds
+        }
 
     def readers(self) -> dict[str, list[str]]:
         """A file suffix -> the commands that read that kind of file, those that turn it into

@@ -571,6 +571,28 @@ def test_where_a_file_goes_is_no_action_of_the_task() -> None:
     assert plan.steps[0].args["task_id"] == "pipette/PlaceTubeOnBalance-v1"
 
 
+def test_both_outputs_into_one_dataset_is_one_step_reading_both() -> None:
+    plan = AGENT.plan(
+        "collect 15 demos of the test tube pick-up on the UR5e and another 15 on the Piper, "
+        "then convert both into one dataset at datasets/mixed (allow mixed robots)"
+    )
+    assert [s.command for s in plan.steps] == ["collect", "collect", "convert"]
+    convert = plan.steps[2].args
+    assert convert["inputs"] == [StepRef(from_step=1), StepRef(from_step=2)] and convert["allow_mixed_robots"]
+    assert "allow_mixed" not in convert  # "allow mixed robots" is not also "allow mixed" (tasks)
+    assert plan.unused == []  # "another": the command once more
+    apart = AGENT.plan(
+        "collect 5 demos of the test tube pick-up, then 5 demos of the centrifuge lid opening, then convert both"
+    )
+    assert [s.command for s in apart.steps] == ["collect", "collect", "convert", "convert"]  # one dataset each
+
+
+def test_a_folder_is_never_the_file_a_step_reads() -> None:
+    plan = AGENT.plan("record 3 demos of the tube pick-up into data/t.h5, then make GIFs of all of them in videos/t/")
+    video = plan.steps[1].args
+    assert video["file"] == StepRef(from_step=1) and video["out"] == "videos/t/" and video["all_episodes"]
+
+
 def test_a_clause_after_then_without_a_verb_takes_the_verb_before() -> None:
     plan = AGENT.plan("describe the water bath lid task, then the ReadPlate protocol")
     assert [(s.command, s.args.get("task_id")) for s in plan.steps] == [
