@@ -169,9 +169,10 @@ class Accountant:
                     words.phrase(phrase)
         commands = [s.command for s in plan.steps]
         values = [v for s in plan.steps for v in s.args.values()]
-        if len(set(commands)) < len(commands) or any(_several(v) for v in values):
+        repeated = len(set(commands)) < len(commands)
+        if repeated or any(_several(v) for v in values):
             words.where(lambda t: t == "both")  # two steps of one command, or two values of one option
-        if len(set(commands)) < len(commands):  # "... and another 15 on the Piper": the command once more
+        if repeated:  # "... and another 15 on the Piper": the command once more
             words.where(lambda t: t in self.vocab.repeats)
         for step in plan.steps:
             info = self.catalog.get(step.command)

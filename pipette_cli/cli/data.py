@@ -15,9 +15,10 @@ from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
 from pipette_cli.demos.store import episode_arrays, file_size, parts_dir, scan
 from pipette_cli.demos.store import pack as pack_parts
-from pipette_cli.demos.video import VideoFormat, write_episode_video
+from pipette_cli.demos.video import write_episode_video
 from pipette_cli.errors import DatasetError, plural
 from pipette_cli.registry import load_registry
+from pipette_cli.sim.views import AnimationFormat
 
 app = typer.Typer(
     help="Inspect, edit and replay recorded episode files.\n\nExample: pipette data inspect tube.h5",
@@ -165,8 +166,8 @@ def video(
         ),
     ] = None,
     video_format: Annotated[
-        VideoFormat, typer.Option("--format", help="The videos' format when --out is a folder.")
-    ] = VideoFormat.gif,
+        AnimationFormat, typer.Option("--format", help="The videos' format when --out is a folder.")
+    ] = AnimationFormat.gif,
     camera: Annotated[
         list[str] | None,
         typer.Option("--camera", "-c", help="A view to show: top, main or wrist (repeatable; default every one)."),

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -12,14 +11,6 @@ import numpy as np
 from pipette_cli.demos.store import DatasetStatus, read_episode
 from pipette_cli.errors import DatasetError
 from pipette_cli.sim.views import save_animation, views_sheet
-
-
-class VideoFormat(enum.StrEnum):
-    """The formats an episode can be written in (:func:`pipette_cli.sim.views.save_animation`)."""
-
-    gif = "gif"
-    mp4 = "mp4"
-
 
 READABLE_WIDTH = 128
 """Views narrower than this are enlarged (nearest neighbour) by a whole factor, so that their labels

@@ -7,6 +7,7 @@ them as an animation (:func:`save_animation`).
 
 from __future__ import annotations
 
+import enum
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
 from pathlib import Path
@@ -65,7 +66,14 @@ def views_sheet(
     return np.concatenate(tiles, axis=1)
 
 
-ANIMATION_SUFFIXES = (".gif", ".mp4")
+class AnimationFormat(enum.StrEnum):
+    """The formats :func:`save_animation` writes, named by a file's suffix."""
+
+    gif = "gif"
+    mp4 = "mp4"
+
+
+ANIMATION_SUFFIXES = tuple(f".{f.value}" for f in AnimationFormat)
 
 
 def save_animation(frames: Sequence[np.ndarray], path: Path, *, fps: float = 10.0) -> Path:
