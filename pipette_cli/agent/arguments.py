@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, is_empty
@@ -20,11 +21,13 @@ from pipette_cli.agent.mentions import SAVE, assign_paths, option_words
 from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
+from pipette_cli.errors import TaskNotFound
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
+from pipette_cli.specs.task import TASK_ID_PATTERN
 
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
@@ -84,7 +87,8 @@ class ArgumentReader:
                 args[param.name] = address
             elif plain is not None:
                 args[plain.name] = raw
-        paths = mentions.paths
+        runs_a_task = any(p.kind == "task" for p in info.params.values())  # `tasks new ID` names a new one
+        paths = [m for m in mentions.paths if not (runs_a_task and self._unknown_task(m.path, problems))]
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
         assign_paths(info, paths, args, self.catalog, self.readers, self.vocab.file_inputs(info.name))
@@ -322,6 +326,19 @@ class ArgumentReader:
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
             if m and m.group(1).lower() not in {*self.vocab.tasks.stop, *self.vocab.filler}:
                 args[param.name] = m.group(1).strip("\"'")
+
+    def _unknown_task(self, path: str, problems: list[str] | None) -> bool:
+        """Whether ``path`` is a task id no task has ("pipette/CloseIncubatorDoor-v1"): said as
+        such (added to ``problems``, raised without it), never taken for a file."""
+        if not re.match(TASK_ID_PATTERN, path) or Path(path).exists():
+            return False
+        try:
+            self.registry.get(path)
+        except TaskNotFound as exc:
+            if problems is None:
+                raise AgentError(str(exc)) from exc
+            problems.append(str(exc))
+        return True
 
     def _only_options(self, info: CommandInfo, sentence: str) -> bool:
         """Whether ``sentence`` says nothing but options of ``info`` ("check it", "and write it to x")."""

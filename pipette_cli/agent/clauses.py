@@ -131,10 +131,12 @@ class Intents:
         asks = {verb} & cue if verb else set()  # "render": the word that asks for it
         # a name of several words said whole ("yield report", "render profile") shares any word of the
         # cue; a one-word name ("episodes" of "move the pending episodes") only the word that asks
-        return any(
-            set(name.split()) & (cue if " " in name else asks) and phrase_pattern(name).search(words)
+        said = [
+            m.group(0).split()
             for name in self.option_names.get(previous, [])
-        )
+            if (m := phrase_pattern(name).search(words))
+        ]
+        return any(set(name) & (cue if len(name) > 1 else asks) for name in said)
 
     def verb(self, text: str, command: str) -> str | None:
         """The first word of the verb or phrase cue of ``command`` in ``text`` ("show" in "show me
@@ -152,6 +154,14 @@ class Intents:
         before; one that does not ("then save it to x.png") completes the step before."""
         squashed = re.sub(r"[^a-z0-9_]+", "", text.lower())
         return any(name in squashed for name in self.ids)
+
+    def again(self, text: str, command: str) -> bool:
+        """Whether ``text`` asks for ``command`` once more, for a task or an asset of its own: its
+        verb leads and it names one ("collect 10 demos of X, collect 10 of Y"; "export a.h5 and
+        b.h5 to lerobot" stays one step)."""
+        words = words_of(find_mentions(text, self.names).words).split()
+        lead = next((w for w in words if w not in ("and", "also", "please", "then")), None)
+        return lead is not None and lead == self.verb(text, command) and self.names_one(text)
 
     def happened(self, text: str) -> bool:
         """Whether ``text`` reports what happened ("the collect writing x.h5 was killed") and asks nothing."""
@@ -174,8 +184,9 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
     its command (None if it names none).
 
     After a chain word any command starts a step; after a sentence end only a verb; after "," or
-    "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step), and not
-    when it names an option of the command before ("augment ... and write the yield report to x").
+    "and" only a verb of another command ("export a.h5 and b.h5 to lerobot" is one step) or the
+    same verb leading a task of its own ("collect X, collect Y"), and not when it names an
+    option of the command before ("augment ... and write the yield report to x").
     A clause keeps the command of the piece that started it."""
     commands: list[str | None] = []
 
@@ -197,7 +208,7 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
                 piece.after == "strong"
                 or (
                     score >= WEIGHTS["verbs"]
-                    and (piece.after == "sentence" or command != previous)
+                    and (piece.after == "sentence" or command != previous or intents.again(piece.text, command))
                     and not intents.names_option(piece.text, command, previous)
                 )
             )

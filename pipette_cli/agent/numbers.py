@@ -14,6 +14,8 @@ from pipette_cli.language.phrases import phrase_pattern
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
 _MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
 """Units after a number that make it a size ("50 mL tube"), not a count."""
+_LISTED = r"(?:\s*\d+(?:\s*,)?(?:\s+(?:and|&))?)*\s*"
+"""Numbers listed before the one read, after an option that takes several ("episodes 3, 5 and")."""
 
 
 def _typed(param: ParamInfo, number: float) -> int | float:
@@ -54,15 +56,17 @@ def read_numbers(
                 (
                     1,
                     names,
-                    lambda p, before=before: re.search(
-                        rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?$", before
+                    lambda p, before=before, listing=_LISTED if param.multiple else "": re.search(
+                        rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?{listing}$", before
                     ),
                 ),
             )
             for rank, phrases, matcher in tests:
                 if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
                     best = (rank, param)
-        if best is not None:
+        if best is not None and best[1].multiple:  # "episodes 3, 5 and 7": one value each
+            args[best[1].name] = [*args.get(best[1].name, []), _typed(best[1], number)]
+        elif best is not None:
             args[best[1].name] = _typed(best[1], number)
             taken.add(best[1].name)
         elif not m.group(3) and not _MEASURE.match(after) and number not in bound:

@@ -24,7 +24,7 @@ class StepRef(Spec):
 
 
 Scalar = str | int | float | bool
-Value = Scalar | StepRef | list[str | StepRef]
+Value = Scalar | StepRef | list[Scalar | StepRef]
 
 
 class StepSpec(Spec):

@@ -50,15 +50,17 @@ def _item(token: str) -> str:
 
 def phrase_regex(phrase: str) -> str:
     """The regular expression of a phrase, unbounded (see the module docstring)."""
-    out, gap = "", r"\s+"
+    out, gap, lead = "", r"\s+", ""
     for token in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()):
         if token == "...":
             gap = r"\s+(?:\S+\s+){0,10}?"
             continue
         optional = token.endswith("?") and len(token) > 1
         piece = _item(token[:-1] if optional else token)
-        if not out:
-            out = piece
+        if not out and optional:  # "(only|just)? the top view": optional words before the first
+            lead += f"(?:{piece}\\s+)?"
+        elif not out:
+            out = lead + piece
         elif optional:
             out += f"(?:{gap}{piece})?"
         else:

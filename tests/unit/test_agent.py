@@ -658,3 +658,49 @@ def test_a_step_whose_output_exists_and_would_stop_says_so(tmp_path: Path, monke
 def test_a_verbless_clause_after_then_that_names_nothing_completes_the_step_before() -> None:
     plan = AGENT.plan("render the water bath task, then save it to figs/bath.png")
     assert [(s.command, s.args.get("out")) for s in plan.steps] == [("sim render", "figs/bath.png")]
+
+
+def test_an_arrow_between_paths_says_where_the_first_goes() -> None:
+    for request in (
+        "augment data/a.h5 -> data/b.h5 for the tube pick-up",
+        "augment data/a.h5->data/b.h5 for PickUpTestTube",
+    ):
+        step = AGENT.plan(request).steps[0]
+        assert (step.args["input"], step.args["output"]) == ("data/a.h5", "data/b.h5"), request
+        assert "rejected" not in step.args
+
+
+def test_an_unknown_task_id_is_refused_as_a_task_not_taken_for_a_file() -> None:
+    with pytest.raises(AgentError, match="unknown task 'pipette/CloseIncubatorDoor-v1'; did you mean"):
+        AGENT.plan("record 10 demos of pipette/CloseIncubatorDoor-v1 into data/door.h5")
+    copied = AGENT.plan("copy CloseCentrifugeLid into a new task mylab/CloseBigCentrifuge-v1")
+    assert copied.steps[0].args["new_id"] == "mylab/CloseBigCentrifuge-v1"  # a new id is no unknown task
+
+
+def test_which_tasks_use_an_asset_is_answered_without_the_word_task() -> None:
+    for request in ("does anything use the thermal cycler?", "what in the registry needs a thermal cycler?"):
+        plan = AGENT.plan(request)
+        assert [(s.command, s.args.get("about")) for s in plan.steps] == [("answer tasks", "thermal cycler")], request
+
+
+def test_the_same_verb_after_a_comma_with_a_task_of_its_own_is_another_step() -> None:
+    plan = AGENT.plan("collect 10 demos of PickUpTestTube, collect 12 demos of CloseCentrifugeLid")
+    assert [(s.command, s.args["task_id"], s.args["episodes"]) for s in plan.steps] == [
+        ("collect", "pipette/PickUpTestTube-v1", 10),
+        ("collect", "pipette/CloseCentrifugeLid-v1", 12),
+    ]
+    one = AGENT.plan("collect 20 demos of PickUpTestTube, recording at 64 px")
+    assert len(one.steps) == 1 and one.steps[0].args["image_size"] == 64
+
+
+def test_a_video_takes_each_listed_episode_its_view_and_scale_from_later_sentences() -> None:
+    plan = AGENT.plan(
+        "could you turn episodes 3 and 7 of data/c.h5 into mp4s? just the wrist camera, each view enlarged "
+        "three times, put them in videos/"
+    )
+    assert [s.command for s in plan.steps] == ["data video"]  # "view" is a noun here, not `sim view`
+    args = plan.steps[0].args
+    assert (args["episode"], args["camera"], args["scale"], args["out"]) == ([3, 7], ["wrist"], 3, "videos/")
+    assert plan.unused == []
+    listed = AGENT.plan("make gifs of episodes 2, 5 and 9 of data/c.h5 from the top view").steps[0].args
+    assert (listed["episode"], listed["camera"]) == ([2, 5, 9], ["top"])

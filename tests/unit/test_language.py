@@ -6,7 +6,8 @@ from __future__ import annotations
 from pipette_cli.language.assets import load_vocabulary
 from pipette_cli.language.clauses import Separators, pieces, split_clauses
 from pipette_cli.language.lexicon import robot_mentions
-from pipette_cli.language.mentions import names_in
+from pipette_cli.language.mentions import find_mentions, names_in
+from pipette_cli.language.phrases import find_phrase
 from pipette_cli.language.understanding import not_understood_line, refused_under_yes
 
 SEPARATORS = Separators(
@@ -57,3 +58,17 @@ def test_one_wording_for_what_was_not_understood() -> None:
     assert not_understood_line(["zorbly"], "draft") == "not understood: 'zorbly' (the draft above does not use it)"
     assert not_understood_line(["a", "b"], None) == "not understood: 'a', 'b'"
     assert refused_under_yes(["a", "b"], "write").startswith("not written: the request's 'a', 'b' are not understood")
+
+
+def test_optional_words_may_open_a_phrase() -> None:
+    phrase = "(only|just)? (the)? top (view|camera)"
+    assert [find_phrase([phrase], t).group(0) for t in ("gif of the top view", "just the top camera, please")] == [
+        "the top view",
+        "just the top camera",
+    ]
+    assert find_phrase([phrase], "the top shelf") is None
+
+
+def test_an_arrow_before_a_path_reads_as_to() -> None:
+    found = find_mentions("augment (data/a.h5 -> data/b.h5) and x.h5=>y.h5")
+    assert [(m.path, m.before.split()[-1]) for m in found.paths[1::2]] == [("data/b.h5", "to"), ("y.h5", "to")]
