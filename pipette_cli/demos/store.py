@@ -16,7 +16,7 @@ leaves the file's bytes unchanged.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -253,12 +253,15 @@ class EpisodeRecord:
     images: dict[str, np.ndarray]
 
 
-def read_episode(ref: EpisodeRef, *, images: bool = False) -> EpisodeRecord:
-    """Load an episode's datasets into memory."""
+def read_episode(ref: EpisodeRef, *, images: bool | Sequence[str] = False) -> EpisodeRecord:
+    """Load an episode's datasets into memory, with every camera's images (``images=True``), only
+    those of the cameras named, or none."""
     with open_h5(ref.file) as f:
         group = f[ref.group]
         arrays = {name: group[name][()] for name in group if isinstance(group[name], h5py.Dataset)}
-        pictures = {cam: group["images"][cam][()] for cam in group.get("images", {})} if images else {}
+        recorded = list(group.get("images", {})) if images else []
+        wanted = [c for c in recorded if isinstance(images, bool) or c in images]
+        pictures = {cam: group["images"][cam][()] for cam in wanted}
         attrs = {key: (value.item() if isinstance(value, np.generic) else value) for key, value in group.attrs.items()}
         return EpisodeRecord(ref.summary, attrs, arrays, pictures)
 

@@ -42,7 +42,7 @@ def episode_frames(
         raise DatasetError(f"{status.path}: no camera {', '.join(unknown)} (recorded: {', '.join(info.cameras)})")
     if not 0 < fps <= info.control_hz:
         raise DatasetError(f"--fps {fps:g}: between 0 and the recording's control rate ({info.control_hz} Hz)")
-    images = read_episode(ref, images=True).images
+    images = read_episode(ref, images=shown).images
     if not images:
         raise DatasetError(f"{status.path}: episode {index} holds no images (recorded without cameras)")
     count = len(images[shown[0]])

@@ -179,6 +179,7 @@ def test_video_writes_an_episode_as_a_real_time_gif_of_its_views(run_cli, copy: 
             durations.append(gif.info["duration"])
         assert sum(durations) == 600 and gif.n_frames >= 2
         assert gif.size == (3 * 16 * 8 + 2 * 4, 16 * 8)  # three 16 px views enlarged to 128, 4 px apart
+    assert list(read_episode(status.episode(1), images=["main"]).images) == ["main"]  # only what is shown is read
     recorded = read_episode(status.episode(1), images=True).images["main"]
     frames = episode_frames(status, 1, cameras=["main"], fps=30, scale=1)
     assert len(frames) == len(recorded) == 15
