@@ -132,6 +132,8 @@ class ClauseReader:
         """A button's name -> the action its press is ("start button" -> run, "green button" -> run)."""
         self.button_names = sorted(self.buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
+        self.said: list[str] = []
+        """The kinds of the objects the clauses read so far name (one reader reads one description)."""
 
     def _coloured(self, vocab: Vocabulary) -> dict[str, str]:
         """ "green button" -> run where every description that colours a button green calls it a
@@ -181,6 +183,7 @@ class ClauseReader:
         self._parts(clause)
         self._prepositions(clause, verbs)
         self._unknown(clause)
+        self.said += [m.kind for m in clause.mentions if not m.is_bench and not m.is_pronoun]
         return clause
 
     def _verbs(self, clause: Clause) -> set[int]:
@@ -254,7 +257,11 @@ class ClauseReader:
             pronoun = first_match(tokens, i, self.pronouns)
             part = first_match(tokens, i, list(self.part_words))
             found: tuple[str, str, int] | None = None
-            if alias and (not part or alias[1] > part[1] or not self._part_has_owner(clause, i, part[1])):
+            kind = self.vocab.alias_to_kind[head] if alias else None
+            owned = part is not None and (
+                self._part_has_owner(clause, i, part[1]) or self._owner_said(clause, self.part_words[part[0]], kind)
+            )
+            if alias and (not part or alias[1] > part[1] or not owned):
                 found = (self.vocab.alias_to_kind[head], alias[0], alias[1])
             if bench and (found is None or bench[1] > found[2]):
                 found = ("bench", bench[0], bench[1])
@@ -271,13 +278,20 @@ class ClauseReader:
             if run is not None:  # "start the spin": the instrument whose run it is
                 found = ("pronoun", run[0], run[1])
             if found is None:
-                i += 1
+                i += part[1] if part is not None and owned else 1  # "the top shelf": never a "shelf" of its own
                 continue
             kind, phrase, n = found
             clause.mentions.append(Mention(i, i + n, kind, phrase, window_start=i))
             for k in range(i, i + n):
                 tokens[k].used = True
             i += n
+
+    def _owner_said(self, clause: Clause, part: str, kind: str | None) -> bool:
+        """Whether an object named before, in this clause or an earlier one of the description, has
+        the part ``part`` ("open the incubator, then put the dish on the top shelf": its shelf, not
+        a reagent shelf of ``kind``)."""
+        said = [*self.said, *(m.kind for m in clause.mentions if not m.is_bench and not m.is_pronoun)]
+        return any(k != kind and self.vocab.has_part(k, part) for k in said)
 
     def _part_has_owner(self, clause: Clause, i: int, n: int) -> bool:
         """A part word directly after a mention ("incubator shelf") or before "of the X"."""

@@ -239,6 +239,10 @@ class Builder:
             o = self.obj(m, clause, "holder", taken)
             taken.append(o)
             targets.append((o, m.part))
+        loose = next((p for p in clause.parts if p.owner is None and p.name not in (*HATCH_PARTS, "button")), None)
+        owner = self._with_part(loose.name) if loose is not None and not targets and not on_bench else None
+        if owner is not None:  # "open the incubator, then put the dish on the top shelf": its top shelf
+            targets.append((owner, loose.name if loose is not None else None))
         if clause.implied_target and not targets:
             implied = Mention(0, 0, clause.implied_target, clause.implied_target)
             targets.append((self.obj(implied, clause, "holder", taken), None))
@@ -271,6 +275,10 @@ class Builder:
         for k, item in enumerate(items):
             target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
             self.steps.append(RawStep(action, item, target, source, part, relation))
+
+    def _with_part(self, part: str) -> Obj | None:
+        """The object named last whose kind has the part ``part`` (a shelf, a pan)."""
+        return next((o for o in reversed(self.objects) if self.vocab.has_part(o.wanted.kind, part)), None)
 
     def _opened(self) -> list[Obj]:
         """Instruments an earlier step opened (or pressed open): where a bare "insert X" goes."""

@@ -238,6 +238,16 @@ class Vocabulary:
                 return owner
         return None
 
+    def has_part(self, kind: str, part: str) -> bool:
+        """Whether a member of ``kind`` has the part ``part`` (a vocabulary part name: ``shelf_1``,
+        ``shelf``, ``door``): a site, joint or body whose name starts with it (``shelf_1_center``)."""
+        for asset in self.members(kind):
+            semantics = self.assets[asset].semantics
+            names = [*semantics.get("sites", []), *semantics.get("joints", []), *semantics.get("bodies", [])]
+            if any(str(n) == part or str(n).startswith(f"{part}_") for n in names):
+                return True
+        return False
+
     def describes(self, word: str, kind: str) -> bool:
         """Whether ``word`` describes a member of ``kind`` (a word of its id or its description)."""
         return any(word in self.assets[a].words for a in self.members(kind))

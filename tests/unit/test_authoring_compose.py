@@ -357,3 +357,18 @@ def test_a_separable_switch_on_is_a_run_and_capped_is_the_capped_tube() -> None:
         drafted("Set the 250 mL Erlenmeyer flask on the orbital shaker and switch it on")
     capped = parse_description("Put the capped 50 mL tube in the 50 mL rack", load_vocabulary())
     assert capped.not_understood == [] and "conical_tube_50ml" in [o.asset for o in capped.plan.objects]
+
+
+def test_a_part_said_alone_belongs_to_the_object_named_before_that_has_it() -> None:
+    vocab = load_vocabulary()
+
+    def read(text: str) -> list[tuple[str, str | None, str | None]]:
+        plan = parse_description(text, vocab).plan
+        assets = {o.name: o.asset for o in plan.objects}
+        return [(s.action, assets.get(s.target) if s.target else None, s.part) for s in plan.steps]
+
+    assert read("Open the incubator and put the petri dish on the top shelf") == [
+        ("open", None, None),
+        ("place", "incubator_benchtop", "shelf_1"),  # its shelf, not a reagent shelf of its own
+    ]
+    assert read("Put the reagent bottle on the shelf") == [("place", "reagent_shelf", None)]  # nothing before has one

@@ -26,12 +26,6 @@ CASES = YAML(typ="safe").load((Path(__file__).parents[1] / "fixtures" / "authori
 ]
 TASKS = [c for c in CASES if "steps" in c]
 REFUSALS = [c for c in CASES if "refuse" in c]
-KNOWN_GAPS = {
-    # the incubator's door, closed at the start, stands where the Panda's hand is in its home pose
-    # wherever its shelves are in reach (an open door at the start leaves room: those tasks draft)
-    "Open the incubator and put the petri dish on the shelf",
-    "First open the incubator door and then put the petri dish on the top shelf",
-}
 
 
 CRITERIA = {
@@ -65,10 +59,6 @@ def registry():
 
 @pytest.mark.parametrize("case", TASKS, ids=[c["text"][:60] for c in TASKS])
 def test_offline_plan_matches_and_builds(case, registry) -> None:
-    if case["text"] in KNOWN_GAPS:
-        with pytest.raises(PlanError, match="impossible layout"):
-            draft_task(case["text"], make_backend("offline"), registry=registry, namespace="testgen")
-        return
     # a namespace of its own: the registry already holds drafts of some of these descriptions
     drafted = draft_task(case["text"], make_backend("offline"), registry=registry, namespace="testgen")
     assert plan_summary(drafted.composed.checked) == case["steps"]
