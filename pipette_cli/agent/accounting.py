@@ -211,7 +211,8 @@ class Accountant:
                 kinds.add(product.kind)
             kinds |= {k for key, k in self.vocab.consumes.items() if key.rsplit(".", 1)[0] == step.command}
             param = self.catalog.get(step.command).task_param()
-            if param is not None or step.args.get("suite_id"):
+            copied = self.vocab.task_params.get(step.command)  # `tasks new --from TASK`: a task copied
+            if param is not None or step.args.get("suite_id") or (copied and step.args.get(copied) in self.index.terms):
                 kinds.add("task")
             if param is not None and not param.required and step.args.get(param.name) in (None, "all"):
                 kinds.add("all tasks")  # a command whose tasks default to all of them
@@ -234,7 +235,7 @@ class Accountant:
             for task in value.split(","):
                 self._task(words, task.strip())
         elif isinstance(value, bool):
-            for phrase in param.names if value else param.off_words:
+            for phrase in param.names if value else (*param.off_words, *param.negated()):
                 words.phrase(phrase)
         elif isinstance(value, int | float):
             self._number(words, float(value))

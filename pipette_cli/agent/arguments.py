@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Set as AbstractSet
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,7 @@ from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
 from pipette_cli.errors import TaskNotFound
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
-from pipette_cli.language.mentions import find_mentions
+from pipette_cli.language.mentions import PathMention, find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
 from pipette_cli.specs.task import TASK_ID_PATTERN
@@ -35,6 +35,23 @@ _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 def _stems(text: str) -> str:
     return " ".join(stem(w) for w in text.split())
+
+
+PARTS_SUFFIX = ".parts"
+"""The folder of a file's pending episodes (:func:`pipette_cli.demos.store.parts_dir`)."""
+
+
+def files_of_parts(paths: list[PathMention]) -> list[PathMention]:
+    """``paths`` with a pending-parts folder ("x.h5.parts") read as its file, each file once: "left
+    x.h5.parts behind; pack them into x.h5" names one file."""
+    out: list[PathMention] = []
+    for mention in paths:
+        path = mention.path.rstrip("/")
+        if path.endswith(PARTS_SUFFIX) and len(path) > len(PARTS_SUFFIX):
+            mention = replace(mention, path=path.removesuffix(PARTS_SUFFIX))
+        if all(m.path != mention.path for m in out):
+            out.append(mention)
+    return out
 
 
 @dataclass
@@ -88,7 +105,9 @@ class ArgumentReader:
             elif plain is not None:
                 args[plain.name] = raw
         runs_a_task = any(p.kind == "task" for p in info.params.values())  # `tasks new ID` names a new one
-        paths = [m for m in mentions.paths if not (runs_a_task and self._unknown_task(m.path, problems))]
+        paths = [
+            m for m in files_of_parts(mentions.paths) if not (runs_a_task and self._unknown_task(m.path, problems))
+        ]
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before)]
         assign_paths(info, paths, args, self.catalog, self.readers, self.vocab.file_inputs(info.name))
@@ -104,9 +123,19 @@ class ArgumentReader:
             args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
         read_numbers(self.vocab, info, words, args, bound)
         self._values(info, words, args)
+        if copied and is_empty(args.get(copied)) and self._copies(info, words):
+            match = self.index.match(_QUOTED.sub(" ", mentions.words))  # "a copy of the water bath lid task"
+            if match.task:
+                args[copied] = match.task
         self._flags(info, words, args)
         self._text(info, text, saved, mentions.words, words, args)
         return args
+
+    def _copies(self, info: CommandInfo, words: str) -> bool:
+        """Whether ``words`` ask ``info`` for a copy ("make a copy of the X task"): the verbs of
+        its vocabulary cues, whose task is the one copied."""
+        cues = self.vocab.intents.get(info.name)
+        return cues is not None and find_phrase(cues.verbs, words) is not None
 
     def _registry_names(self, info: CommandInfo, text: str) -> str:
         """``text`` without the suite it names ("the paper benchmark suite" names no task)."""
@@ -280,7 +309,8 @@ class ArgumentReader:
                 m is not None and m.start() <= on.start() and on.end() <= m.end() and m.span() != on.span()
                 for m in said.values()
             )
-            if param.off_words and find_phrase([_stems(w) for w in param.off_words], stemmed):
+            negated = [p for w in param.names for p in param.negated(_stems(w))]  # "without the physics build"
+            if find_phrase([*(_stems(w) for w in param.off_words), *negated], stemmed):
                 args[param.name] = False
             elif on is not None and not inside:  # "allow mixing" = allow mixed
                 args[param.name] = True
@@ -309,7 +339,7 @@ class ArgumentReader:
                 args["about"] = " ".join(about)
         for param in info.params.values():  # "the microplate reader", "beaker_50ml, beaker_100ml and ..."
             if param.takes_assets and (param.required or param.multiple) and is_empty(args.get(param.name)):
-                assets = self._assets(words)
+                assets = self.assets_in(words)
                 if assets:
                     args[param.name] = assets if param.multiple else assets[0]
         for param in info.params.values():
@@ -346,7 +376,7 @@ class ArgumentReader:
         said = [w for w in words_of(sentence).split() if w not in self.vocab.filler]
         return bool(said) and all(singular(w) in named for w in said)
 
-    def _assets(self, words: str) -> list[str]:
+    def assets_in(self, words: str) -> list[str]:
         """The asset ids ``words`` writes out, in order; else each kind it names: every asset of a
         kind named in the plural ("the beakers"), the kind's default asset otherwise."""
         assets = load_asset_words()

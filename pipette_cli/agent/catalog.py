@@ -25,6 +25,7 @@ import typer
 from pipette_cli.agent.answers import app as answers_app
 from pipette_cli.agent.vocabulary import load_vocabulary
 from pipette_cli.errors import PipetteError, suggest
+from pipette_cli.language.phrases import singular
 
 TASK_PARAMS = ("task_id", "tasks", "task")
 """Parameters that name registered tasks."""
@@ -41,6 +42,10 @@ class Unsupported(AgentError):
     asking an LLM again cannot fix it."""
 
     final = True
+
+
+NEGATION = "(no|without|skip|skipping|skipp|minus|minu|sans|never) (the|any|a|an)?"
+"""Words before a flag's name that switch it off (with their stems: the flags are read stemmed)."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +84,11 @@ class ParamInfo:
     @property
     def is_flag(self) -> bool:
         return self.kind == "bool"
+
+    def negated(self, name: str | None = None) -> tuple[str, ...]:
+        """Phrases of a name of this flag after a word that switches it off ("without the physics
+        build"); ``name`` instead of its names (a stemmed form)."""
+        return tuple(f"{NEGATION} {n}" for n in ([name] if name is not None else self.names))
 
     @property
     def path(self) -> bool:
@@ -329,7 +339,8 @@ def _with_words(command: str, param: ParamInfo) -> ParamInfo:
     spec = load_vocabulary().words_for(param.name, command)
     units = tuple(spec.units)
     if not units and param.kind in ("int", "float"):  # "4 threads", "3 distractors": a plural name follows its number
-        units = tuple(n for n in own_names(param) if " " not in n and n.endswith("s"))
+        plural = [n for n in own_names(param) if " " not in n and n.endswith("s")]
+        units = (*plural, *(f"{singular(n)} *" for n in plural))  # "8 distractor objects": the noun it modifies
     return replace(param, names=(*spec.names, *own_names(param)), units=units, off_words=tuple(spec.off))
 
 

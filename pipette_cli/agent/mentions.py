@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import re
 from collections.abc import Set as AbstractSet
+from pathlib import Path
 from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, is_empty
 from pipette_cli.language.mentions import FILE_SUFFIX, PathMention
 from pipette_cli.language.phrases import singular
+from pipette_cli.specs.task import TASK_ID_PATTERN
 
 SAVE_VERBS = "save|write|store|put|keep|place"
 """Verbs that ask a command to write somewhere."""
@@ -73,7 +75,9 @@ def assign_paths(
             if FILE_SUFFIX.search(mention.path) or _named(mention.before, options)
             else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
         )
-        if string is not None:  # "repo id me/centrifuge": a name with a slash, not a file
+        if string is None and re.match(TASK_ID_PATTERN, mention.path) and not Path(mention.path).exists():
+            string = next((p for p in named_strings if p.name.endswith("id") and is_empty(args.get(p.name))), None)
+        if string is not None:  # "repo id me/centrifuge", "as mylab/X-v1": a name with a slash, not a file
             args[string.name] = mention.path
             continue
         # of a choice (eval: endpoint or policy), one given bars the others

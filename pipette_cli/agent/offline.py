@@ -118,6 +118,7 @@ class OfflineAgent:
             command = clause.command or self._policy_only(clause.text)
             if command is None or (clauses and self._done_before(clause.text)):
                 continue  # "after training, evaluate ...": what was done before, not a step
+            command = self._about_asset(command, clause.text)
             info = self.catalog.get(command)
             args = self.arguments.fill(info, clause.text, problems)
             both = self.arguments.both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
@@ -145,6 +146,18 @@ class OfflineAgent:
                 "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"
             )
         return PlanSpec(steps=steps), problems
+
+    def _about_asset(self, command: str, text: str) -> str:
+        """``command``, or the one the vocabulary's ``about_an_asset`` gives for it when ``text``
+        names an asset and no task ("show me the spectrophotometer")."""
+        other = self.vocab.about_an_asset.get(command)
+        if other is None or other not in self.catalog:
+            return command
+        words = words_of(find_mentions(text, self.registry.ids()).words)
+        task_words = find_phrase(self.vocab.refers.get("task", []), words)
+        if task_words or self.index.names_a_task(words) or not self.arguments.assets_in(words):
+            return command
+        return other
 
     def _corrected(self, text: str) -> str:
         """What the request asks after its last correction where that asks for a command of its own

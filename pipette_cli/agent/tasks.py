@@ -130,6 +130,10 @@ class TaskIndex:
     def _actions(self) -> set[str]:
         return {stem(w) for w in ACTIONS}
 
+    def names_a_task(self, text: str) -> bool:
+        """Whether ``text`` names a task itself, not only what it uses: a task's name or an action."""
+        return bool(self.explicit(text) or self.request_terms(text) & self._actions)
+
     @cached_property
     def _action_word(self) -> dict[str, str]:
         """An action's stem -> the word said in refusals ("clos" -> "close")."""

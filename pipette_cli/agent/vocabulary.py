@@ -118,6 +118,9 @@ class WorkflowVocabularySpec(Spec):
     files: dict[str, str] = Field(default_factory=dict)
     """A file suffix -> the kind of thing such a file is (``h5`` -> ``demos``)."""
     stands_in: dict[str, dict[str, str]] = {}
+    about_an_asset: dict[str, str] = Field(default_factory=dict)
+    """Command -> the command its clause asks for when it names an asset and no task ("show me the
+    spectrophotometer": ``assets show``, not the one task that uses it)."""
     refers: dict[str, list[str]] = Field(default_factory=dict)
     """A kind of thing (``demos``, ``policy``, ``task``...) -> words that refer to it."""
     explains: dict[str, list[str]] = Field(default_factory=dict)

@@ -704,3 +704,75 @@ def test_a_video_takes_each_listed_episode_its_view_and_scale_from_later_sentenc
     assert plan.unused == []
     listed = AGENT.plan("make gifs of episodes 2, 5 and 9 of data/c.h5 from the top view").steps[0].args
     assert (listed["episode"], listed["camera"]) == ([2, 5, 9], ["top"])
+
+
+def test_a_flag_named_after_a_negation_is_switched_off() -> None:
+    plan = AGENT.plan("check the task files in my_tasks/ without the physics build")
+    assert plan.steps[0].args["physics"] is False and plan.unused == ["build"]
+
+
+def test_a_plural_option_said_in_the_singular_before_its_noun_takes_the_number() -> None:
+    with pytest.raises(AgentError, match="--distractors must be <= 6, not 8"):
+        AGENT.plan("augment data/shaker_raw.h5 for PlaceFlaskOnShaker with clutter, 8 distractor objects")
+    plan = AGENT.plan("augment data/shaker_raw.h5 for PlaceFlaskOnShaker with clutter, 3 distractor objects")
+    assert plan.steps[0].args["distractors"] == 3 and plan.unused == []
+
+
+def test_a_copy_takes_the_task_described_and_a_new_id_is_no_output_file() -> None:
+    plan = AGENT.plan("make a copy of the water bath lid task as mylab/DeepBath-v1 in my_tasks/")
+    args = plan.steps[0].args
+    assert (args["new_id"], args["template"], args["out"]) == (
+        "mylab/DeepBath-v1",
+        "pipette/OpenWaterBathLid-v1",
+        "my_tasks/",
+    )
+    assert plan.unused == []
+
+
+def test_showing_an_asset_that_no_words_make_a_task_shows_the_asset() -> None:
+    plan = AGENT.plan("list the instrument assets, then show me the spectrophotometer's details as json")
+    assert [(s.command, s.args.get("asset_id")) for s in plan.steps] == [
+        ("assets list", None),
+        ("assets show", "spectrophotometer"),
+    ]
+    task = AGENT.plan("show me the spectrophotometer lid task").steps[0]
+    assert (task.command, task.args["task_id"]) == ("tasks show", "pipette/CloseSpectrophotometerLid-v1")
+
+
+def test_resuming_a_training_from_its_checkpoint_continues_it() -> None:
+    plan = AGENT.plan(
+        "ACT training on the augmented spectrophotometer data died at step 9000 of 15000. "
+        "pick it up from the last checkpoint"
+    )
+    assert [(s.command, s.args.get("if_exists")) for s in plan.steps] == [("train", "continue")]
+    picked = AGENT.plan("compare raw and augmented act on pick up test tube")  # "pick up" is the task's action
+    assert all(s.args.get("if_exists") != "continue" for s in picked.steps)
+
+
+def test_a_pending_parts_folder_is_its_file_and_removing_it_from_the_file_deletes_the_episode() -> None:
+    plan = AGENT.plan(
+        "my collect run for the tare-and-weigh protocol got OOM-killed and left data/tw.h5.parts behind; "
+        "fold those episodes back into data/tw.h5"
+    )
+    assert [(s.command, s.args["file"]) for s in plan.steps] == [("data pack", "data/tw.h5")]
+    removed = AGENT.plan("episode twelve in data/f.h5 is junk, please remove it from the file").steps
+    assert [(s.command, s.args["file"], s.args["index"]) for s in removed] == [("data delete-episode", "data/f.h5", 12)]
+
+
+def test_protocols_are_listed_and_control_steps_name_no_task() -> None:
+    assert [s.command for s in AGENT.plan("list the protocols").steps] == ["answer tasks"]
+    plan = AGENT.plan(
+        "how fast does the scene for closing the thermal cycler lid step? time 120 control steps at 96 px"
+    )
+    step = plan.steps[0]
+    assert len(plan.steps) == 1 and (step.args["task_id"], step.args["steps"]) == (
+        "generated/CloseThermalCyclerLid-v1",
+        120,
+    )
+
+
+def test_the_agent_names_pending_parts_folders_as_the_store_does() -> None:
+    from pipette_cli.agent.arguments import PARTS_SUFFIX
+    from pipette_cli.demos.store import parts_dir
+
+    assert parts_dir(Path("data/x.h5")) == Path(f"data/x.h5{PARTS_SUFFIX}")
