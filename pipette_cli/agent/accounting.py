@@ -25,6 +25,7 @@ from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
 from pipette_cli.agent.mentions import SAVE_VERBS
+from pipette_cli.agent.numbers import in_metres, length_phrases
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import ANSWER_PREFIX, RecipeSpec, WorkflowVocabularySpec, distributed
@@ -239,6 +240,9 @@ class Accountant:
                 words.phrase(phrase)
         elif isinstance(value, int | float):
             self._number(words, float(value))
+            if in_metres(param):  # "a 3 cm range" for --object-xy 0.03
+                for phrase in length_phrases(float(value)):
+                    words.phrase(phrase)
             if param.name in self.vocab.from_zero:  # "the third episode" is index 2
                 position = int(value) + 1
                 words.where(lambda t: t == f"{position}{_suffix(position)}")

@@ -25,7 +25,7 @@ from pipette_cli.errors import TaskNotFound
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import PathMention, find_mentions
-from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex, singular, words_of
 from pipette_cli.registry import Registry
 from pipette_cli.specs.task import TASK_ID_PATTERN
 
@@ -248,7 +248,7 @@ class ArgumentReader:
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
             if found and param.comma_list and "NAME*N" in param.help:  # "three object-pose draws": object*3
-                found = [(at, n, self._counted(words, at, value)) for at, n, value in found]
+                found = [(at, n, self._counted(words, at, value, alone=len(found) == 1)) for at, n, value in found]
             if found and param.comma_list and not corrected:  # "object pose and camera shake"
                 args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
             elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
@@ -258,12 +258,16 @@ class ArgumentReader:
         """The vocabulary's words for every value of the option ``name``."""
         return [p for phrases in self.vocab.values.get(name, {}).values() for p in phrases]
 
-    def _counted(self, words: str, at: int, value: str) -> str:
+    def _counted(self, words: str, at: int, value: str, alone: bool) -> str:
         """``value`` with the count said just before its words ("three object-pose draws" ->
-        ``object*3``), for an option whose help writes ``NAME*N``."""
+        ``object*3``), for an option whose help writes ``NAME*N``; a value named ``alone`` also
+        takes a count for each input said after it ("object shifts only: six draws per demo")."""
         spelled = self.vocab.spelled
         numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
         m = re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])
+        if m is None and alone:  # "object shifts only: six draws per demo": the count for each input, said after
+            each = "|".join(phrase_regex(p) for p in self.vocab.per_each)
+            m = re.search(rf"(?<![\w.-])({numbers})\s+(?:[a-z-]+\s+){{0,2}}?(?:{each})(?![\w-])", words[at:])
         if m is None:
             return value
         count = int(m.group(1)) if m.group(1).isdigit() else spelled[m.group(1)]

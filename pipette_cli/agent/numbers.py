@@ -14,6 +14,33 @@ from pipette_cli.language.phrases import phrase_pattern
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
 _MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
 """Units after a number that make it a size ("50 mL tube"), not a count."""
+_METRES = {"mm": 0.001, "millimetre": 0.001, "millimetres": 0.001, "millimeter": 0.001, "millimeters": 0.001,
+           "cm": 0.01, "centimetre": 0.01, "centimetres": 0.01, "centimeter": 0.01, "centimeters": 0.01,
+           "m": 1.0, "metre": 1.0, "metres": 1.0, "meter": 1.0, "meters": 1.0}  # fmt: skip
+_LENGTH = re.compile(rf"({'|'.join(sorted(_METRES, key=len, reverse=True))})\b", re.IGNORECASE)
+"""A length after a number ("3 cm"): the value of the command's one option measured in metres."""
+
+
+def in_metres(param: ParamInfo) -> bool:
+    """Whether the help gives ``param`` in metres ("Object shift range ... (m, uniform ...)")."""
+    return param.kind == "float" and re.search(r"\((?:m|metres|meters)[,)]|\bin metres\b", param.help) is not None
+
+
+def _in_metres_said(params: list[ParamInfo], text: str) -> list[ParamInfo]:
+    """The options in metres a length may be for: the only one, or those a word of whose name
+    the text says ("object shifts ... 3 cm": ``--object-xy``, not ``--camera-radius``)."""
+    metres = [p for p in params if in_metres(p)]
+    said = set(re.findall(r"[a-z]+", text.lower()))
+    count = {p.name: sum(len(w) > 2 and (w in said or f"{w}s" in said) for w in p.name.split("_")) for p in metres}
+    most = max(count.values(), default=0)
+    return metres if len(metres) == 1 else [p for p in metres if most and count[p.name] == most]
+
+
+def length_phrases(value: float) -> list[str]:
+    """How a length of ``value`` metres may have been said ("3 cm", "30 mm", "0.03 m")."""
+    return [f"{value / factor:g} {unit}" for unit, factor in _METRES.items()]
+
+
 _LISTED = r"(?:\s*\d+(?:\s*,)?(?:\s+(?:and|&))?)*\s*"
 """Numbers listed before the one read, after an option that takes several ("episodes 3, 5 and")."""
 
@@ -69,6 +96,9 @@ def read_numbers(
         elif best is not None:
             args[best[1].name] = _typed(best[1], number)
             taken.add(best[1].name)
+        elif (length := _LENGTH.match(after)) and len(metres := _in_metres_said(numeric, text)) == 1:
+            args[metres[0].name] = round(number * _METRES[length.group(1).lower()], 9)  # "a 3 cm range": 0.03
+            numeric.remove(metres[0])
         elif not m.group(3) and not _MEASURE.match(after) and number not in bound:
             bare.append(number)
     fallback = info.params.get(vocab.bare_number)

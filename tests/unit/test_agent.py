@@ -776,3 +776,18 @@ def test_the_agent_names_pending_parts_folders_as_the_store_does() -> None:
     from pipette_cli.demos.store import parts_dir
 
     assert parts_dir(Path("data/x.h5")) == Path(f"data/x.h5{PARTS_SUFFIX}")
+
+
+def test_a_length_goes_to_the_option_in_metres_its_words_name_and_a_count_per_demo_said_after() -> None:
+    plan = AGENT.plan(
+        "augment data/t.h5 for the tube pick-up with object shifts only: six draws per demo, 3 cm range, "
+        "up to 30 degrees of yaw"
+    )
+    args = plan.steps[0].args
+    assert (args["variants"], args["object_xy"], args["object_yaw"]) == ("object*6", 0.03, 30.0)
+    radius = AGENT.plan("augment data/t.h5 for PickUpTestTube with camera variants, 5 cm camera radius").steps[0]
+    assert radius.args["camera_radius"] == 0.05 and "wrist_radius" not in radius.args
+    both = AGENT.plan(
+        "augment data/t.h5 for PickUpTestTube with object pose jitter and camera shake, 5 variants per demo"
+    )
+    assert both.steps[0].args["variants"] == "object,cam"  # several values: no count is guessed for each
