@@ -131,6 +131,18 @@ class ArgumentReader:
         self._text(info, text, saved, mentions.words, words, args)
         return args
 
+    def _each_task(self, text: str) -> list[str]:
+        """The tasks of a list of described tasks ("the tube pick-up and the centrifuge lid
+        closing"), when each of its parts names one by its name or its action; else ``[]``."""
+        found: list[str] = []
+        for part in re.split(r"\s*(?:,|;|\(|\)|\band\b|\bplus\b|&)\s*", text):
+            match = self.index.match(part) if self.index.names_a_task(part) else None
+            if match is not None and match.candidates:
+                return []  # one part is ambiguous: the request could mean several lists
+            if match is not None and match.task and match.task not in found:
+                found.append(match.task)
+        return found
+
     def _copies(self, info: CommandInfo, words: str) -> bool:
         """Whether ``words`` ask ``info`` for a copy ("make a copy of the X task"): the verbs of
         its vocabulary cues, whose task is the one copied."""
@@ -167,6 +179,8 @@ class ArgumentReader:
         elif match.explicit:
             many = param.multiple or param.comma_list
             args[param.name] = list(match.explicit) if many else match.explicit[0]
+        elif (param.multiple or param.comma_list) and len(each := self._each_task(raw)) > 1:
+            args[param.name] = each  # "the tube pick-up and the centrifuge lid closing"
         elif unknown:
             raise AgentError(f"unknown task {unknown!r}; {self.index.suggest_name(short_name(unknown))}")
         elif match.task:

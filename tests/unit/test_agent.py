@@ -791,3 +791,19 @@ def test_a_length_goes_to_the_option_in_metres_its_words_name_and_a_count_per_de
         "augment data/t.h5 for PickUpTestTube with object pose jitter and camera shake, 5 variants per demo"
     )
     assert both.steps[0].args["variants"] == "object,cam"  # several values: no count is guessed for each
+
+
+def test_an_option_taking_several_tasks_takes_each_task_described_in_a_list() -> None:
+    plan = AGENT.plan("train act on the tube pick-up and the centrifuge lid closing")
+    assert plan.steps[0].args["tasks"] == "pipette/PickUpTestTube-v1,pipette/CloseCentrifugeLid-v1"
+    one = AGENT.plan("train act on PickUpTestTube with batch size 8 and 2 threads")
+    assert one.steps[0].args["tasks"] == "pipette/PickUpTestTube-v1"
+
+
+def test_episodes_run_against_a_server_are_an_evaluation_of_their_own() -> None:
+    plan = AGENT.plan(
+        "spin up a server for ckpt/act/pretrained_model, run 20 episodes of the centrifuge-opening task against it "
+        "at 64 px into evals/open, and then give me the results table"
+    )
+    assert [s.command for s in plan.steps] == ["serve", "eval", "eval report"]
+    assert plan.steps[1].args["endpoint"] == [StepRef(from_step=1)] and plan.steps[1].args["episodes"] == 20
