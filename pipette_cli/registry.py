@@ -180,6 +180,10 @@ class Registry:
             if tag is None or tag in t.spec.tags or tag == t.spec.category or tag == t.spec.embodiment.robot
         )
 
+    def using(self, asset_id: str) -> list[str]:
+        """Ids of the tasks whose scene places the asset ``asset_id``."""
+        return sorted(tid for tid, t in self.tasks.items() if any(o.asset == asset_id for o in t.spec.scene.objects))
+
     def select(self, which: str) -> list[str]:
         """Task ids a command line names: ``all``, ``benchmark`` (the paper's 12) or a comma list
         of ids or names.

@@ -13,9 +13,10 @@ from rich.progress import Progress
 from rich.table import Table
 
 from pipette_cli.assets.library import CATEGORIES, AssetEntry, load_asset_library
-from pipette_cli.cli.common import err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, err_console, out_console, print_json
 from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.errors import AssetError, plural
+from pipette_cli.registry import load_registry
 from pipette_cli.resources import data_dir
 
 app = typer.Typer(
@@ -78,6 +79,7 @@ def show(
     """
     entry = _entries([asset_id])[0]
     info = {"path": str(entry.path), **entry.semantics()}
+    info["used_by"] = load_registry(STATE.registry_dirs).using(entry.asset_id)
     if as_json:
         print_json(info)
         return

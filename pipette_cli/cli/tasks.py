@@ -8,6 +8,7 @@ from typing import Annotated, Any
 
 import typer
 
+from pipette_cli.assets.library import load_asset_library
 from pipette_cli.cli.common import STATE, err_console, out_console, print_json, show_progress, wrote_task_line
 from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.experts.base import expert_program
@@ -66,14 +67,19 @@ def _evaluator(spec: TaskSpec) -> str:
 @app.command("list")
 def list_tasks(
     tag: Annotated[str | None, typer.Option("--tag", "-t", help="Only tasks with this tag, category or robot.")] = None,
+    asset: Annotated[str | None, typer.Option("--asset", help="Asset id: only tasks whose scene places it.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Machine-readable output.")] = False,
 ) -> None:
     """List registered tasks.
 
-    Example: pipette tasks list --tag paper-benchmark --json
+    Example: pipette tasks list --tag paper-benchmark --json; pipette tasks list --asset thermal_cycler
     """
     registry = _registry()
-    specs = [registry.get(tid) for tid in registry.ids(tag)]
+    ids = registry.ids(tag)
+    if asset is not None:
+        asset = load_asset_library().get(asset).asset_id  # an unknown id: the library's error with the closest ids
+        ids = [tid for tid in ids if tid in set(registry.using(asset))]
+    specs = [registry.get(tid) for tid in ids]
     if as_json:
         print_json([_summary(s) for s in specs])
         return

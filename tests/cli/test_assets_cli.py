@@ -40,6 +40,7 @@ def test_show_json() -> None:
     assert result.exit_code == 0
     info = json.loads(result.stdout)
     assert info["joints"] == ["lid_hinge"] and "button" in info["sites"]
+    assert {"pipette/CloseCentrifugeLid-v1", "pipette/OpenCentrifugeLid-v1"} <= set(info["used_by"])  # its tasks
 
 
 def test_show_unknown_suggests() -> None:

@@ -34,6 +34,13 @@ def test_list_filters_by_tag(run_cli) -> None:
     ]
 
 
+def test_list_filters_by_an_asset_the_scene_places(run_cli) -> None:
+    rows = json.loads(run_cli("tasks", "list", "--asset", "thermal_cycler", "--json").stdout)
+    assert [r["id"] for r in rows] == ["generated/CloseThermalCyclerLid-v1", "protocols/RunThermalCycler-v1"]
+    unknown = run_cli("tasks", "list", "--asset", "thermal_cycle")
+    assert unknown.exit_code != 0 and "did you mean 'thermal_cycler'" in unknown.stderr
+
+
 def test_list_table_prints_every_task(run_cli) -> None:
     result = run_cli("tasks", "list")
     assert result.exit_code == 0 and f"{len(load_registry().tasks)} tasks" in result.stdout
