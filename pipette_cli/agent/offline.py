@@ -121,6 +121,8 @@ class OfflineAgent:
             command = self._about_asset(command, clause.text)
             info = self.catalog.get(command)
             args = self.arguments.fill(info, clause.text, problems)
+            if self._about_the_listing(info, clause, args, steps):
+                continue  # "which suites are there, and how many episodes does each one have?": the listing says
             both = self.arguments.both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
             if not both and self._continues(info, clause, args, steps):
                 steps[-1].args.update(args)  # "render X. save the picture to y.png": one step
@@ -146,6 +148,22 @@ class OfflineAgent:
                 "'collect 20 demos of PickUpTestTube', 'how many demos are in data/x.h5'"
             )
         return PlanSpec(steps=steps), problems
+
+    def _about_the_listing(
+        self, info: CommandInfo, clause: Clause, args: dict[str, Any], steps: list[StepSpec]
+    ) -> bool:
+        """Whether ``clause`` asks about each of the things the step before lists ("..., and how many
+        episodes does each one have?") with an answer that has nothing of its own to read: no input
+        given, and no earlier step makes the kind it reads. Such a clause is no step of its own."""
+        if not info.is_answer or not steps or clause.after != "weak":
+            return False
+        reads = {
+            key.split(".")[-1]: kind for key, kind in self.vocab.consumes.items() if key.rsplit(".", 1)[0] == info.name
+        }
+        made = {p.kind for s in steps if (p := self.vocab.products.get(s.command)) is not None}
+        if any(not is_empty(args.get(param)) or kind in made for param, kind in reads.items()):
+            return False
+        return find_phrase(self.vocab.each, words_of(clause.text)) is not None
 
     def _about_asset(self, command: str, text: str) -> str:
         """``command``, or the one the vocabulary's ``about_an_asset`` gives for it when ``text``

@@ -807,3 +807,10 @@ def test_episodes_run_against_a_server_are_an_evaluation_of_their_own() -> None:
     )
     assert [s.command for s in plan.steps] == ["serve", "eval", "eval report"]
     assert plan.steps[1].args["endpoint"] == [StepRef(from_step=1)] and plan.steps[1].args["episodes"] == 20
+
+
+def test_a_question_about_each_thing_the_step_before_lists_is_no_step_of_its_own() -> None:
+    plan = AGENT.plan("which frozen evaluation suites are there, and how many episodes does each one have?")
+    assert [s.command for s in plan.steps] == ["tasks suites"] and plan.unused == []  # not a scan of every .h5 here
+    asked = AGENT.plan("list the suites and how many demos are in data/x.h5")
+    assert [s.command for s in asked.steps] == ["tasks suites", "answer demos"]
