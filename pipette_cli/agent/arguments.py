@@ -77,7 +77,9 @@ class ArgumentReader:
         unplaced = text  # "into data/x.h5" says where a file goes, not that the task places something
         for path in mentions.paths:
             unplaced = re.sub(
-                rf"(?<![\w-])(?:into|onto|to|in|under|at|from|as)\s+{re.escape(path.path)}", " ", unplaced
+                rf"(?:(?<![\w-])(?:into|onto|to|in|under|at|from|as)\s+|\s*(?:->|=>|→|⇒)\s*){re.escape(path.path)}",
+                " ",
+                unplaced,
             )
         named = self._registry_names(
             info, mentions.words if unplaced == text else find_mentions(unplaced, self.registry.ids()).words

@@ -668,6 +668,8 @@ def test_an_arrow_between_paths_says_where_the_first_goes() -> None:
         step = AGENT.plan(request).steps[0]
         assert (step.args["input"], step.args["output"]) == ("data/a.h5", "data/b.h5"), request
         assert "rejected" not in step.args
+    removed = AGENT.plan("augment data/a.h5->data/b.h5 for the tube removal").steps[0]
+    assert removed.args["task_id"] == "pipette/RemoveTubeFromBalance-v1"  # the arrow is no "place" of the task
 
 
 def test_an_unknown_task_id_is_refused_as_a_task_not_taken_for_a_file() -> None:
