@@ -292,3 +292,16 @@ def test_bench_train_times_lerobot_train_steps_of_each_config(tmp_path) -> None:
     assert [a for a in after["argv"] if a.startswith("--num_workers")][-1] == "--num_workers=1"
     assert after["env"]["OMP_NUM_THREADS"] == "1"
     assert "--log_freq=1" in after["argv"] and "| before |" in result.stdout
+
+
+def test_placement_misses_counts_episodes_ending_near_the_target_and_why_they_failed(tmp_path) -> None:
+    cell = tmp_path / "pipette_PlaceTubeOnBalance-v1" / "eval" / "nominal" / "raw"
+    cell.mkdir(parents=True)
+    ends = [(True, None, 0.01), (False, "out_of_region", 0.04), (False, "held", 0.02), (False, "out_of_region", 0.4)]
+    for i, (success, reason, error) in enumerate(ends):
+        log = {"success": success, "failure_reason": reason, "metrics": {"xy_error": error}}
+        (cell / f"episode_{i:04d}.json").write_text(json.dumps(log))
+    args = ("--keep", str(tmp_path), "--task", "pipette/PlaceTubeOnBalance-v1", "--near", "0.1", "--json")
+    [row] = json.loads(bench("placement_misses.py", *args).stdout)
+    assert (row["suite"], row["setting"], row["successes"], row["near"]) == ("nominal", "raw", 1, 3)
+    assert row["near_failed"] == {"held": 1, "out_of_region": 1}  # the one 0.4 m away is no near miss
