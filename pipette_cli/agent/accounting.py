@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
-from pipette_cli.agent.mentions import SAVE_VERBS
+from pipette_cli.agent.mentions import SAVE_VERBS, option_words
 from pipette_cli.agent.numbers import in_metres, length_phrases
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
@@ -193,6 +193,10 @@ class Accountant:
                 param = info.params.get(name)
                 if param is not None:
                     self._value(words, param, value)
+                    for word in option_words(param):  # "the same suite": a value taken from the step before
+                        words.phrase(f"same {word}")
+            if any(p.kind == "task" for p in info.params.values()):
+                words.phrase("same (task|tasks)")
         return words.unused()
 
     def _superseded(self, words: _Words) -> None:

@@ -206,17 +206,24 @@ class ArgumentReader:
                 r"\b(?:of|for|on)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*(?:\s+[a-z][\w-]*){0,2}?)\s+task\b", words
             )
             stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
-            if named and not {stem(w) for w in named.group(1).split()} <= stop | {
-                "new",
-                "same",
-                "last",
-                "previous",
-                "first",
-                "next",
-                "one",
-                "which",
-                "what",
-            }:
+            back = {"same", "previous", "last", "earlier", "that", "this", "above"}  # "the same suite and task"
+            if (
+                named
+                and not back & set(named.group(1).split())
+                and not {stem(w) for w in named.group(1).split()}
+                <= stop
+                | {
+                    "new",
+                    "same",
+                    "last",
+                    "previous",
+                    "first",
+                    "next",
+                    "one",
+                    "which",
+                    "what",
+                }
+            ):
                 raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
 
     def policy(self, words: str) -> str | None:

@@ -23,13 +23,14 @@ from pipette_cli.agent.catalog import (
     is_empty,
 )
 from pipette_cli.agent.clauses import RECIPE_PREFIX, Clause, Intents, split_clauses
+from pipette_cli.agent.mentions import option_words
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
 from pipette_cli.language.lexicon import stem
 from pipette_cli.language.mentions import find_mentions
-from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
 
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
@@ -121,6 +122,7 @@ class OfflineAgent:
             command = self._about_asset(command, clause.text)
             info = self.catalog.get(command)
             args = self.arguments.fill(info, clause.text, problems)
+            self._same_as_before(info, clause.text, args, steps)
             if self._about_the_listing(info, clause, args, steps):
                 continue  # "which suites are there, and how many episodes does each one have?": the listing says
             both = self.arguments.both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
@@ -164,6 +166,20 @@ class OfflineAgent:
         if any(not is_empty(args.get(param)) or kind in made for param, kind in reads.items()):
             return False
         return find_phrase(self.vocab.each, words_of(clause.text)) is not None
+
+    def _same_as_before(self, info: CommandInfo, text: str, args: dict[str, Any], steps: list[StepSpec]) -> None:
+        """Options said to be "the same" ("on the same suite and task") take the value of the
+        latest earlier step that set them."""
+        for m in re.finditer(r"\bsame\s+([a-z]+(?:\s*(?:,|and|&)\s*[a-z]+)*)", words_of(text)):
+            for word in re.split(r"\s*(?:,|and|&)\s*", m.group(1)):
+                param = next((p for p in info.params.values() if singular(word) in option_words(p)), None)
+                if param is None or not is_empty(args.get(param.name)):
+                    continue
+                before = next(
+                    (s.args[param.name] for s in reversed(steps) if not is_empty(s.args.get(param.name))), None
+                )
+                if before is not None:
+                    args[param.name] = before
 
     def _about_asset(self, command: str, text: str) -> str:
         """``command``, or the one the vocabulary's ``about_an_asset`` gives for it when ``text``

@@ -816,3 +816,27 @@ def test_a_question_about_each_thing_the_step_before_lists_is_no_step_of_its_own
     assert [s.command for s in plan.steps] == ["tasks suites"] and plan.unused == []  # not a scan of every .h5 here
     asked = AGENT.plan("list the suites and how many demos are in data/x.h5")
     assert [s.command for s in asked.steps] == ["tasks suites", "answer demos"]
+
+
+def test_comparing_them_reports_every_earlier_evaluation_and_the_same_suite_is_carried() -> None:
+    plan = AGENT.plan(
+        "eval ckpt/raw/pretrained_model on the CPU reproduction suite, test tube task only, out evals/raw; then eval "
+        "ckpt/aug/pretrained_model on the same suite and task, out evals/aug; then compare them and save the table "
+        "to results/tube"
+    )
+    assert [s.command for s in plan.steps] == ["eval", "eval", "eval report"]
+    assert plan.steps[1].args["suite_id"] == plan.steps[0].args["suite_id"] == "pipette/CpuReproduction-v1"
+    report = plan.steps[2].args
+    assert report["folders"] == [StepRef(from_step=1), StepRef(from_step=2)] and report["out"] == "results/tube"
+    assert "same" not in plan.unused
+
+
+def test_a_path_right_after_write_is_where_the_command_writes() -> None:
+    plan = AGENT.plan(
+        "augment data/v.h5 for the vortex protocol with three clutter draws per demo, keep the rejects in "
+        "data/rej.h5 and write data/v_clutter.h5"
+    )
+    args = plan.steps[0].args
+    assert (args["input"], args["output"], args["rejected"]) == ("data/v.h5", "data/v_clutter.h5", "data/rej.h5")
+    video = AGENT.plan("make a video of episode 4 of data/a.h5, top camera only")
+    assert video.steps[0].args["camera"] == ["top"] and video.unused == []
