@@ -24,7 +24,7 @@ SAVE = re.compile(
     r"(?:to|in|into|under|at|as)$"
 )
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
-_TO = re.compile(r"\b(?:to|into|as|write|writes|save|saves|store|stores|output|outputs)$")
+_TO = re.compile(r"\b(?:to|into|as|write|writes|save|saves|store|stores)$")
 """Words right before a path that make it where the command writes ("... into x.h5", "and write x.h5")."""
 _FROM = re.compile(r"\b(?:from|of)$")
 
