@@ -838,5 +838,7 @@ def test_a_path_right_after_write_is_where_the_command_writes() -> None:
     )
     args = plan.steps[0].args
     assert (args["input"], args["output"], args["rejected"]) == ("data/v.h5", "data/v_clutter.h5", "data/rej.h5")
+    noun = AGENT.plan("convert the output data/x.h5").steps[0].args  # "output" here is a noun: the input
+    assert noun["inputs"] == ["data/x.h5"] and "root" not in noun
     video = AGENT.plan("make a video of episode 4 of data/a.h5, top camera only")
     assert video.steps[0].args["camera"] == ["top"] and video.unused == []
