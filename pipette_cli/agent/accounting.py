@@ -195,7 +195,7 @@ class Accountant:
                     self._value(words, param, value)
                     for word in option_words(param):  # "the same suite": a value taken from the step before
                         words.phrase(f"same {word}")
-            if any(p.kind == "task" for p in info.params.values()):
+            if info.task_param() is not None:
                 words.phrase("same (task|tasks)")
         return words.unused()
 
@@ -214,7 +214,7 @@ class Accountant:
             product = self.vocab.products.get(step.command)
             if product is not None:
                 kinds.add(product.kind)
-            kinds |= {k for key, k in self.vocab.consumes.items() if key.rsplit(".", 1)[0] == step.command}
+            kinds |= set(self.vocab.consumed(step.command).values())
             param = self.catalog.get(step.command).task_param()
             copied = self.vocab.task_params.get(step.command)  # `tasks new --from TASK`: a task copied
             if param is not None or step.args.get("suite_id") or (copied and step.args.get(copied) in self.index.terms):

@@ -12,12 +12,11 @@ from __future__ import annotations
 import re
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, is_empty
 from pipette_cli.agent.clauses import Intents
-from pipette_cli.agent.mentions import SAVE, assign_paths, option_words
+from pipette_cli.agent.mentions import SAVE, assign_paths, names_no_file, option_words
 from pipette_cli.agent.numbers import read_numbers
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
@@ -27,7 +26,6 @@ from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import PathMention, find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex, singular, words_of
 from pipette_cli.registry import Registry
-from pipette_cli.specs.task import TASK_ID_PATTERN
 
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
@@ -106,7 +104,7 @@ class ArgumentReader:
                 args[param.name] = address
             elif plain is not None:
                 args[plain.name] = raw
-        runs_a_task = any(p.kind == "task" for p in info.params.values())  # `tasks new ID` names a new one
+        runs_a_task = info.task_param() is not None  # `tasks new ID` names a new one
         paths = [
             m for m in files_of_parts(mentions.paths) if not (runs_a_task and self._unknown_task(m.path, problems))
         ]
@@ -207,23 +205,9 @@ class ArgumentReader:
             )
             stop = {stem(w) for w in self.vocab.tasks.stop} | {w for w, _ in self.vocab.policy_words()}
             back = {"same", "previous", "last", "earlier", "that", "this", "above"}  # "the same suite and task"
-            if (
-                named
-                and not back & set(named.group(1).split())
-                and not {stem(w) for w in named.group(1).split()}
-                <= stop
-                | {
-                    "new",
-                    "same",
-                    "last",
-                    "previous",
-                    "first",
-                    "next",
-                    "one",
-                    "which",
-                    "what",
-                }
-            ):
+            said = named.group(1).split() if named else []
+            others = {"new", "first", "next", "one", "which", "what"}
+            if named and not back & set(said) and not {stem(w) for w in said} <= stop | others:
                 raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
 
     def policy(self, words: str) -> str | None:
@@ -387,7 +371,7 @@ class ArgumentReader:
     def _unknown_task(self, path: str, problems: list[str] | None) -> bool:
         """Whether ``path`` is a task id no task has ("pipette/CloseIncubatorDoor-v1"): said as
         such (added to ``problems``, raised without it), never taken for a file."""
-        if not re.match(TASK_ID_PATTERN, path) or Path(path).exists():
+        if not names_no_file(path):
             return False
         try:
             self.registry.get(path)

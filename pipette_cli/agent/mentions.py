@@ -29,6 +29,12 @@ _TO = re.compile(r"\b(?:to|into|as|write|writes|save|saves|store|stores)$")
 _FROM = re.compile(r"\b(?:from|of)$")
 
 
+def names_no_file(path: str) -> bool:
+    """Whether ``path`` is written as a task id ("mylab/CloseBigCentrifuge-v1") and no such file or
+    folder exists: a task's name, never a path."""
+    return re.match(TASK_ID_PATTERN, path) is not None and not Path(path).exists()
+
+
 def option_words(param: ParamInfo) -> set[str]:
     """Words that name ``param`` (its name's parts and its vocabulary names, singular), without
     the generic "path"/"file"/"root" unless they are its whole name (``convert --root``)."""
@@ -76,7 +82,7 @@ def assign_paths(
             if FILE_SUFFIX.search(mention.path) or _named(mention.before, options)
             else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
         )
-        if string is None and re.match(TASK_ID_PATTERN, mention.path) and not Path(mention.path).exists():
+        if string is None and names_no_file(mention.path):
             string = next((p for p in named_strings if p.name.endswith("id") and is_empty(args.get(p.name))), None)
         if string is not None:  # "repo id me/centrifuge", "as mylab/X-v1": a name with a slash, not a file
             args[string.name] = mention.path

@@ -159,11 +159,8 @@ class OfflineAgent:
         given, and no earlier step makes the kind it reads. Such a clause is no step of its own."""
         if not info.is_answer or not steps or clause.after != "weak":
             return False
-        reads = {
-            key.split(".")[-1]: kind for key, kind in self.vocab.consumes.items() if key.rsplit(".", 1)[0] == info.name
-        }
         made = {p.kind for s in steps if (p := self.vocab.products.get(s.command)) is not None}
-        if any(not is_empty(args.get(param)) or kind in made for param, kind in reads.items()):
+        if any(not is_empty(args.get(param)) or kind in made for param, kind in self.vocab.consumed(info.name).items()):
             return False
         return find_phrase(self.vocab.each, words_of(clause.text)) is not None
 
@@ -235,9 +232,8 @@ class OfflineAgent:
         the input of one step per earlier output of the kind the command reads."""
         if not find_phrase(self.vocab.each, words_of(text)):
             return []
-        for key, kind in self.vocab.consumes.items():
-            command, _, name = key.rpartition(".")
-            if command != info.name or not is_empty(args.get(name)):
+        for name, kind in self.vocab.consumed(info.name).items():
+            if not is_empty(args.get(name)):
                 continue
             made = [
                 i

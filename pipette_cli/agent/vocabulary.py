@@ -157,15 +157,21 @@ class WorkflowVocabularySpec(Spec):
         """Words for ``param`` of ``command`` (a ``command.param`` entry wins over ``param``)."""
         return self.options.get(f"{command}.{param}") or self.options.get(param, OptionWordsSpec())
 
+    def consumed(self, command: str) -> dict[str, str]:
+        """The options of ``command`` that read an earlier step's product -> the kind each reads
+        (``consumes``' ``command.option`` keys)."""
+        return {
+            option: kind
+            for key, kind in self.consumes.items()
+            for owner, _, option in [key.rpartition(".")]
+            if owner == command
+        }
+
     def file_inputs(self, command: str) -> set[str]:
         """The options of ``command`` that read a kind of file named by its suffix (``data video``'s
         ``file``: an ``.h5`` file of demos): a folder is never their value."""
         kinds = set(self.files.values())
-        return {
-            key.rsplit(".", 1)[1]
-            for key, kind in self.consumes.items()
-            if key.rsplit(".", 1)[0] == command and kind in kinds
-        }
+        return {option for option, kind in self.consumed(command).items() if kind in kinds}
 
     def readers(self) -> dict[str, list[str]]:
         """A file suffix -> the commands that read that kind of file, those that turn it into
