@@ -23,7 +23,7 @@ from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
 from pipette_cli.errors import TaskNotFound
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.lexicon import short_name, stem
-from pipette_cli.language.mentions import PathMention, find_mentions
+from pipette_cli.language.mentions import ARROW, PathMention, find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex, singular, words_of
 from pipette_cli.registry import Registry
 
@@ -75,7 +75,7 @@ class ArgumentReader:
         unplaced = text  # "into data/x.h5" says where a file goes, not that the task places something
         for path in mentions.paths:
             unplaced = re.sub(
-                rf"(?:(?<![\w-])(?:into|onto|to|in|under|at|from|as)\s+|\s*(?:->|=>|→|⇒)\s*){re.escape(path.path)}",
+                rf"(?:(?<![\w-])(?:into|onto|to|in|under|at|from|as)\s+|\s*(?:{ARROW.pattern})\s*){re.escape(path.path)}",
                 " ",
                 unplaced,
             )

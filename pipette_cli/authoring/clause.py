@@ -257,12 +257,13 @@ class ClauseReader:
             pronoun = first_match(tokens, i, self.pronouns)
             part = first_match(tokens, i, list(self.part_words))
             found: tuple[str, str, int] | None = None
-            kind = self.vocab.alias_to_kind[head] if alias else None
+            alias_kind = self.vocab.alias_to_kind[head] if alias else None
             owned = part is not None and (
-                self._part_has_owner(clause, i, part[1]) or self._owner_said(clause, self.part_words[part[0]], kind)
+                self._part_has_owner(clause, i, part[1])
+                or self._owner_said(clause, self.part_words[part[0]], alias_kind)
             )
-            if alias and (not part or alias[1] > part[1] or not owned):
-                found = (self.vocab.alias_to_kind[head], alias[0], alias[1])
+            if alias and alias_kind and (not part or alias[1] > part[1] or not owned):
+                found = (alias_kind, alias[0], alias[1])
             if bench and (found is None or bench[1] > found[2]):
                 found = ("bench", bench[0], bench[1])
             if found is None and pronoun and not part:

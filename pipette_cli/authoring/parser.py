@@ -240,9 +240,12 @@ class Builder:
             taken.append(o)
             targets.append((o, m.part))
         loose = next((p for p in clause.parts if p.owner is None and p.name not in (*HATCH_PARTS, "button")), None)
-        owner = self._with_part(loose.name) if loose is not None and not targets and not on_bench else None
-        if owner is not None:  # "open the incubator, then put the dish on the top shelf": its top shelf
-            targets.append((owner, loose.name if loose is not None else None))
+        if (
+            loose is not None and not targets and not on_bench
+        ):  # "open the incubator, then put the dish on the top shelf"
+            owner = self._with_part(loose.name)
+            if owner is not None:  # its top shelf
+                targets.append((owner, loose.name))
         if clause.implied_target and not targets:
             implied = Mention(0, 0, clause.implied_target, clause.implied_target)
             targets.append((self.obj(implied, clause, "holder", taken), None))

@@ -78,7 +78,8 @@ def list_tasks(
     ids = registry.ids(tag)
     if asset is not None:
         asset = load_asset_library().get(asset).asset_id  # an unknown id: the library's error with the closest ids
-        ids = [tid for tid in ids if tid in set(registry.using(asset))]
+        using = set(registry.using(asset))
+        ids = [tid for tid in ids if tid in using]
     specs = [registry.get(tid) for tid in ids]
     if as_json:
         print_json([_summary(s) for s in specs])

@@ -44,7 +44,7 @@ FILE_SUFFIX = re.compile(rf"\.(?:{'|'.join(FILEFILE_SUFFIXES)})$", re.IGNORECASE
 _URL = re.compile(r"^[a-z][a-z0-9+.-]*://\S+$", re.IGNORECASE)
 _HOST_PORT = re.compile(r"^(?:localhost|[a-z0-9-]*[a-z][a-z0-9.-]*|\d{1,3}(?:\.\d{1,3}){3}):\d{2,5}$", re.IGNORECASE)
 _PORT = re.compile(r"\bport\s*(?:number\s*)?[:=]?\s*(\d{2,5})\b", re.IGNORECASE)
-_ARROW = re.compile(r"->|=>|→|⇒")
+ARROW = re.compile(r"->|=>|→|⇒")
 """An arrow before a path ("a.h5 -> b.h5") says where the first goes: read as "to"."""
 _STRIP_LEFT, _STRIP_RIGHT = "([{\"'“‘<", ")]}\"'”’.,;:!?>"
 LOCAL_HOST = "127.0.0.1"
@@ -80,7 +80,7 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
     """Split ``text`` into its words, its paths and its addresses; ``names`` (task ids such as
     ``pipette/PickUpTestTube-v1``, alone or comma-separated) stay words although they hold a ``/``."""
     known = {n.lower() for n in names}
-    text = _ARROW.sub(r" \g<0> ", text)  # "a.h5->b.h5": two paths
+    text = ARROW.sub(r" \g<0> ", text)  # "a.h5->b.h5": two paths
     kept: list[str] = []
     paths: list[PathMention] = []
     addresses: list[tuple[str, str]] = []
@@ -92,7 +92,7 @@ def find_mentions(text: str, names: Iterable[str] = ()) -> Mentions:
         elif core and _HOST_PORT.match(core):
             addresses.append((f"tcp://{core}", core))
         elif core and _is_path(core) and not all(part in known for part in core.lower().split(",")):
-            said = " ".join("to" if _ARROW.fullmatch(w) else w for w in kept)
+            said = " ".join("to" if ARROW.fullmatch(w) else w for w in kept)
             before = " ".join(re.findall(r"[a-z0-9π-]+", said.lower())[-4:])
             listed = since is not None and all(w.strip(",") in ("", "and", "&") for w in since)
             paths.append(PathMention(core, before, listed))
