@@ -11,7 +11,9 @@ plan explains it:
 * it names a value the plan holds: a number equal to an argument (written or spelled, "64x64",
   "15k") with the words of that option, a value's words (vocabulary ``values``, CLI choices, the
   value itself, a policy's names, a robot's names), a flag's words, or it lies inside free text
-  the plan carries (a description, what to list tasks about).
+  the plan carries (a description, what to list tasks about);
+* it tells, after the event of a clause reporting what happened, how far or why ("... died at
+  step 9000 when the node rebooted; resume it"), and asks for nothing itself.
 
 Anything else is *not understood* and listed in the request's order (:func:`unused_words`); a
 plan with such words is shown with them and never run without asking.
@@ -30,7 +32,7 @@ from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import ANSWER_PREFIX, RecipeSpec, WorkflowVocabularySpec, distributed
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
-from pipette_cli.language.clauses import LIST_MARK
+from pipette_cli.language.clauses import LIST_MARK, Separators, pieces
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
@@ -159,7 +161,7 @@ class Accountant:
         for phrase in [*self.vocab.chain.strong, *self.vocab.happened]:  # "then"; "... was killed": what happened
             words.phrase(phrase)
         if find_phrase(self.vocab.happened, words.text) is not None:  # "...; resume it": that step again
-            for phrase in self.vocab.resumes:
+            for phrase in [*self.vocab.resumes, *self._reports(said)]:
                 words.phrase(phrase)
         for kind in self._kinds(plan):
             for phrase in self.vocab.tasks.all if kind == "all tasks" else self.vocab.refers.get(kind, []):
@@ -198,6 +200,23 @@ class Accountant:
             if info.task_param() is not None:
                 words.phrase("same (task|tasks)")
         return words.unused()
+
+    def _reports(self, said: str) -> list[str]:
+        """What a clause reporting what happened tells after the event, before another clause asks
+        for something ("... died at step 9000 of 15000 when the node rebooted. pick it up": 'at step
+        9000 of 15000 when the node rebooted'), as literal phrases: the story of the step, which the
+        parser reads no value from (:func:`pipette_cli.agent.clauses.split_clauses`). A tail that
+        asks for something itself (a command's verb, "rerun it") is no story and stays accounted."""
+        asks = [*self.vocab.resumes, *(v for cues in self.vocab.intents.values() for v in cues.verbs)]
+        found = pieces(said, Separators(strong=tuple(self.vocab.chain.strong)))
+        tails = []
+        for piece in found[:-1]:
+            text = words_of(piece.text)
+            event = find_phrase(self.vocab.happened, text)
+            tail = _Words.of(text[event.end() :], self.units).text if event and "?" not in piece.text else ""
+            if tail and find_phrase(asks, tail) is None:
+                tails.append(tail)
+        return tails
 
     def _superseded(self, words: _Words) -> None:
         """Words before a correction ("make 3 copies? no - just augment ...") are taken back."""

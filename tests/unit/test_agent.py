@@ -544,10 +544,20 @@ def test_resuming_after_a_report_runs_that_step_again_and_takes_no_count_from_th
     [step] = plan.steps
     assert step.command == "eval" and step.args.get("policy") == "runs/act" and "episodes" not in step.args
     assert step.args["task_id"] == "pipette/PickUpTestTube-v1"
-    assert plan.unused == ["30", "episodes"]  # said, and not used: the report's count is not the step's
-    assert "resume" not in plan.unused
+    assert plan.unused == []  # "after 30 episodes" tells how far it got: the report's count is not the step's
     counted = AGENT.plan("evaluate runs/act on the tube pick-up task for 30 episodes, then resume it")
     assert counted.steps[0].args.get("episodes") == 30  # no report: the count is the step's
+
+
+def test_what_a_report_tells_after_its_event_is_its_story_and_what_it_asks_stays_accounted() -> None:
+    plan = AGENT.plan(
+        "ACT training on the augmented spectrophotometer data died at step 9000 of 15000 when the node rebooted. "
+        "pick it up from the last checkpoint"
+    )
+    assert [s.command for s in plan.steps] == ["train"] and plan.steps[0].args["if_exists"] == "continue"
+    assert plan.unused == []
+    counted = AGENT.plan("the collect of 40 demos of the tube pick-up task was killed after 12; resume it")
+    assert counted.unused == ["40"]  # said before the event: a value of the step, which the plan does not take
 
 
 def test_a_later_step_with_an_optional_task_takes_the_task_before_unless_it_reads_a_step() -> None:
