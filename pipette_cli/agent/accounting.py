@@ -158,6 +158,9 @@ class Accountant:
             m = phrase_pattern(phrase.lower()).match(words.text)
             if m:
                 words.used[: len(m.group(0).split())] = [True] * len(m.group(0).split())
+        plain_chain = "|".join(c for c in self.vocab.chain.strong if "(" not in c)
+        for phrase in self.vocab.opening:  # "look inside x.h5 first, then ...": said before the chain word
+            words.phrase(f"{phrase} ({plain_chain})")
         for phrase in [*self.vocab.chain.strong, *self.vocab.happened]:  # "then"; "... was killed": what happened
             words.phrase(phrase)
         if find_phrase(self.vocab.happened, words.text) is not None:  # "...; resume it": that step again
@@ -279,7 +282,7 @@ class Accountant:
             or (param.kind == "str" and not param.values() and param.name not in self.vocab.values)
         ):
             said = set(words_of(str(value)).split()) | set(words_of(str(value).replace("_", " ")).split())
-            words.where(lambda t: t in said)
+            words.where(lambda t: t in said or set(t.replace("_", " ").split()) <= said)  # beaker_50ml
             for phrase in param.names:
                 words.phrase(phrase)
             if param.takes_assets:
@@ -299,6 +302,8 @@ class Accountant:
             self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
+        if param.kind == "path":  # "the SmolVLM2 backbone from /models/smolvlm2": the folder's name
+            phrases += [lowered.rstrip("/").rsplit("/", 1)[-1].rsplit(".", 1)[0]]
         policy = self.vocab.policies.get(lowered)
         if policy is not None:
             phrases += [policy.name.lower(), *policy.words]
@@ -320,7 +325,9 @@ class Accountant:
 
     def _number(self, words: _Words, value: float) -> None:
         spelled = {w for w, n in self.vocab.spelled.items() if n == value}
-        for phrase in spelled:
+        thousands = value / 1000 if value and value % 1000 == 0 else None  # "twelve thousand", "12 thousand"
+        said = [f"{thousands:g}", *(w for w, n in self.vocab.spelled.items() if n == thousands)] if thousands else []
+        for phrase in [*spelled, *(f"{w} thousand" for w in said)]:
             words.phrase(phrase)
 
         def same(token: str) -> bool:
@@ -344,6 +351,8 @@ class Accountant:
             return
         names = {task.lower(), *task.lower().split("/"), short_name(task).lower()}
         terms = self.index.terms[task]
+        relations = set(self.vocab.tasks.relations) & set(self.index.said_words[task])
+        words.where(lambda t: t in relations)  # "tube off the balance": its instruction's "off"
         for pattern, word in self.index.synonyms():
             if stem(word) in terms:
                 for m in pattern.finditer(words.text):

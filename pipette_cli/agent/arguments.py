@@ -121,7 +121,9 @@ class ArgumentReader:
         copied = self.vocab.task_params.get(info.name)
         if copied and is_empty(args.get(copied)) and self.index.explicit(mentions.words):
             args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
-        read_numbers(self.vocab, info, words, args, bound)
+        quoted = "description" in info.params and _QUOTED.search(mentions.words)  # its numbers describe the task
+        said = words_of(distributed(_QUOTED.sub(" ", mentions.words), self.vocab.distributes)) if quoted else words
+        read_numbers(self.vocab, info, said, args, bound)
         self._values(info, words, args)
         if copied and is_empty(args.get(copied)) and self._copies(info, words):
             match = self.index.match(_QUOTED.sub(" ", mentions.words))  # "a copy of the water bath lid task"
@@ -209,6 +211,12 @@ class ArgumentReader:
             others = {"new", "first", "next", "one", "which", "what"}
             if named and not back & set(said) and not {stem(w) for w in said} <= stop | others:
                 raise AgentError(f"unknown task {named.group(1)!r}; {self.index.suggest_name(named.group(1))}")
+            work = self.index.unmatched_work(raw)
+            if work:  # "record 10 demos of opening the autoclave door": no task does that
+                raise AgentError(
+                    f"no registered task does {work!r}; name a task (`pipette tasks list`), or create one with "
+                    f'`pipette new-task "{work}"`'
+                )
 
     def policy(self, words: str) -> str | None:
         for word, key in self.vocab.policy_words():
@@ -349,8 +357,9 @@ class ArgumentReader:
             if about:
                 args["about"] = " ".join(about)
         for param in info.params.values():  # "the microplate reader", "beaker_50ml, beaker_100ml and ..."
-            if param.takes_assets and (param.required or param.multiple) and is_empty(args.get(param.name)):
-                assets = self.assets_in(words)
+            if param.takes_assets and is_empty(args.get(param.name)):
+                # an optional one only by an id written out ("with cryovial_5ml as the main object")
+                assets = self.assets_in(words) if param.required or param.multiple else self.ids_in(words)
                 if assets:
                     args[param.name] = assets if param.multiple else assets[0]
         for param in info.params.values():
@@ -364,8 +373,11 @@ class ArgumentReader:
             ):
                 continue
             pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
+            stop = {*self.vocab.tasks.stop, *self.vocab.filler}
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
-            if m and m.group(1).lower() not in {*self.vocab.tasks.stop, *self.vocab.filler}:
+            if not m or m.group(1).lower() in stop:  # "in the mylab namespace": the value before its name
+                m = re.search(rf"\b(?:the|a|an)\s+([\w-]+)\s+(?:{pattern})(?![\w-])", raw, re.IGNORECASE)
+            if m and m.group(1).lower() not in stop:
                 args[param.name] = m.group(1).strip("\"'")
 
     def _unknown_task(self, path: str, problems: list[str] | None) -> bool:
@@ -387,20 +399,24 @@ class ArgumentReader:
         said = [w for w in words_of(sentence).split() if w not in self.vocab.filler]
         return bool(said) and all(singular(w) in named for w in said)
 
+    def ids_in(self, words: str) -> list[str]:
+        """The asset ids ``words`` writes out, in order."""
+        longest_first = sorted(load_asset_words().assets, key=len, reverse=True)
+        ids = "|".join(map(re.escape, longest_first))
+        return list(dict.fromkeys(re.findall(rf"(?<![\w-])(?:{ids})(?![\w-])", words)))
+
     def assets_in(self, words: str) -> list[str]:
         """The asset ids ``words`` writes out, in order; else each kind it names: every asset of a
         kind named in the plural ("the beakers"), the kind's default asset otherwise."""
         assets = load_asset_words()
-        longest_first = sorted(assets.assets, key=len, reverse=True)
-        ids = "|".join(map(re.escape, longest_first))
         explicit = (
-            re.findall(rf"(?<![\w-])(?:{ids})(?![\w-])", words)
+            self.ids_in(words)
             or [  # "microplate reader": microplate_reader
-                a for a in longest_first if a in words.replace(" ", "_")
+                a for a in sorted(assets.assets, key=len, reverse=True) if a in words.replace(" ", "_")
             ][:1]
         )
         if explicit:
-            return list(dict.fromkeys(explicit))
+            return explicit
         named: list[str | None] = []
         for name, kind in assets.names_in(words):
             written = words[name.span[0] : name.span[1]]

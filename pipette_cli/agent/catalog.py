@@ -44,7 +44,7 @@ class Unsupported(AgentError):
     final = True
 
 
-NEGATION = "(no|without|skip|skipping|skipp|minus|minu|sans|never) (the|any|a|an)?"
+NEGATION = "(no|not|without|rather than|instead of|skip|skipping|skipp|minus|minu|sans|never) (the|any|a|an)?"
 """Words before a flag's name that switch it off (with their stems: the flags are read stemmed)."""
 
 
@@ -104,8 +104,9 @@ class ParamInfo:
 
     @property
     def takes_assets(self) -> bool:
-        """An asset id (``assets show ID``) or several (``assets render [ID...]``: help "Asset ids ...")."""
-        return self.name == "asset_id" or self.help.lower().startswith("asset id")
+        """An asset id (``assets show ID``; ``tasks new --asset``: help "Main object's asset id") or
+        several (``assets render [ID...]``: help "Asset ids ...")."""
+        return self.name == "asset_id" or "asset id" in self.help.lower()
 
     @property
     def indexed(self) -> tuple[str, ...]:

@@ -65,6 +65,10 @@ class Intents:
             )
             for name, info in catalog.commands.items()
         }
+        self.path_names = {  # every name of a path option ("table" of experts check's --markdown)
+            name: sorted({n for p in info.params.values() if p.kind == "path" for n in p.names})
+            for name, info in catalog.commands.items()
+        }
         self.cues = [
             (command, WEIGHTS[kind], phrase)
             for command, cues in vocab.intents.items()
@@ -136,7 +140,12 @@ class Intents:
             for name in self.option_names.get(previous, [])
             if (m := phrase_pattern(name).search(words))
         ]
-        return any(set(name) & (cue if len(name) > 1 else asks) for name in said)
+        if any(set(name) & (cue if len(name) > 1 else asks) for name in said):
+            return True
+        # "..., and also write the table to x.md": the cue's object names a path option of the step
+        # before and the clause gives its path (not "move the pending episodes", which gives none)
+        named = {w for n in self.path_names.get(previous, []) if phrase_pattern(n).search(words) for w in n.split()}
+        return bool(named & cue) and bool(find_mentions(text, self.names).paths)
 
     def verb(self, text: str, command: str) -> str | None:
         """The first word of the verb or phrase cue of ``command`` in ``text`` ("show" in "show me
@@ -166,6 +175,16 @@ class Intents:
     def happened(self, text: str) -> bool:
         """Whether ``text`` reports what happened ("the collect writing x.h5 was killed") and asks nothing."""
         return not text.rstrip().endswith("?") and find_phrase(self.vocab.happened, words_of(text)) is not None
+
+    def about(self, text: str) -> bool:
+        """Whether ``text`` only says what the request is about: it opens with a topic word and asks
+        for no command ("for the demos in x.h5"), or names a file with no count ("take the demos in
+        x.h5": those, not "take 20 demos")."""
+        if not any(phrase_pattern(p).match(words_of(text)) for p in self.vocab.topics):
+            return False
+        mentions = find_mentions(text, self.names)
+        counted = re.search(r"\d", mentions.words) or set(words_of(mentions.words).split()) & set(self.vocab.spelled)
+        return self.best(text)[1] < WEIGHTS["verbs"] or (bool(mentions.paths) and not counted)
 
     def resumes(self, text: str) -> bool:
         """Whether ``text`` asks for a step again ("resume it", "continue where it stopped")."""
@@ -198,6 +217,10 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         if intents.happened(before.text) and not intents.happened(piece.text) and intents.resumes(piece.text):
             commands.append(command)  # "the eval ... was stopped after 30 episodes; resume it": a step of its own
             return True
+        if piece.after == "weak" and len(before.pieces) == 1 and intents.about(before.text):
+            # "for the demos in x.h5, make ...": the command is what follows the topic
+            commands[-1] = command or intents.best(join_words([*before.pieces, piece]))[0]
+            return False
         if command is None and previous and piece.after == "strong" and intents.names_one(piece.text):
             verb = intents.verb(before.text, previous)  # "show me X, then the ReadPlate protocol": said once
             command, score = intents.best(f"{verb} {piece.text}") if verb else (None, 0)
@@ -216,7 +239,7 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         if new:
             commands.append(command)
         else:
-            commands[-1] = previous or command or intents.best(join_words([*before.pieces, piece]))[0]
+            commands[-1] = previous or intents.best(join_words([*before.pieces, piece]))[0] or command
         return new
 
     separators = Separators(strong=tuple(intents.vocab.chain.strong))

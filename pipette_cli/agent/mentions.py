@@ -26,6 +26,8 @@ SAVE = re.compile(
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
 _TO = re.compile(r"\b(?:to|into|as|write|writes|save|saves|store|stores)$")
 """Words right before a path that make it where the command writes ("... into x.h5", "and write x.h5")."""
+_INTO = re.compile(r"\b(?:to|into)$")
+"""Where something goes ("the clutter suite, into evals/x"): a path, never a name after it."""
 _FROM = re.compile(r"\b(?:from|of)$")
 
 
@@ -79,7 +81,7 @@ def assign_paths(
             continue
         string = (
             None
-            if FILE_SUFFIX.search(mention.path) or _named(mention.before, options)
+            if FILE_SUFFIX.search(mention.path) or _named(mention.before, options) or _INTO.search(mention.before)
             else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
         )
         if string is None and names_no_file(mention.path):

@@ -11,7 +11,8 @@ from pipette_cli.agent.catalog import CommandInfo, ParamInfo, is_empty
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.language.phrases import phrase_pattern
 
-_NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(\s*(?:k|thousand)\b)?(%)?")
+_NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(?!-[a-z])(\s*(?:k|thousand)\b)?(%)?")
+"""A number, not one that opens a compound word ("the 96-well plate")."""
 _MEASURE = re.compile(r"(?:ml|mm|cm|ul|µl|l|g|mg|kg|m|s|ms|hz|deg|°|well|channel|x)\b", re.IGNORECASE)
 """Units after a number that make it a size ("50 mL tube"), not a count."""
 _METRES = {"mm": 0.001, "millimetre": 0.001, "millimetres": 0.001, "millimeter": 0.001, "millimeters": 0.001,
@@ -94,7 +95,10 @@ def read_numbers(
         if best is not None and best[1].multiple:  # "episodes 3, 5 and 7": one value each
             args[best[1].name] = [*args.get(best[1].name, []), _typed(best[1], number)]
         elif best is not None:
-            args[best[1].name] = _typed(best[1], number)
+            length = _LENGTH.match(after) if in_metres(best[1]) else None  # "shift up to 3 cm": 0.03
+            args[best[1].name] = (
+                round(number * _METRES[length.group(1).lower()], 9) if length else _typed(best[1], number)
+            )
             taken.add(best[1].name)
         elif (length := _LENGTH.match(after)) and len(metres := _in_metres_said(numeric, text)) == 1:
             args[metres[0].name] = round(number * _METRES[length.group(1).lower()], 9)  # "a 3 cm range": 0.03

@@ -33,6 +33,28 @@ from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
 
+
+def one_path_each(text: str, names: list[str]) -> list[str]:
+    """``text`` once per path of its lists of paths joined by "and" ("evaluate a/ and b/ ..., into
+    c/ and d/": "evaluate a/ ..., into c/", "evaluate b/ ..., into d/"), when every such list has
+    as many; else ``[]``."""
+    paths = "|".join(re.escape(m.path) for m in sorted(find_mentions(text, names).paths, key=lambda m: -len(m.path)))
+    if not paths:
+        return []
+    lists = list(re.finditer(rf"(?:{paths})(?:\s*(?:,|and|&|,\s*and)\s*(?:{paths}))+", text))
+    items = [re.findall(paths, m.group(0)) for m in lists]
+    if not items or len({len(i) for i in items}) != 1 or len(items[0]) < 2:
+        return []
+    out = []
+    for k in range(len(items[0])):
+        said, at = "", 0
+        for m, listed in zip(lists, items, strict=True):
+            said += text[at : m.start()] + listed[k]
+            at = m.end()
+        out.append(said + text[at:])
+    return out
+
+
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
 
@@ -79,6 +101,7 @@ class OfflineAgent:
         try:
             spec, problems = self._read(text)
         except AgentError:  # a path or value it could not place: the unsupported policy still comes first
+            self.validator.refuse_unsupported_request(text)
             policy = self.arguments.policy(words_of(text))
             if policy:
                 self.validator.refuse_unsupported_policy(policy)
@@ -121,7 +144,15 @@ class OfflineAgent:
                 continue  # "after training, evaluate ...": what was done before, not a step
             command = self._about_asset(command, clause.text)
             info = self.catalog.get(command)
-            args = self.arguments.fill(info, clause.text, problems)
+            try:
+                args = self.arguments.fill(info, clause.text, problems)
+            except AgentError:
+                paired = one_path_each(clause.text, self.registry.ids())
+                if not paired:
+                    raise
+                # "evaluate a/ and b/ ..., into c/ and d/": one step per path, paired in order
+                clauses[:0] = [Clause(t, command, clause.score, "strong") for t in paired]
+                continue
             self._same_as_before(info, clause.text, args, steps)
             if self._about_the_listing(info, clause, args, steps):
                 continue  # "which suites are there, and how many episodes does each one have?": the listing says

@@ -8,6 +8,7 @@ layout functions: ``convert`` writes ``datasets/<task>/<version>`` unless ``--ro
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -40,6 +41,14 @@ def _train(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | 
         return None
     root = Path(_arg(info, args, "output_root") or DEFAULT_OUTPUT_ROOT)
     return run_dir(tasks, Policy(policy), DatasetVersion(version), root) / LAST_CHECKPOINT
+
+
+def version_in_path(path: str) -> str | None:
+    """The dataset version a policy folder in ``train``'s layout names (``.../<task>_augmented/
+    checkpoints/...``: ``augmented``), else None."""
+    versions = "|".join(v.value for v in DatasetVersion)
+    m = re.search(rf"_({versions})(?=/|$)", path)
+    return m.group(1) if m else None
 
 
 RULES: dict[str, Callable[[CommandInfo, dict[str, Any], str | None], Path | None]] = {

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -31,18 +32,23 @@ ACTIONS = {"pick", "place", "remove", "open", "close", "press", "insert", "posit
 """Action words weigh half an object's: "close the lid" names many tasks, "the incubator" few."""
 
 
-def _longest_run(name: list[str], words: list[str]) -> int:
+def _longest_run(name: list[str], words: list[str], holding: AbstractSet[str] | None = None) -> int:
     """Length of the longest run of ``name``'s words that ``words`` repeat in order
-    ("tube on balance" in PlaceTubeOnBalance: 3)."""
+    ("tube on balance" in PlaceTubeOnBalance: 3); with ``holding``, of the runs holding one of
+    those words only."""
     best = 0
     for i in range(len(words)):
         for j in range(len(name)):
             k = 0
             while i + k < len(words) and j + k < len(name) and words[i + k] == name[j + k]:
                 k += 1
-            best = max(best, k)
+            if holding is None or set(words[i : i + k]) & holding:
+                best = max(best, k)
     return best
 
+
+INSTRUCTION_RUN = 3
+"""Words of a task's instruction a request must repeat in a row to pick it among tied tasks."""
 
 _COMPOUND = re.compile(r"(?<![\w-])[a-z0-9]+(?:-[a-z0-9]+){2,}(?![\w-])")
 """Three or more words joined by hyphens ("the dish-out-of-the-incubator scene"): read as words,
@@ -88,6 +94,8 @@ class TaskIndex:
     terms: dict[str, dict[str, float]] = field(default_factory=dict)
     name_terms: dict[str, set[str]] = field(default_factory=dict)
     name_words: dict[str, list[str]] = field(default_factory=dict)
+    said_words: dict[str, list[str]] = field(default_factory=dict)
+    """Each task's instruction, word by word (stemmed): "off the balance" is said by one task only."""
 
     def __post_init__(self) -> None:
         assets = load_asset_words()
@@ -118,6 +126,7 @@ class TaskIndex:
             self.terms[tid] = terms
             self.name_terms[tid] = self.concepts(" ".join(names)) - self._stop
             self.name_words[tid] = [stem(w) for w in names]
+            self.said_words[tid] = [stem(w) for w in re.findall(r"[a-z0-9]+", spec.instruction.lower())]
         self._assets = assets
         self._aliases = assets.aliases()
         self._alias_kind = assets.alias_to_kind
@@ -131,8 +140,22 @@ class TaskIndex:
         return {stem(w) for w in ACTIONS}
 
     def names_a_task(self, text: str) -> bool:
-        """Whether ``text`` names a task itself, not only what it uses: a task's name or an action."""
-        return bool(self.explicit(text) or self.request_terms(text) & self._actions)
+        """Whether ``text`` names a task itself, not only what it uses: a task's name or an action,
+        or words of one task's instruction around a relation ("tube off the balance")."""
+        if self.explicit(text) or self.request_terms(text) & self._actions:
+            return True
+        return self._said_by(text, self.registry.ids()) is not None
+
+    def _said_by(self, text: str, tasks: list[str]) -> str | None:
+        """The one of ``tasks`` whose instruction ``text`` repeats most, by at least
+        :data:`INSTRUCTION_RUN` words in a row around a relation ("tube off the balance"), else None."""
+        words = [stem(w) for w in re.findall(r"[a-z0-9]+", _unhyphenated(plain(text)))]
+        relations = {stem(w) for w in self.vocab.tasks.relations}
+        runs = {t: _longest_run(self.said_words[t], words, relations) for t in tasks}
+        longest = max(runs.values(), default=0)
+        if longest < INSTRUCTION_RUN or list(runs.values()).count(longest) != 1:
+            return None
+        return max(runs, key=lambda t: runs[t])
 
     @cached_property
     def _action_word(self) -> dict[str, str]:
@@ -178,6 +201,16 @@ class TaskIndex:
         lowered, names = self._take_names(text, every=True)
         return self.concepts(lowered) | {f"kind:{kind}" for _, kind in names}
 
+    def unmatched_work(self, text: str) -> str:
+        """The work a request describes as its task ("demos of opening the autoclave door": from the
+        action after "of"/"for", six words at most) when no task matches it; else ""."""
+        if self.match(text).task or not self.request_terms(text) & self._actions:
+            return ""
+        for m in re.finditer(r"\b(?:of|for)\s+(?:the\s+|a\s+|an\s+)?([a-z][\w-]*)", plain(text)):
+            if self.concepts(m.group(1)) & self._actions:
+                return " ".join(text[m.start(1) :].split()[:6]).rstrip(" ,.;:!?")
+        return ""
+
     def explicit(self, text: str) -> list[str]:
         """Task ids and names written out in ``text`` ("PickUpTestTube", "pick up test tube"),
         in the order they appear."""
@@ -198,11 +231,15 @@ class TaskIndex:
 
     def unknown_name(self, text: str) -> str | None:
         """A CamelCase word that looks like a task name but is none ("PickUpTestTub"); policy
-        names (SmolVLA, VQ-BeT) are not task names."""
+        names (SmolVLA, VQ-BeT) and names of other things ("the SmolVLM2 backbone", words of the
+        vocabulary's ``refers`` but a task's) are not task names."""
         known = {short_name(t).lower() for t in self.registry.ids()}
         policies = {w for w, _ in self.vocab.policy_words()}
+        things = {w for kind, said in self.vocab.refers.items() if kind != "task" for w in said if w.isalpha()}
         for m in re.finditer(r"(?<![\w-])(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
             token = m.group(0)
+            if next(iter(text[m.end() :].lower().split()), "") in things:  # "the SmolVLM2 backbone": a model's name
+                continue
             word = re.match(r"[\w-]*", text[m.start() :]).group(0).lower()  # type: ignore[union-attr]  # [\w-]* always matches
             if short_name(token).lower() not in known and token.lower() not in policies and word not in policies:
                 return token
@@ -249,6 +286,9 @@ class TaskIndex:
         top = sorted(t for t, s in scores.items() if s >= best - 1e-9)
         if len(top) > 1 and said and not any(said & self.terms[t].keys() for t in top):  # one task left is meant
             return TaskMatch(None, other=tuple(top), action=self._action_word.get(min(said), min(said)))
+        said_by = self._said_by(text, top) if len(top) > 1 else None  # "the tube off the balance"
+        if said_by is not None:
+            return TaskMatch(said_by)
         return TaskMatch(top[0]) if len(top) == 1 else TaskMatch(None, tuple(top))
 
     def _opposes(self, task: str, actions: set[str]) -> bool:

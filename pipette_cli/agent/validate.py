@@ -25,12 +25,13 @@ from typing import Any
 from pipette_cli.agent.accounting import Accountant
 from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, ParamInfo, Unsupported, is_empty
 from pipette_cli.agent.plan import CheckedPlan, CheckedStep, Context, PlanSpec, StepRef
-from pipette_cli.agent.products import product_of
+from pipette_cli.agent.products import product_of, version_in_path
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.demos.store import scan
 from pipette_cli.errors import PipetteError, suggest
 from pipette_cli.language.lexicon import short_name
+from pipette_cli.language.phrases import phrase_pattern, words_of
 from pipette_cli.registry import Registry
 
 _TRUE, _FALSE = {"true", "yes", "1", "on"}, {"false", "no", "0", "off"}
@@ -54,6 +55,7 @@ class Validator:
             AgentError: an unknown command, parameter, task or value; a bad step reference.
             Unsupported: a value Pipette does not support (e.g. a policy it cannot train).
         """
+        self.refuse_unsupported_request(request)
         steps: list[CheckedStep] = []
         carried: dict[str, Any] = {"task": context.task} if context and context.task else {}
         for index, raw in enumerate(plan.steps, 1):
@@ -152,6 +154,14 @@ class Validator:
             value = self._choice(param, value, label)
         return value
 
+    def refuse_unsupported_request(self, request: str) -> None:
+        """Raise :class:`Unsupported` when ``request`` asks for what no command does (vocabulary
+        ``unsupported``: "push the dataset to the Hub")."""
+        said = words_of(request)
+        for phrase, reason in self.vocab.unsupported.items():
+            if phrase_pattern(phrase).search(said):
+                raise Unsupported(reason)
+
     def refuse_unsupported_policy(self, policy: str) -> None:
         """Raise :class:`Unsupported` when no command takes ``policy`` (a vocabulary policy key)."""
         for info in self.catalog.commands.values():
@@ -221,7 +231,12 @@ class Validator:
             for p in info.params
             if f"{info.name}.{p}" in self.vocab.consumes
             and is_empty(args.get(p))
-            and (info.params[p].required or (p in choice and not chosen) or info.is_answer)
+            and (
+                info.params[p].required
+                or (p in choice and not chosen)
+                or info.is_answer
+                or f"{info.name}.{p}" in self.vocab.links_optional
+            )
         }
         for step in reversed(steps):  # what a step made, else the file it read ("inspect x.h5, then augment it")
             offers: list[tuple[str | None, Any]] = [(step.product_kind, StepRef(from_step=step.index))]
@@ -318,7 +333,12 @@ class Validator:
         return self.vocab.products[command].sets if command in self.vocab.products else {}
 
     def _take_over(self, info: CommandInfo, args: dict[str, Any], steps: list[CheckedStep]) -> None:
-        """Empty values of ``args`` that the earlier outputs it reads set."""
+        """Empty values of ``args`` that the earlier outputs it reads set, or a policy folder in
+        ``train``'s layout (``..._augmented/checkpoints/...``: ``dataset_version: augmented``)."""
+        for name, kind in self.vocab.consumed(info.name).items():
+            version = version_in_path(args[name]) if kind == "policy" and isinstance(args.get(name), str) else None
+            if version and "dataset_version" in info.params and is_empty(args.get("dataset_version")):
+                args["dataset_version"] = version
         for value in list(args.values()):
             for ref in value if isinstance(value, list) else [value]:
                 if isinstance(ref, StepRef):

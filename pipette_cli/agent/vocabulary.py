@@ -64,6 +64,9 @@ class TaskWordsSpec(Spec):
     opposites: dict[str, str] = Field(default_factory=dict)
     """Actions that undo each other (open: close): a task doing the opposite of what a request
     asks is never chosen for it."""
+    relations: list[str] = Field(default_factory=list)
+    """Words that say where a thing goes or comes from ("off", "onto"): among tied tasks, the one
+    whose instruction repeats a run of the request's words holding one ("tube off the balance")."""
 
 
 class ProductSpec(Spec):
@@ -115,6 +118,9 @@ class WorkflowVocabularySpec(Spec):
     background: dict[str, str]
     products: dict[str, ProductSpec]
     consumes: dict[str, str]
+    links_optional: list[str] = Field(default_factory=list)
+    """``consumes`` keys of optional inputs that still take an earlier step's product when one of
+    their kind was made ("copy X into my_tasks/, then validate it": that file, not the registry)."""
     files: dict[str, str] = Field(default_factory=dict)
     """A file suffix -> the kind of thing such a file is (``h5`` -> ``demos``)."""
     stands_in: dict[str, dict[str, str]] = {}
@@ -130,6 +136,12 @@ class WorkflowVocabularySpec(Spec):
     together: list[str] = Field(default_factory=list)
     """Words that put every earlier output of a kind into one step, where its input takes several
     ("convert both into one dataset"): one step, not one per output."""
+    unsupported: dict[str, str] = Field(default_factory=dict)
+    """A phrase asking for something no command does -> what to say instead ("push ... to the
+    hub": nothing pushes; a plan would do something else quietly)."""
+    topics: list[str] = Field(default_factory=list)
+    """Words that open a clause saying what the request is about ("for the rack demos in x.h5, make
+    ..."): without a verb of its own, such a clause joins the one after it."""
     opening: list[str] = Field(default_factory=list)
     """Words that only open a request ("first, ...")."""
     repeats: list[str] = Field(default_factory=list)

@@ -46,7 +46,8 @@ ROBOT_AROUND = r"(?:(?:with|using|by)\s+)?(?:the\s+)?{name}(?:\s+(?:arm|robot))?
 
 def suite_words(registry: Registry) -> dict[str, list[str]]:
     """Suite id -> the words that name it: its id and the words of its name ("paper benchmark"),
-    and any part of them followed by "suite" that names no other suite ("the nominal suite")."""
+    and any part of them followed by "suite" that names no other suite ("the nominal suite"), and all
+    of its words said apart in any order ("the paper benchmark with paraphrased instructions")."""
     from pipette_cli.evaluation.suites import load_suites  # deferred: suites only when a lexicon is built
 
     try:
@@ -72,6 +73,8 @@ def suite_words(registry: Registry) -> dict[str, list[str]]:
                 sid.split("/")[-1].lower(),
                 " ".join(name),
                 *(p for p, owners in parts.items() if owner(owners) == sid),
+                # all of its words, in any order and apart ("the paper benchmark with paraphrased instructions")
+                *(" ... ".join(order) for order in itertools.permutations(name) if len(name) > 1),
             },
             key=len,
             reverse=True,

@@ -1,0 +1,116 @@
+"""The agent's mechanisms found by batch fifteen (tests/fixtures/agent/batch_fifteen_draft.yaml), each
+tested on other wordings than the batch's: a topic clause, a path option named by the cue's object, an
+optional asset by its id, paths listed pairwise, relations in instructions, refusals of what no
+command does."""
+
+from __future__ import annotations
+
+import pytest
+
+from pipette_cli.agent.catalog import AgentError, Unsupported
+from pipette_cli.agent.offline import OfflineAgent, one_path_each
+from pipette_cli.agent.plan import StepRef
+from pipette_cli.cli.main import load_catalog
+from pipette_cli.registry import load_registry
+
+CATALOG = load_catalog()
+REGISTRY = load_registry()
+AGENT = OfflineAgent(CATALOG, REGISTRY)
+
+
+def commands(request: str) -> list[tuple[str, dict]]:
+    plan = AGENT.plan(request)
+    assert plan.unused == [], plan.unused
+    return [(s.command, s.args) for s in plan.steps]
+
+
+def test_a_topic_clause_with_a_file_joins_the_request_that_follows_it() -> None:
+    [(command, args)] = commands(
+        "for the demos in data/rack.h5 of the pipette stand task, make two light draws per demo"
+    )
+    assert command == "augment" and args["input"] == "data/rack.h5" and args["variants"] == "light*2"
+    [(command, args)] = commands("take the tube pick-up demos in data/t.h5, and make speed variants at 2x")
+    assert command == "augment" and args["input"] == "data/t.h5" and args["speed"] == 2.0
+    counted = commands("take 20 demos of the tube pick-up task into a.h5, and convert them")
+    assert [c for c, _ in counted] == ["collect", "convert"]  # a count: demos to record, no topic
+
+
+def test_a_length_after_a_named_option_is_read_in_metres_and_degrees_are_the_yaw() -> None:
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with object variants, moved by up to 25 mm")
+    assert args["object_xy"] == pytest.approx(0.025)
+    [(_, args)] = commands(
+        "augment data/t.h5 of the tube pick-up task with object variants rotated by up to 20 degrees"
+    )
+    assert args["object_yaw"] == 20
+
+
+def test_the_cue_naming_a_path_option_of_the_step_before_continues_it() -> None:
+    [(command, args)] = commands("check the scripted expert of the tube pick-up task, and put the table in out/t.md")
+    assert command == "experts check" and args["markdown"] == "out/t.md"
+    # a strong separator still starts a step of its own
+    assert [c for c, _ in commands("check the tube pick-up expert, then tabulate evals/a into out/r")] == [
+        "experts check",
+        "eval report",
+    ]
+
+
+def test_an_optional_asset_option_takes_an_asset_id_written_out_only() -> None:
+    [(_, args)] = commands("make mylab/PickUpBeaker-v1 from the pick template with beaker_50ml as the main object")
+    assert args["asset"] == "beaker_50ml"
+    [(_, args)] = commands("make mylab/PickUpThing-v1 from the pick template")
+    assert "asset" not in args
+
+
+def test_a_flag_after_not_or_rather_than_is_off() -> None:
+    [(_, args)] = commands("convert data/a.h5 of the tube pick-up task with png frames rather than video")
+    assert args["video"] is False
+    [(_, args)] = commands("run the demo pipeline on the tube pick-up task, not the smoke run")
+    assert args.get("fast") is False
+
+
+def test_a_task_file_made_by_a_step_is_what_validate_then_reads() -> None:
+    steps = commands("copy pipette/PickUpTestTube-v1 as lab/PickUpGently-v1 into my_tasks/, then validate the copy")
+    assert steps[1] == ("tasks validate", {"paths": [StepRef(from_step=1)]})
+    assert commands("validate every task") == [("tasks validate", {})]  # nothing made: the registry
+
+
+def test_tied_tasks_are_told_apart_by_a_relation_their_instructions_say() -> None:
+    [(_, args)] = commands("collect 5 demos of the tube off the balance")
+    assert args["task_id"] == "pipette/RemoveTubeFromBalance-v1"
+    with pytest.raises(AgentError, match="several tasks"):
+        AGENT.plan("collect 5 demos of the centrifuge lid task")  # no relation said: still ambiguous
+
+
+def test_paths_listed_pairwise_make_one_step_per_pair_labelled_by_their_folders() -> None:
+    steps = commands(
+        "evaluate runs/act/pipette_PickUpTestTube-v1_raw and runs/act/pipette_PickUpTestTube-v1_augmented on the "
+        "tube pick-up task, into evals/r and evals/a"
+    )
+    assert [(a["policy"], a["out"], a.get("dataset_version")) for _, a in steps] == [
+        ("runs/act/pipette_PickUpTestTube-v1_raw", "evals/r", "raw"),
+        ("runs/act/pipette_PickUpTestTube-v1_augmented", "evals/a", "augmented"),
+    ]
+    assert one_path_each("evaluate a/ and b/ into c/ and d/ and e/", []) == []  # lists of different lengths
+    assert one_path_each("evaluate a/ and b/ on it", []) == ["evaluate a/ on it", "evaluate b/ on it"]
+
+
+def test_a_suite_is_named_by_all_its_words_apart_and_a_model_name_is_no_task() -> None:
+    [(_, args)] = commands("evaluate runs/p on the paper benchmark, the paraphrased one")
+    assert args["suite_id"] == "pipette/PaperBenchmarkParaphrased-v1"
+    [(_, args)] = commands("train smolvla on the tube pick-up task with the SmolVLM2 backbone from /m/smolvlm2")
+    assert args["vlm_path"] == "/m/smolvlm2"
+
+
+def test_numbers_inside_a_quoted_description_or_a_compound_word_are_no_options() -> None:
+    [(_, args)] = commands('new task: "put 3 tubes in the 24-well rack", check it on 5 seeds')
+    assert args["episodes"] == 5 and args["description"] == "put 3 tubes in the 24-well rack"
+
+
+def test_what_no_command_does_is_refused_with_the_reason() -> None:
+    with pytest.raises(Unsupported, match="Hugging Face Hub"):
+        AGENT.plan("upload data/a.h5 converted to the hugging face hub")
+
+
+def test_work_no_task_does_is_refused_with_the_new_task_command() -> None:
+    with pytest.raises(AgentError, match="no registered task does 'closing the fume hood sash'"):
+        AGENT.plan("record 4 demos of closing the fume hood sash")
