@@ -119,6 +119,7 @@ class ClauseReader:
             if tail in PARTICLES:
                 self.separable.setdefault(verb, []).append((tail, phrase, action))
         self.implied = dict(words.implied_targets)
+        self.fillers = set(words.fillers)
         self.unsupported_verbs = {p: group for group, u in words.unsupported.items() for p in u.verbs}
         self.part_words = {p: name for name, ps in words.parts.items() for p in ps}
         self.preps = words.preposition_roles()
@@ -235,7 +236,9 @@ class ClauseReader:
             for j in range(i + 2, min(i + 8, len(tokens))):
                 if tokens[j].kind == "punct" or tokens[j].text in ("and", "then"):
                     break
-                last = j + 1 == len(tokens) or tokens[j + 1].kind == "punct" or tokens[j + 1].text in ("and", "then")
+                rest = tokens[j + 1 :]
+                end = next((k for k, t in enumerate(rest) if t.kind == "punct" or t.text in ("and", "then")), len(rest))
+                last = all(t.text in self.fillers for t in rest[:end])  # "take it off again afterwards"
                 if tokens[j].text == tail and last:  # "out of the rack" is where from, not a particle
                     return (action, phrase, 1), j
         return None

@@ -28,6 +28,7 @@ from pipette_cli.authoring.text import (
 )
 from pipette_cli.language.assets import Vocabulary
 from pipette_cli.language.lexicon import robot_mentions
+from pipette_cli.language.phrases import Token
 from pipette_cli.language.understanding import not_understood_line
 from pipette_cli.taskgen.plan import (
     INSTRUMENT_ACTIONS,
@@ -60,6 +61,12 @@ class Builder:
     objects: list[Obj] = field(default_factory=list)
     steps: list[RawStep] = field(default_factory=list)
     remarks: list[str] = field(default_factory=list)
+    introduced: list[Obj] = field(default_factory=list)
+    """Objects a goal clause names before the steps ("I need a 50 mL falcon tube spun down: ...")."""
+
+    def introduce(self, goal: Clause) -> None:
+        """The objects ``goal`` names, for the steps to refer to ("..., load the tube")."""
+        self.introduced += [self.obj(m, goal, "object", []) for m in goal.objects() if not m.is_pronoun]
 
     # ------------------------------------------------------------------ objects
     def _static(self, obj: Obj) -> bool:
@@ -305,6 +312,10 @@ class Builder:
     # ------------------------------------------------------------------ finishing
     def finish(self, robot: str | None, thresholds: dict[str, float], instruction: str) -> TaskPlanSpec:
         self._fill_elided()
+        used = [o for s in self.steps for o in (s.object, s.target, s.source) if o is not None]
+        self.objects = [
+            o for o in self.objects if all(o is not i for i in self.introduced) or any(o is u for u in used)
+        ]
         plan, remarks = assemble(self.vocab, self.objects, self.steps, robot, thresholds, instruction)
         self.remarks += remarks
         return plan
@@ -336,6 +347,29 @@ def instruction_from(description: str) -> str:
     return (text[:1].upper() + text[1:] + ".") if text else text
 
 
+def _is_goal(steps: list[list[Token]], text: str, reader: ClauseReader) -> bool:
+    """Whether the first of ``steps`` only says what the task is for, before a colon and the steps
+    that do it ("I need a 50 mL falcon tube spun down: open the centrifuge, ..."): no verb of its own."""
+    first = steps[0] if len(steps) > 1 else []
+    before, colon, _ = text.partition(":")
+    words = [t.text for t in first if t.kind == "word"]
+    return (
+        bool(colon and words)
+        and not any(reader.is_verb(first, k) for k in range(len(first)))
+        and re.search(rf"\b{re.escape(words[-1])}\s*$", before.lower()) is not None
+    )
+
+
+def _goal_words(goal: Clause, builder: Builder, vocab: Vocabulary) -> list[str]:
+    """The words of a goal clause (:func:`_is_goal`) the plan does not explain: not a function word,
+    and not naming an object the plan uses."""
+    planned = {o.wanted.kind for o in builder.objects}
+    named = [m for m in goal.objects() if m.kind in planned]
+    spans = {k for m in named for k in range(m.start, m.end)}
+    skip = {*vocab.words.fillers, *vocab.words.articles, *vocab.words.pronouns}
+    return [t.text for k, t in enumerate(goal.tokens) if t.kind == "word" and k not in spans and t.text not in skip]
+
+
 def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     """Parse ``description`` into a plan (see the module docstring).
 
@@ -356,12 +390,16 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     if len(robots) > 1:
         raise PlanError(f"contradictory request: it names {len(robots)} robots ({', '.join(robots)}); a task has one")
     reader = ClauseReader(vocab)
-    parts, earlier, conditions = subordinates(split_steps(text, reader.is_verb, vocab), reader.is_verb)
+    steps = split_steps(text, reader.is_verb, vocab)
+    goal = reader.read(steps.pop(0)) if _is_goal(steps, text, reader) else None
+    parts, earlier, conditions = subordinates(steps, reader.is_verb)
     clauses = [reader.read(part) for part in parts]
     if not clauses:
         raise PlanError("the description is empty; say what the robot should do, e.g. 'Pick up the test tube'")
     refuse_unsupported(clauses, vocab)
     builder = Builder(vocab)
+    if goal is not None:
+        builder.introduce(goal)
     said = [w for w in conditions if w in CONDITIONS or w not in {*words.articles, *words.fillers}]
     unknown = refuse_unknown(clauses, vocab) + said  # a condition's opening word and what it says
     try:
@@ -373,6 +411,7 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
                 main, sub = starts[earlier[i]], starts[i]
                 builder.steps[main:] = builder.steps[sub:] + builder.steps[main:sub]
         plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
+        unknown += _goal_words(goal, builder, vocab) if goal is not None else []
     except PlanError as exc:
         if not unknown:
             raise
