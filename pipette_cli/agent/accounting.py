@@ -31,6 +31,7 @@ from pipette_cli.agent.numbers import in_metres, length_phrases
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import ANSWER_PREFIX, RecipeSpec, WorkflowVocabularySpec, distributed
+from pipette_cli.errors import PipetteError
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import LIST_MARK, Separators, pieces
 from pipette_cli.language.lexicon import short_name, stem
@@ -302,6 +303,8 @@ class Accountant:
             self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
+        if param.name == "suite_id":  # "the paper benchmark with paraphrased instructions": its name's words
+            phrases += self._suite_name(value).split()
         if param.kind == "path":  # "the SmolVLM2 backbone from /models/smolvlm2": the folder's name
             phrases += [lowered.rstrip("/").rsplit("/", 1)[-1].rsplit(".", 1)[0]]
         policy = self.vocab.policies.get(lowered)
@@ -313,6 +316,16 @@ class Accountant:
             words.phrase(phrase)
         for phrase in param.names:
             words.phrase(phrase)
+
+    def _suite_name(self, suite: str) -> str:
+        """The words of a registered suite's name ("the paper's 12 tasks, paraphrased instructions")."""
+        from pipette_cli.evaluation.suites import load_suites  # deferred: suites only when one is planned
+
+        try:
+            found = load_suites(self.index.registry).get(suite)
+        except PipetteError:
+            return ""
+        return words_of(found.spec.name) if found is not None else ""
 
     def _asset_kinds(self, words: _Words, asset: str) -> None:
         """The names of an asset's kinds, in the plural too ("the beakers" for ``beaker_50ml``)."""

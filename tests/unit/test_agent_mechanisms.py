@@ -97,6 +97,8 @@ def test_paths_listed_pairwise_make_one_step_per_pair_labelled_by_their_folders(
 def test_a_suite_is_named_by_all_its_words_apart_and_a_model_name_is_no_task() -> None:
     [(_, args)] = commands("evaluate runs/p on the paper benchmark, the paraphrased one")
     assert args["suite_id"] == "pipette/PaperBenchmarkParaphrased-v1"
+    [(_, args)] = commands("evaluate runs/p on the nominal suite of the augmentation experiment")  # its name's words
+    assert args["suite_id"] == "pipette/AugmentationNominal-v1"
     [(_, args)] = commands("train smolvla on the tube pick-up task with the SmolVLM2 backbone from /m/smolvlm2")
     assert args["vlm_path"] == "/m/smolvlm2"
 
