@@ -631,14 +631,16 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
 
 
 def comparisons(cells: Cells, tasks: list[str], suite: str = "nominal") -> list[dict[str, Any]]:
-    """The plan's tests on one suite: McNemar exact per task and pooled over tasks, Holm-adjusted
+    """The plan's tests on one suite: McNemar exact per task and pooled over tasks (where both
+    settings have two tasks or more: pooled over one it is that task's test again), Holm-adjusted
     (primary: per task over the tasks, the pooled test alone; every other family: over all its
     tests)."""
     rows: list[dict[str, Any]] = []
     for family, pairs in families(suite):
         found = []
         for a, b in pairs:
-            for task in [*tasks, "pooled"]:
+            both = [t for t in tasks if cells.get((t, a)) and cells.get((t, b))]
+            for task in [*tasks, "pooled"] if len(both) > 1 else tasks:  # pooled over one task: the same test
                 group = tasks if task == "pooled" else [task]
                 left = {k: v for t in group for k, v in cells.get((t, a), {}).items()}
                 right = {k: v for t in group for k, v in cells.get((t, b), {}).items()}
