@@ -370,6 +370,13 @@ def _goal_words(goal: Clause, builder: Builder, vocab: Vocabulary) -> list[str]:
     return [t.text for k, t in enumerate(goal.tokens) if t.kind == "word" and k not in spans and t.text not in skip]
 
 
+def _without_purposes(unknown: list[str], builder: Builder, vocab: Vocabulary) -> list[str]:
+    """``unknown`` without the words that say what an object of the plan is for ("... in the ice
+    bucket to keep it cold": vocabulary ``purposes``)."""
+    said = {w for o in builder.objects for w in vocab.words.purposes.get(o.wanted.kind, [])}
+    return [p for p in unknown if not set(p.split()) <= said]
+
+
 def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
     """Parse ``description`` into a plan (see the module docstring).
 
@@ -412,6 +419,7 @@ def parse_description(description: str, vocab: Vocabulary) -> ParseResult:
                 builder.steps[main:] = builder.steps[sub:] + builder.steps[main:sub]
         plan = builder.finish(robots[0] if robots else None, thresholds, instruction_from(description))
         unknown += _goal_words(goal, builder, vocab) if goal is not None else []
+        unknown = _without_purposes(unknown, builder, vocab)
     except PlanError as exc:
         if not unknown:
             raise

@@ -18,7 +18,7 @@ from functools import cache
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from pipette_cli.assets.library import ASSET_PATH_ENV, load_asset_library
 from pipette_cli.errors import SpecError
@@ -70,6 +70,9 @@ class VocabularySpec(Spec):
     bench: list[Phrase]
     actions: dict[str, list[Phrase]]
     implied_targets: dict[Phrase, str] = {}
+    purposes: dict[str, list[str]] = {}
+    """A kind -> words that say what it is for ("ice bucket": cold): said in a task that uses one
+    ("... into the ice bucket to keep it cold"), they are understood; elsewhere they are not."""
     runs: list[Phrase] = []
     buttons: dict[str, list[Phrase]] = {}
     colours: list[str] = []
@@ -88,6 +91,13 @@ class VocabularySpec(Spec):
     modifiers: dict[Phrase, str]
     numbers: dict[Phrase, float]
     unsupported: dict[str, UnsupportedSpec]
+
+    @model_validator(mode="after")
+    def _purposes_name_kinds(self) -> VocabularySpec:
+        unknown = sorted(set(self.purposes) - set(self.kinds))
+        if unknown:
+            raise ValueError(f"purposes names no kind: {', '.join(unknown)}")
+        return self
 
     def preposition_roles(self) -> list[tuple[Phrase, str]]:
         """Every preposition phrase with its role (``near`` for the relations' phrases), longest first."""

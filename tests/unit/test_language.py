@@ -3,12 +3,18 @@ name resolver and the robot names, on their own."""
 
 from __future__ import annotations
 
-from pipette_cli.language.assets import load_vocabulary
+from pathlib import Path
+
+import pytest
+
+from pipette_cli.errors import SpecError
+from pipette_cli.language.assets import VOCABULARY_FILE, VocabularySpec, load_vocabulary, vocabulary_files
 from pipette_cli.language.clauses import Separators, pieces, split_clauses
 from pipette_cli.language.lexicon import robot_mentions
 from pipette_cli.language.mentions import find_mentions, names_in
 from pipette_cli.language.phrases import find_phrase
 from pipette_cli.language.understanding import not_understood_line, refused_under_yes
+from pipette_cli.specs.yaml_io import read_spec
 
 SEPARATORS = Separators(
     strong=("then", "and then", "after that", "next"),
@@ -72,3 +78,13 @@ def test_optional_words_may_open_a_phrase() -> None:
 def test_an_arrow_before_a_path_reads_as_to() -> None:
     found = find_mentions("augment (data/a.h5 -> data/b.h5) and x.h5=>y.h5")
     assert [(m.path, m.before.split()[-1]) for m in found.paths[1::2]] == [("data/b.h5", "to"), ("y.h5", "to")]
+
+
+def test_purposes_name_kinds_of_the_vocabulary(tmp_path: Path) -> None:
+    vocab = load_vocabulary()
+    assert set(vocab.words.purposes) <= set(vocab.kinds) and "cold" in vocab.words.purposes["ice bucket"]
+    text = vocabulary_files()[0].read_text().replace("  ice bucket: [cold,", "  ice box thing: [cold,", 1)
+    broken = tmp_path / VOCABULARY_FILE
+    broken.write_text(text)
+    with pytest.raises(SpecError, match="purposes names no kind: ice box thing"):
+        read_spec(broken, VocabularySpec)
