@@ -259,7 +259,9 @@ class Accountant:
             for item in value.split(","):
                 self._value(words, param, item.strip())
             return
-        if isinstance(value, str) and (param.name in TASK_PARAMS or value in self.index.terms):
+        if isinstance(value, str) and (
+            (param.name in TASK_PARAMS and param.kind == "task") or value in self.index.terms
+        ):
             for task in value.split(","):
                 self._task(words, task.strip())
         elif isinstance(value, bool):
@@ -303,6 +305,8 @@ class Accountant:
             self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
+        if param.comma_list and "+" in value:  # "the light+cam variant only"
+            phrases.append(f"{lowered} (variant|variants|perturbation|perturbations)? (only)?")
         if param.name == "suite_id":  # "the paper benchmark with paraphrased instructions": its name's words
             phrases += self._suite_name(value).split()
         if param.kind == "path":  # "the SmolVLM2 backbone from /models/smolvlm2": the folder's name

@@ -14,7 +14,7 @@ from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, replace
 from typing import Any
 
-from pipette_cli.agent.catalog import AgentError, CommandCatalog, CommandInfo, is_empty
+from pipette_cli.agent.catalog import TASK_PARAMS, AgentError, CommandCatalog, CommandInfo, is_empty
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.mentions import SAVE, assign_paths, names_no_file, option_words
 from pipette_cli.agent.numbers import read_numbers
@@ -109,7 +109,7 @@ class ArgumentReader:
             m for m in files_of_parts(mentions.paths) if not (runs_a_task and self._unknown_task(m.path, problems))
         ]
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
-            paths = [m for m in paths if SAVE.search(m.before)]
+            paths = [m for m in paths if SAVE.search(m.before) or names_no_file(m.path)]  # "..., id mylab/X-v1"
         assign_paths(info, paths, args, self.catalog, self.readers, self.vocab.file_inputs(info.name))
         saved = [m.path for m in paths]
         policy = self.policy(words)
@@ -169,8 +169,9 @@ class ArgumentReader:
             return
         unknown = self.index.unknown_name(raw)
         cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
-        for name in info.params:  # "the paper grid" is a value of --variants, not the paper's tasks
-            for phrase in self._value_phrases(name):
+        for name, option in info.params.items():  # "the paper grid" is a value of --variants, not the paper's tasks
+            names = [n for n in option.names if " " in n and name not in TASK_PARAMS]  # "light scale 0.6": no balance
+            for phrase in [*self._value_phrases(name), *names]:
                 raw = phrase_pattern(phrase).sub(" ", raw)
         for phrase in [*self.vocab.happened, *self.vocab.resumes]:  # "was stopped", "resume it": no task's words
             raw = phrase_pattern(phrase).sub(" ", raw)
@@ -262,6 +263,12 @@ class ArgumentReader:
                     )
                 if m:
                     found.append((m.start(), -len(m.group(0)), value))
+            if param.comma_list:  # "the light+cam variant": atoms joined as the CLI writes them
+                atoms = set(self.vocab.values.get(param.name, {})) | set(param.choices)
+                for m in re.finditer(r"(?<![\w+-])([a-z]+(?:\+[a-z]+)+)(?![\w+-])", words):
+                    if set(m.group(1).split("+")) <= atoms:  # its atoms are said by it, not on their own
+                        found = [f for f in found if f[2].partition("*")[0] not in m.group(1).split("+")]
+                        found.append((m.start(), -len(m.group(1)), m.group(1)))
             if found and param.comma_list and "NAME*N" in param.help:  # "three object-pose draws": object*3
                 found = [(at, n, self._counted(words, at, value, alone=len(found) == 1)) for at, n, value in found]
             if found and param.comma_list and not corrected:  # "object pose and camera shake"

@@ -135,7 +135,8 @@ class CommandInfo:
         return [p.name for p in self.params.values() if p.required]
 
     def task_param(self) -> ParamInfo | None:
-        return next((self.params[p] for p in TASK_PARAMS if p in self.params), None)
+        """The parameter that names a registered task (kind ``task``; ``new-task --id``, a new id, is none)."""
+        return next((self.params[p] for p in TASK_PARAMS if p in self.params and self.params[p].kind == "task"), None)
 
 
 def is_empty(value: Any) -> bool:

@@ -93,10 +93,15 @@ def assign_paths(
         barred = set(choice) if any(not free(info.params[c]) for c in choice) else set()
         writes = [p for p in options if p.writes and free(p) and p.name not in barred]
         folder = mention.path.endswith("/")  # "GIFs of them in videos/incub/": an output, not the input file
+        suffix = mention.path.rsplit(".", 1)[-1].lower() if FILE_SUFFIX.search(mention.path) else ""
+        other_file = bool(suffix) and suffix not in (readers or {})  # "a gif of it at x.gif": never the .h5 read
         reads = [
             p
             for p in options
-            if not p.writes and free(p) and p.name not in barred and not (folder and p.name in file_inputs)
+            if not p.writes
+            and free(p)
+            and p.name not in barred
+            and not ((folder or other_file) and p.name in file_inputs)
         ]
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
@@ -108,6 +113,7 @@ def assign_paths(
             reads[0] if len(reads) == 1 else None,
             writes[0] if len(options) == 1 and writes else None,
             writes[0] if folder and len(writes) == 1 else None,  # a folder no input takes: where output goes
+            writes[0] if other_file and len(writes) == 1 else None,  # a file no input reads ("at x.gif")
         ]
         target = next((p for p in candidates if p is not None), None)
         suffix = mention.path.rsplit(".", 1)[-1].lower() if "." in mention.path else ""

@@ -47,6 +47,9 @@ def _longest_run(name: list[str], words: list[str], holding: AbstractSet[str] | 
     return best
 
 
+NEW_NAME = ("id", "named", "called", "name")
+"""Words before a name something is to get ("draft a task ..., id mylab/X-v1"): not a task's name."""
+
 INSTRUCTION_RUN = 3
 """Words of a task's instruction a request must repeat in a row to pick it among tied tasks."""
 
@@ -236,9 +239,15 @@ class TaskIndex:
         known = {short_name(t).lower() for t in self.registry.ids()}
         policies = {w for w, _ in self.vocab.policy_words()}
         things = {w for kind, said in self.vocab.refers.items() if kind != "task" for w in said if w.isalpha()}
+        tools = {w.lower() for w in self.vocab.filler}  # "MuJoCo", "LeRobot": the tools', never a task's
         for m in re.finditer(r"(?<![\w-])(?:[a-z]+/)?[A-Z][a-z0-9]+(?:[A-Z][a-z0-9]*)+(?:-v\d+)?\b", text):
             token = m.group(0)
             if next(iter(text[m.end() :].lower().split()), "") in things:  # "the SmolVLM2 backbone": a model's name
+                continue
+            if token.lower() in tools or token.lower() in things:
+                continue
+            before = text[: m.start()].lower().split()[-1:]
+            if before and before[0].strip(":=") in NEW_NAME:  # "id mylab/RackConical15-v1": the name to give
                 continue
             word = re.match(r"[\w-]*", text[m.start() :]).group(0).lower()  # type: ignore[union-attr]  # [\w-]* always matches
             if short_name(token).lower() not in known and token.lower() not in policies and word not in policies:

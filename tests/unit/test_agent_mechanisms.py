@@ -116,3 +116,55 @@ def test_what_no_command_does_is_refused_with_the_reason() -> None:
 def test_work_no_task_does_is_refused_with_the_new_task_command() -> None:
     with pytest.raises(AgentError, match="no registered task does 'closing the fume hood sash'"):
         AGENT.plan("record 4 demos of closing the fume hood sash")
+
+
+# --- batch sixteen (tests/fixtures/agent/batch_sixteen_draft.yaml), on other wordings
+
+
+def test_a_file_of_a_kind_no_input_reads_is_where_the_step_writes() -> None:
+    steps = commands(
+        "record 3 demos of the tube pick-up task into data/a.h5, then make a gif of episode 1 at out/e1.gif"
+    )
+    assert steps[1] == (
+        "data video",
+        {"episode": [1], "out": "out/e1.gif", "video_format": "gif", "file": StepRef(from_step=1)},
+    )
+
+
+def test_option_names_are_no_task_words_and_joined_atoms_are_one_variant() -> None:
+    [(_, args)] = commands("augment data/a.h5 of the water bath lid task, object+light variant only, light scale 0.8")
+    assert args["task_id"] == "pipette/OpenWaterBathLid-v1"  # "scale" of "light scale" is no balance
+    assert args["variants"] == "object+light" and args["light_scale"] == 0.8
+
+
+def test_tool_names_and_new_ids_are_no_task_names() -> None:
+    [(command, args)] = commands("open the MuJoCo viewer on the tube pick-up task")
+    assert command == "sim view" and args["task_id"] == "pipette/PickUpTestTube-v1"
+    [(command, args)] = commands('new task "put the 15 mL tube in the rack", id lab/TubeInRack-v1')
+    assert command == "new-task" and args["task_id"] == "lab/TubeInRack-v1"
+
+
+def test_a_question_about_what_was_recorded_is_answered() -> None:
+    [(command, args)] = commands("have we collected any demos of the tube pick-up task so far?")
+    assert command == "answer demos" and args["task_id"] == "pipette/PickUpTestTube-v1"
+
+
+@pytest.mark.parametrize(
+    "request_text",
+    ["run the pick-up policy on a real UR5e in our lab", "connect the served policy via ROS 2 to the arm"],
+)
+def test_driving_hardware_or_ros_is_refused_with_what_pipette_offers(request_text: str) -> None:
+    with pytest.raises(Unsupported, match="ZeroMQ endpoint"):
+        AGENT.plan(request_text)
+    [(command, _)] = commands("serve ckpt/a so my real robot can connect from other machines")  # a client: fine
+    assert command == "serve"
+
+
+def test_words_for_offline_steps_reliability_and_remote_clients_are_accounted() -> None:
+    [(_, args)] = commands("train act on the tube pick-up task, the machine is air-gapped")
+    assert args["offline"] is True
+    [(_, args)] = commands("time 300 control steps of the tube pick-up scene")
+    assert args["steps"] == 300
+    assert commands("how reliable is the scripted expert of the tube pick-up task?")[0][0] == "experts check"
+    [(_, args)] = commands("serve ckpt/a on tcp://0.0.0.0:6000, remote clients are welcome")
+    assert args["allow_remote"] is True
