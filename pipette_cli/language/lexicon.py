@@ -83,9 +83,21 @@ def suite_words(registry: Registry) -> dict[str, list[str]]:
     }
 
 
+def tag_words(registry: Registry) -> dict[str, list[str]]:
+    """Tag or category -> its words, singular and plural ("protocol": "the protocols")."""
+    out: dict[str, list[str]] = {}
+    for tid in registry.ids():
+        spec = registry.get(tid)
+        for tag in [*spec.tags, spec.category]:
+            said = re.sub(r"[-_]+", " ", tag)
+            out[tag] = sorted({tag, said, f"({said}|{said}s)"}, key=len, reverse=True)
+    return out
+
+
 def registry_values(registry: Registry) -> dict[str, dict[str, list[str]]]:
-    """Option values the registries name: ``robot`` (robot id -> names) and ``suite_id``."""
-    return {"robot": robot_words(), "suite_id": suite_words(registry)}
+    """Option values the registries name: ``robot`` (robot id -> names), ``suite_id`` and ``tag``
+    (its tags and categories)."""
+    return {"robot": robot_words(), "suite_id": suite_words(registry), "tag": tag_words(registry)}
 
 
 def robot_mentions(text: str) -> tuple[str, list[str]]:

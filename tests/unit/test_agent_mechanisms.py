@@ -168,3 +168,9 @@ def test_words_for_offline_steps_reliability_and_remote_clients_are_accounted() 
     assert commands("how reliable is the scripted expert of the tube pick-up task?")[0][0] == "experts check"
     [(_, args)] = commands("serve ckpt/a on tcp://0.0.0.0:6000, remote clients are welcome")
     assert args["allow_remote"] is True
+
+
+def test_a_listing_asked_as_json_is_tasks_list_with_a_registered_tag() -> None:
+    assert commands("print the piper tasks in json") == [("tasks list", {"tag": "piper", "as_json": True})]
+    assert commands("list the protocols as json") == [("tasks list", {"tag": "protocol", "as_json": True})]
+    assert commands("list the protocols")[0][0] == "answer tasks"  # no JSON asked: answered
