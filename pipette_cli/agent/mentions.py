@@ -116,7 +116,6 @@ def assign_paths(
             writes[0] if other_file and len(writes) == 1 else None,  # a file no input reads ("at x.gif")
         ]
         target = next((p for p in candidates if p is not None), None)
-        suffix = mention.path.rsplit(".", 1)[-1].lower() if "." in mention.path else ""
         others = [c for c in (readers or {}).get(suffix, []) if c != info.name]
         if target is None and others:  # "train on data/x.h5": a file this command does not read
             said = ", ".join(f"pipette {c}" for c in others)
