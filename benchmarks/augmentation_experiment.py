@@ -101,11 +101,15 @@ VARIANTS = {
 }
 VARIANTS |= {"aug_all_seg": VARIANTS["aug_all"], "aug_object_seg": VARIANTS["aug_object"]}
 """Amendment 5: the same variants built by the segmented retargeting (the code after 2740d3a)."""
+VARIANTS["aug_all_dart"] = "original,object+light+cam+table+noise*5"
+SETTING_ATOMS: dict[str, dict[str, dict[str, Any]]] = {"aug_all_dart": {"noise": {"corrective": True}}}
+"""Amendment 10: aug_all's variants with corrective joint noise (``pipette augment``'s sigma and bound),
+whose episodes record the demonstrated targets while the noisy ones run."""
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
 tasks whose skill program hands the held object over to another object (:func:`segmented`)."""
-EPOCH_MATCHED = {"aug_all_ep": "aug_all", "more_demos_ep": "more_demos"}
+EPOCH_MATCHED = {"aug_all_ep": "aug_all", "more_demos_ep": "more_demos", "aug_all_dart_ep": "aug_all_dart"}
 """Amendment 6: the data of the setting named, trained for as many passes over it as ``raw`` gets in
 S steps (:func:`matched_steps`)."""
 REPLICATE_SEEDS = (1001, 1002)
@@ -113,18 +117,26 @@ REPLICATES = {f"{s}_seed{seed}": (s, seed) for seed in REPLICATE_SEEDS for s in 
 """Amendment 8: the primary comparison's settings trained again with other training seeds on the same
 data, evaluated on the nominal and shifted suites; run after the registered cells (``--settings``)."""
 SUITE_SETTINGS = {
-    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES),
-    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES),
-    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg", "aug_all_ep"),
+    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart"),
+    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart"),
+    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg", "aug_all_ep", "aug_all_dart", "aug_all_dart_ep"),
 }
 """The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1; the
-segmented ones: amendment 5; the epoch-matched ones: amendment 6; the replicates: amendment 8)."""
+segmented ones: amendment 5; the epoch-matched ones: amendment 6; the replicates: amendment 8;
+the corrective ones: amendment 10)."""
 PRIMARY = [("raw", "aug_all")]
 AMENDMENT_1 = [("raw", "aug_clutter"), ("raw", "aug_all"), ("aug_all", "aug_clutter")]
 AMENDMENT_5 = [("aug_all", "aug_all_seg"), ("raw", "aug_all_seg")]
 """On every suite; and on the shifted suite ``aug_object_seg`` vs ``aug_object``."""
 AMENDMENT_6 = [("raw", "aug_all_ep"), ("aug_all", "aug_all_ep"), ("more_demos_ep", "aug_all_ep")]
 """On every suite (the clutter suite has no ``more_demos_ep``: that pair is left out there)."""
+AMENDMENT_10 = [
+    ("aug_all", "aug_all_dart"),
+    ("raw", "aug_all_dart"),
+    ("aug_all_ep", "aug_all_dart_ep"),
+    ("raw", "aug_all_dart_ep"),
+]
+"""On every suite: the change itself and against raw; at matched passes against amendment 6's cell."""
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -242,7 +254,8 @@ def demonstrations(ex: Experiment, task: TaskSpec, count: int, name: str) -> Pat
 
 def augmented(ex: Experiment, task: TaskSpec, raw: Path, setting: str) -> tuple[Path, dict[str, Any]]:
     out = ex.folder(task, f"{setting}.h5")
-    spec = AugmentSpec(variants=make_variants(VARIANTS[setting].split(","), default_atoms(**ATOMS)))
+    atoms = default_atoms(**(ATOMS | SETTING_ATOMS.get(setting, {})))
+    spec = AugmentSpec(variants=make_variants(VARIANTS[setting].split(","), atoms))
     result = augment(task, raw, out, spec, rejected=ex.folder(task, f"{setting}_rejected.h5"), workers=ex.workers)
     say(f"{task.id} {setting}: augmentation kept {result.report['kept']}/{result.report['attempts']}")
     return out, result.report
@@ -422,11 +435,21 @@ def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]
     return sources
 
 
+def frames_of(ex: Experiment, task: TaskSpec, setting: str) -> int:
+    """Control steps (frames) in a setting's demonstration file."""
+    return sum(ref.summary.num_steps for ref in scan(ex.folder(task, f"{setting}.h5")).episodes)
+
+
 def matched_steps(ex: Experiment, task: TaskSpec, setting: str, steps: int, unit: int = 500) -> int:
     """Training steps that give ``setting``'s data as many passes as ``raw``'s get in ``steps``: ``steps``
     times the ratio of their control steps (frames), rounded up to ``unit`` (amendment 6)."""
-    frames = [sum(ref.summary.num_steps for ref in scan(ex.folder(task, f"{s}.h5")).episodes) for s in (setting, "raw")]
+    frames = [frames_of(ex, task, s) for s in (setting, "raw")]
     return max(steps, -(-steps * frames[0] // (frames[1] * unit)) * unit)
+
+
+MATCHED_ABOVE = {"aug_all_dart_ep": 1.5}
+"""Amendment 10: a matched-passes setting trained only where its data hold more than this many times
+raw's frames (below it, the S-step setting is already close to matched)."""
 
 
 def segmented(task: TaskSpec) -> bool:
@@ -488,6 +511,10 @@ def run_task(
             total = max(ex.pilot_steps)
             run = trained(ex, task, setting, source, total, every)
         elif setting in EPOCH_MATCHED:
+            ratio = frames_of(ex, task, base) / frames_of(ex, task, "raw")
+            if ratio <= MATCHED_ABOVE.get(setting, 0.0):
+                say(f"{task.id} {setting}: {base} holds {ratio:.2f} x raw's frames, not above {MATCHED_ABOVE[setting]}")
+                continue
             total = matched_steps(ex, task, EPOCH_MATCHED[setting], steps)
             run = trained(ex, task, setting, source, total, total // 4)
         else:  # a new machine has no pilot run: raw's own S-step run (amendment 7)
@@ -538,7 +565,7 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
     """diagnosis.json in ``docs``: :func:`image_reliance` of every trained setting (no suite seed)."""
     found: dict[str, dict[str, Any]] = {}
     for task in tasks:
-        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED):
+        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, "aug_all_dart"):
             base = EPOCH_MATCHED.get(setting)
             if base is not None and not ex.folder(task, f"{base}.h5").is_file():
                 continue
@@ -626,8 +653,19 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
     """The comparisons of a suite by family (amendment 1's on the clutter suite)."""
     extra = AMENDMENT_5 + ([("aug_object", "aug_object_seg")] if suite == "shifted" else [])
     if suite == "clutter":
-        return [("amendment 1", AMENDMENT_1), ("amendment 5", extra), ("amendment 6", AMENDMENT_6[:2])]
-    return [("primary", PRIMARY), ("secondary", SECONDARY), ("amendment 5", extra), ("amendment 6", AMENDMENT_6)]
+        return [
+            ("amendment 1", AMENDMENT_1),
+            ("amendment 5", extra),
+            ("amendment 6", AMENDMENT_6[:2]),
+            ("amendment 10", AMENDMENT_10),
+        ]
+    return [
+        ("primary", PRIMARY),
+        ("secondary", SECONDARY),
+        ("amendment 5", extra),
+        ("amendment 6", AMENDMENT_6),
+        ("amendment 10", AMENDMENT_10),
+    ]
 
 
 def comparisons(cells: Cells, tasks: list[str], suite: str = "nominal") -> list[dict[str, Any]]:
@@ -799,9 +837,19 @@ def made_by(status: DatasetStatus) -> list[str]:
 
 
 def data_code(ex: Experiment, task: TaskSpec) -> dict[str, list[str]]:
-    """The code that made each of ``task``'s datasets in the work folder, by file: a setting whose data
-    another commit than the run's made shows here (amendment 8)."""
-    return {path.name: made_by(scan(path)) for path in sorted(ex.folder(task).glob("*.h5"))}
+    """The code that made each of ``task``'s datasets, by file: a setting whose data another commit than
+    the run's made shows here (amendment 8). What the work folder's files say joins what is kept in
+    ``data_code.json`` (restored from the kept folder), so a file lost with a machine (amendments 7 and
+    11) is still listed with the code that made it, and a file made again lists both."""
+    record = ex.folder(task, "data_code.json")
+    found: dict[str, list[str]] = json.loads(record.read_text()) if record.is_file() else {}
+    for path in sorted(ex.folder(task).glob("*.h5")):
+        found[path.name] = sorted({*found.get(path.name, []), *made_by(scan(path))})
+    found = dict(sorted(found.items()))
+    if found:
+        record.write_text(json.dumps(found, indent=2) + "\n")
+        kept(ex, record)
+    return found
 
 
 def array_digest(name: str, value: np.ndarray) -> str:
@@ -972,6 +1020,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
         "demos_per_task": {t.id: ex.demos_of(t) for t in tasks},
         "max_episodes": ex.max_episodes,
         "atoms": ATOMS,
+        "setting_atoms": SETTING_ATOMS,
         "variants": VARIANTS,
         "act_flags": list(SMALL_ACT),
         "train_threads": SMALL_ACT_THREADS,

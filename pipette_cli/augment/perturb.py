@@ -51,11 +51,23 @@ class VariantPlan:
     """The weight of that colour."""
     distractors: list[Distractor] = field(default_factory=list)
     """Objects put on the bench (the scene is rebuilt with them, :mod:`.clutter`)."""
+    noise: np.ndarray | None = None
+    """Corrective joint noise (``joint_noise`` with ``corrective``), ``(T, D - 1)``: added to the arm
+    targets the simulation executes, after any retargeting, while ``actions`` stay the clean targets
+    the episode records."""
     params: dict[str, Any] = field(default_factory=dict)
 
     @property
     def physics(self) -> bool:
         return self.actions is not None
+
+    def executed(self) -> np.ndarray | None:
+        """The actions the simulation runs: ``actions`` plus the corrective noise, if any."""
+        if self.actions is None or self.noise is None:
+            return self.actions
+        out = self.actions.copy()
+        out[:, :-1] += self.noise
+        return out
 
     @property
     def visual(self) -> bool:
@@ -103,8 +115,9 @@ def plan_variant(
 ) -> VariantPlan:
     """Sample the perturbations of ``variant`` for a demo with ``actions`` (T, D).
 
-    Order on the actions: speed resampling first, then joint noise on the arm targets. Without
-    actions (an evaluation episode's conditions) perturbations of the actions are refused.
+    Order on the actions: speed resampling first, then joint noise on the arm targets (corrective
+    noise is kept apart in ``plan.noise`` and added when the plan runs, :meth:`VariantPlan.executed`).
+    Without actions (an evaluation episode's conditions) perturbations of the actions are refused.
 
     Args:
         placement: Where the moved object starts (needed by ``object_pose`` with ``task_range``).
@@ -125,8 +138,11 @@ def plan_variant(
     if (noise := variant.get(JointNoiseSpec)) is not None:
         assert isinstance(noise, JointNoiseSpec)
         eta = formulas.joint_noise(rng, (len(physics_actions), physics_actions.shape[1] - 1), noise.sigma, noise.bound)
-        physics_actions = physics_actions.copy()
-        physics_actions[:, :-1] += eta
+        if noise.corrective:
+            plan.noise = eta  # executed, not recorded: the episode's actions stay the demonstrated targets
+        else:
+            physics_actions = physics_actions.copy()
+            physics_actions[:, :-1] += eta
         params["joint_noise"] = {**noise.model_dump(), "max_abs": float(np.abs(eta).max(initial=0.0))}
     if (obj := variant.get(ObjectPoseSpec)) is not None:
         assert isinstance(obj, ObjectPoseSpec)

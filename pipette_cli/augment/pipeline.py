@@ -126,7 +126,8 @@ def write_rollout(
                 stage=int(rollout.stage[t]),
                 instrument=rollout.instrument[t],
             )
-            writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t))
+            executed = None if rollout.executed is None else rollout.executed[t]
+            writer.add(obs, rollout.actions[t], rollout.states[t], (chunks or {}).get(t), executed)
         writer.close(rollout.verdict, rollout.final_state, rollout.final_sim_state)
     return writer.tmp
 
@@ -251,8 +252,11 @@ class DemoAugmenter:
                     world, s.seed, state0, plan.actions, plan.offset, plan.object_ramp, hand_off=hand_off
                 )
             if plan.physics:
-                assert plan.actions is not None
-                rollout = simulate(world, s.seed, state0, plan.actions, settle_steps=self.settle, offset=plan.offset)
+                executed = plan.executed()
+                assert plan.actions is not None and executed is not None
+                rollout = simulate(world, s.seed, state0, executed, settle_steps=self.settle, offset=plan.offset)
+                if plan.noise is not None:  # corrective: record the demonstrated targets, keep what ran
+                    rollout = rollout.relabelled(plan.actions)
             else:
                 rollout = original  # lights and cameras do not change the physics: verified above
             result.seconds["physics"] += time.perf_counter() - t0
@@ -294,9 +298,9 @@ class DemoAugmenter:
         if not self.spec.batch or not can_batch(self.world):
             return {}
         chosen = [
-            (v, p.actions)
+            (v, actions)
             for v, p in enumerate(plans)
-            if p.physics and p.offset is None and not p.distractors and p.actions is not None
+            if p.offset is None and not p.distractors and (actions := p.executed()) is not None
         ]
         if len(chosen) < 2:
             return {}
@@ -357,6 +361,7 @@ class DemoAugmenter:
             "augment_params": json.dumps(plan.params, sort_keys=True),
             "augment_seed": self.spec.seed,
             "augment_simulated": plan.physics,
+            "augment_actions": "executed" if rollout.executed is None else "corrective",
             "augment_source_file": str(job.ref.file),
             "augment_source_index": job.ref.index,
             "augment_source_uid": str(source.get("uid", "")),

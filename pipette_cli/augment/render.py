@@ -136,7 +136,7 @@ def render_rollout(
                 continue
             if cameras and t > 0:
                 mujoco.mj_setState(m, d, rollout.states[t - 1], SIM_STATE)
-                world.apply_action(rollout.actions[t - 1])
+                world.apply_action(rollout.applied[t - 1])
                 for _ in range(world.substeps):
                     mujoco.mj_step(m, d)
             elif cameras:

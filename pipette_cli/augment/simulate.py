@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -98,6 +98,21 @@ class Rollout:
     """Stages completed before each step."""
     instrument: np.ndarray
     """Instrument values before each step, ``(T, len(World.instrument_names))``."""
+    executed: np.ndarray | None = None
+    """The actions the simulation ran, where they differ from the recorded ``actions`` (corrective
+    joint noise records the clean targets); None: ``actions`` ran."""
+
+    @property
+    def applied(self) -> np.ndarray:
+        """The actions that reproduce ``states`` (what ran)."""
+        return self.actions if self.executed is None else self.executed
+
+    def relabelled(self, labels: np.ndarray) -> Rollout:
+        """This rollout recording ``labels`` as its actions, keeping what ran as ``executed``.
+        ``labels`` follows the actions given to :func:`simulate`: held at its last row through the
+        settle steps, cut where the evaluator decided."""
+        rows = np.minimum(np.arange(self.num_steps), len(labels) - 1)
+        return replace(self, actions=np.asarray(labels)[rows], executed=self.applied)
 
     @classmethod
     def from_record(cls, record: EpisodeRecord) -> Rollout:
@@ -119,6 +134,7 @@ class Rollout:
             instruction=instruction,
             stage=a.get("stage", np.zeros(steps, dtype=np.int32)),
             instrument=a.get("instrument_state", np.zeros((steps, 0))),
+            executed=a.get("executed_action"),
         )
 
     @property
@@ -227,7 +243,7 @@ def replay_check(world: World, seed: int, rollout: Rollout, offset: ObjectOffset
     restore(world, seed, rollout.states[0], offset)
     expected = [*rollout.states[1:], rollout.final_sim_state]
     verdict = Verdict()
-    for k, action in enumerate(rollout.actions):
+    for k, action in enumerate(rollout.applied):
         verdict = world.step(action)
         now = sim_state(world.model, world.data)
         if now.tobytes() != np.asarray(expected[k], dtype=np.float64).tobytes():

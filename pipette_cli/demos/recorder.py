@@ -251,6 +251,7 @@ class EpisodeWriter:
                 "instruction",
                 "stage",
                 "instrument",
+                "executed",
             )
         }
         self._images: dict[str, h5py.Dataset] = {}
@@ -282,12 +283,21 @@ class EpisodeWriter:
         return self._images[camera]
 
     def add(
-        self, obs: Observation, action: np.ndarray, state: np.ndarray, chunks: Mapping[str, bytes] | None = None
+        self,
+        obs: Observation,
+        action: np.ndarray,
+        state: np.ndarray,
+        chunks: Mapping[str, bytes] | None = None,
+        executed: np.ndarray | None = None,
     ) -> None:
         """Record control step ``obs.step``: the observation, the action about to be applied, and the
         simulator state before it (:func:`sim_state`). ``chunks`` may hold ``obs.images`` already
-        compressed with :func:`compress_frame` (e.g. by another thread while the next frame renders)."""
+        compressed with :func:`compress_frame` (e.g. by another thread while the next frame renders).
+        ``executed``: the action the simulation applied when the recorded one is another (a corrective
+        label); given for every step of an episode or for none, written as ``executed_action``."""
         k = self.num_steps
+        if k > 0 and (executed is not None) != bool(self._rows["executed"]):
+            raise DatasetError(f"step {obs.step}: an executed action is given for every step of an episode or none")
         for camera, frame in obs.images.items():
             dataset = self._image_dataset(camera, frame)
             last = self._last_chunk.get(camera)
@@ -302,6 +312,8 @@ class EpisodeWriter:
         rows = self._rows
         rows["state"].append(np.asarray(obs.state, dtype=np.float32))
         rows["action"].append(np.asarray(action, dtype=np.float64).copy())
+        if executed is not None:
+            rows["executed"].append(np.asarray(executed, dtype=np.float64).copy())
         rows["sim_state"].append(np.asarray(state, dtype=np.float64).copy())
         rows["sim_time"].append(obs.sim_time)
         rows["wall_time"].append(obs.wall_time)
@@ -336,6 +348,8 @@ class EpisodeWriter:
         g, rows = self.group, self._rows
         g.create_dataset("state", data=np.stack(rows["state"]))
         g.create_dataset("action", data=np.stack(rows["action"]))
+        if rows["executed"]:
+            g.create_dataset("executed_action", data=np.stack(rows["executed"]))
         g.create_dataset("sim_state", data=np.stack(rows["sim_state"]), compression="gzip", compression_opts=GZIP_LEVEL)
         g.create_dataset("sim_time", data=np.asarray(rows["sim_time"], dtype=np.float64)).attrs["unit"] = "s"
         g.create_dataset("wall_time", data=np.asarray(rows["wall_time"], dtype=np.float64)).attrs["unit"] = "s"

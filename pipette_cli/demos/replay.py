@@ -103,7 +103,7 @@ def replay_episode(path: Path, index: int, task: TaskSpec) -> ReplayReport:
         )
     record = read_episode(ref)
     states = record.arrays["sim_state"]
-    actions = record.arrays["action"]
+    actions = record.arrays.get("executed_action", record.arrays["action"])  # what ran (corrective noise records other)
     report = ReplayReport(index, ref.summary.seed, len(actions))
     report.spec_changed = record.attrs.get("task_spec_sha256") != task_spec_sha256(task)
     report.code_changed = code_change(record.attrs)

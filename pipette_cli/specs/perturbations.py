@@ -103,12 +103,17 @@ class JointNoiseSpec(PerturbationSpec):
     needs_demo: ClassVar[bool] = True
     sigma: float = Field(0.005, ge=0, description="rad, std of the joint-target noise; paper A.7")
     bound: float = Field(0.02, ge=0, description="rad, bound of the joint-target noise; paper A.7")
+    corrective: bool = Field(
+        False,
+        description="record the clean demonstrated targets as the actions while the simulation executes the noisy "
+        "ones (DART: the demonstrator's action at the perturbed state; the file keeps what ran as executed_action)",
+    )
 
     def scaled(self, factor: float) -> JointNoiseSpec:
         return self.model_copy(update={"sigma": self.sigma * factor, "bound": self.bound * factor})
 
     def magnitude(self) -> str:
-        return f"sigma={self.sigma:.3g},clip={self.bound:.3g}"
+        return f"sigma={self.sigma:.3g},clip={self.bound:.3g}" + (",corrective" if self.corrective else "")
 
 
 @PERTURBATIONS.register

@@ -354,3 +354,42 @@ def test_distractors_stand_clear_of_the_demo_and_are_verified_deterministic_and_
     )  # the expert's path stands in
     with pytest.raises(ValueError, match="drawn around a demonstration"):
         SuiteSpec.model_validate({**suite, "perturbations": [{"type": "speed"}]})
+
+
+def test_corrective_noise_records_the_demonstrated_targets_runs_the_noisy_ones_and_reverifies(
+    run, task, tmp_path_factory
+) -> None:
+    from pipette_cli.augment.specs import default_atoms, make_variants
+    from pipette_cli.demos.replay import replay_episode
+
+    raw = run[0]
+    atoms = default_atoms(noise={"corrective": True}, object={"task_range": 1.0})
+    spec = AugmentSpec(variants=make_variants(["noise*2", "speed+noise", "object+noise"], atoms), seed=4)
+    outs = []
+    for name in ("a", "b"):  # the same spec twice: the same labels and the same executed noise
+        folder = tmp_path_factory.mktemp(f"dart_{name}")
+        augment(task, raw, folder / "aug.h5", spec, rejected=folder / "rejected.h5", workers=1)
+        outs.append((folder / "aug.h5", folder / "rejected.h5"))
+    (out, rejected), (out_b, rejected_b) = outs
+    episodes = [read_episode(ref) for f in (out, rejected) for ref in scan(f).episodes]
+    again = [read_episode(ref) for f in (out_b, rejected_b) for ref in scan(f).episodes]
+    assert len(episodes) == 4 and sum(e.summary.success for e in episodes) >= 2
+    source = read_episode(scan(raw).episodes[0]).arrays["action"]
+    bound = JointNoiseSpec().bound
+    for episode, twin in zip(episodes, again, strict=True):
+        label, executed = episode.arrays["action"], episode.arrays["executed_action"]
+        assert label.tobytes() == twin.arrays["action"].tobytes()
+        assert executed.tobytes() == twin.arrays["executed_action"].tobytes()
+        assert episode.attrs["augment_actions"] == "corrective"
+        assert json.loads(episode.attrs["augment_params"])["joint_noise"]["corrective"] is True
+        arm = executed[:, :-1] - label[:, :-1]
+        assert 0 < np.abs(arm).max() <= bound + 1e-12 and np.array_equal(executed[:, -1], label[:, -1])
+        if episode.attrs["augment_variant"].startswith("noise@"):  # no speed, no object: the demo's own targets
+            held = source[np.minimum(np.arange(len(label)), len(source) - 1)]
+            assert np.array_equal(label, held)
+    # the states are what the executed actions make: the kept ones re-verify, the rejected ones replay as failures
+    assert all(c.ok for c in verify_file(task, out)) and not any(c.ok for c in verify_file(task, rejected))
+    first = replay_episode(out, 0, task)  # `pipette replay`: the executed actions, bit for bit
+    assert first.ok and first.states_compared == len(episodes[0].arrays["action"])
+    plain = [read_episode(ref) for ref in scan(run[1]).episodes]
+    assert all("executed_action" not in e.arrays and e.attrs["augment_actions"] == "executed" for e in plain)

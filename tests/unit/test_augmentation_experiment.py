@@ -273,6 +273,35 @@ def test_amendment_6_trains_the_augmented_data_for_as_many_passes_as_raw_gets(tm
     assert ("more_demos_ep", "aug_all_ep") not in dict(experiment.families("clutter"))["amendment 6"]
 
 
+def test_amendment_10_is_aug_all_with_corrective_noise_compared_in_its_own_family() -> None:
+    from pipette_cli.augment.specs import default_atoms, make_variants
+    from pipette_cli.specs.perturbations import JointNoiseSpec, ObjectPoseSpec
+
+    dart = experiment.VARIANTS["aug_all_dart"]
+    assert dart == experiment.VARIANTS["aug_all"].replace("table*5", "table+noise*5")
+    atoms = default_atoms(**(experiment.ATOMS | experiment.SETTING_ATOMS["aug_all_dart"]))
+    variants = make_variants(dart.split(","), atoms)
+    assert [v.name for v in variants][:2] == ["original", "object+light+cam+table+noise@1"] and len(variants) == 6
+    noise, moved = variants[1].get(JointNoiseSpec), variants[1].get(ObjectPoseSpec)
+    assert isinstance(noise, JointNoiseSpec) and isinstance(moved, ObjectPoseSpec)
+    default = JointNoiseSpec()
+    assert noise.corrective and (noise.sigma, noise.bound) == (default.sigma, default.bound)
+    assert moved.task_range == experiment.ATOMS["object"]["task_range"]  # the rest as aug_all's
+    assert experiment.EPOCH_MATCHED["aug_all_dart_ep"] == "aug_all_dart" and experiment.MATCHED_ABOVE["aug_all_dart_ep"]
+    for suite in ("nominal", "shifted", "clutter"):
+        assert {"aug_all_dart", "aug_all_dart_ep"} <= set(experiment.SUITE_SETTINGS[suite])
+        pairs = dict(experiment.families(suite))["amendment 10"]
+        assert ("aug_all", "aug_all_dart") in pairs and ("raw", "aug_all_dart") in pairs
+    cells = {
+        (PICK, "raw"): outcomes(PICK, [0] * 10 + [1] * 10),
+        (PICK, "aug_all"): outcomes(PICK, [0] * 16 + [1] * 4),
+        (PICK, "aug_all_dart"): outcomes(PICK, [1] * 20),
+    }
+    rows = [r for r in experiment.comparisons(cells, [PICK], "shifted") if r["family"] == "amendment 10"]
+    assert [r["comparison"] for r in rows] == ["aug_all_dart vs aug_all", "aug_all_dart vs raw"]
+    assert [r["p_holm"] for r in rows] == pytest.approx(experiment.holm([r["p_value"] for r in rows]))
+
+
 def pick_and_suites() -> tuple[Any, dict[str, Any]]:
     """PickUpTestTube and the experiment's three registered suites, by name."""
     from pipette_cli.evaluation.suites import load_suites
@@ -448,3 +477,19 @@ def test_failures_are_counted_by_reason_with_the_metrics_of_the_failed_episodes(
     text = "\n".join(experiment.failure_section("nominal", {f"{PICK} raw": modes, f"{PICK} aug_all": {"reasons": {}}}))
     assert f"| {PICK} raw | not_lifted 2, tilted 1 | height_gain 0.002 |" in text
     assert "aug_all" not in text  # a cell without failures (or not run) has no row
+
+
+def test_the_code_that_made_a_dataset_lost_with_its_machine_stays_listed(tmp_path, monkeypatch) -> None:
+    work, keep = tmp_path / "work", tmp_path / "keep"
+    ex = experiment.Experiment(work, 1, 64, "fast", 30, (500,), 30, None, 1, keep=keep)
+    task = type("Task", (), {"id": PICK})()
+    folder = ex.folder(task)
+    folder.mkdir(parents=True)
+    (folder / "data_code.json").write_text('{"aug_all.h5": ["old run"], "more_demos.h5": ["old run"]}')
+    (folder / "aug_all.h5").write_bytes(b"")  # made again on this machine
+    monkeypatch.setattr(experiment, "scan", lambda path: path)
+    monkeypatch.setattr(experiment, "made_by", lambda status: ["this run"])
+    code = experiment.data_code(ex, task)
+    assert code == {"aug_all.h5": ["old run", "this run"], "more_demos.h5": ["old run"]}  # lost file still listed
+    kept = keep / folder.name / "data_code.json"
+    assert kept.is_file() and experiment.json.loads(kept.read_text()) == code  # the next machine restores it

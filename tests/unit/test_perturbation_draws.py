@@ -18,6 +18,7 @@ from pipette_cli.evaluation.suites import episode_plan, load_suites, suite_sha25
 from pipette_cli.registry import load_registry
 from pipette_cli.specs.perturbations import (
     CameraPoseSpec,
+    JointNoiseSpec,
     LightingSpec,
     ObjectPoseSpec,
     SpeedSpec,
@@ -68,6 +69,24 @@ def test_task_range_places_the_object_anew_around_its_nominal_pose() -> None:
     assert placed_object(VariantSpec(name="o", perturbations=[ObjectPoseSpec()]), "tube") is None
     with pytest.raises(ValueError, match="placement"):
         draw(spec, placement=None)
+
+
+def test_corrective_noise_keeps_the_demonstrated_targets_and_runs_the_same_draw_as_plain_noise() -> None:
+    actions = np.random.default_rng(1).uniform(-1, 1, size=(40, 8))
+    plain = draw(SpeedSpec(), JointNoiseSpec(), actions=actions)
+    corrective = draw(SpeedSpec(), JointNoiseSpec(corrective=True), actions=actions)
+    clean = draw(SpeedSpec(), actions=actions)
+    assert plain.noise is None and plain.executed() is plain.actions
+    assert corrective.actions is not None and clean.actions is not None and corrective.noise is not None
+    assert np.array_equal(corrective.actions, clean.actions)  # recorded: the (resampled) demonstration
+    executed = corrective.executed()
+    assert executed is not None and np.array_equal(executed, plain.actions)  # run: what plain noise runs
+    arm = executed[:, :-1] - corrective.actions[:, :-1]
+    assert 0 < np.abs(arm).max() <= JointNoiseSpec().bound and np.array_equal(executed[:, -1], clean.actions[:, -1])
+    assert corrective.params["joint_noise"]["corrective"] is True
+    assert corrective.magnitude.endswith(",corrective") and not plain.magnitude.endswith(",corrective")
+    again = draw(SpeedSpec(), JointNoiseSpec(corrective=True), actions=actions).executed()
+    assert again is not None and executed.tobytes() == again.tobytes()  # same seed, same noise
 
 
 def test_surface_color_draws_a_colour_for_each_surface() -> None:

@@ -102,6 +102,20 @@ def test_aborted_writer_leaves_nothing(tmp_path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_executed_actions_are_given_for_every_step_or_none(tmp_path) -> None:
+    obs = _observations(3, np.random.default_rng(0))
+    state = np.zeros(4)
+    with EpisodeWriter(tmp_path / "a.h5", INFO, index=0, seed=0, source="augmented") as writer:
+        writer.add(obs[0], np.zeros(8), state, executed=np.ones(8))
+        with pytest.raises(DatasetError, match="every step of an episode or none"):
+            writer.add(obs[1], np.zeros(8), state)
+    with EpisodeWriter(tmp_path / "b.h5", INFO, index=0, seed=0, source="augmented") as writer:
+        writer.add(obs[0], np.zeros(8), state)
+        with pytest.raises(DatasetError, match="every step of an episode or none"):
+            writer.add(obs[1], np.zeros(8), state, executed=np.ones(8))
+    assert not list(tmp_path.iterdir())  # aborted: nothing written
+
+
 def test_pack_appends_parts_in_order_and_removes_them(tmp_path) -> None:
     out = tmp_path / "data.h5"
     write_episode(part_path(out, 0), 0, seed=10)
