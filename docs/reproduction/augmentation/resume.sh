@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Resume the augmentation experiment of docs/reproduction/plan.md on this machine, in the plan's order:
-# the registered cells, amendment 8's training-seed replicates on the first two tasks, then (amendment 9) two
-# lanes at once: amendment 6 (as many passes) on PickUpTestTube and CloseCentrifugeLid; amendment 5 (segmented
-# retargeting, PlaceTubeOnBalance only) and amendment 6 on PlaceTubeOnBalance and RemoveTubeFromBalance; then
+# the registered cells, amendment 8's training-seed replicates on the first two tasks, amendment 5, then
+# (amendment 11) two lanes at once: amendment 10 (corrective noise) on PickUpTestTube then PlaceTubeOnBalance;
+# amendment 6 on RemoveTubeFromBalance; then amendment 6's other cells, amendment 10 at matched passes and
 # amendment 8 on the last two tasks. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
@@ -12,7 +12,8 @@
 #   DRY=1 bash docs/reproduction/augmentation/resume.sh      # print what it would run
 #
 # The code is the run's: 8739549 with the driver patches of this folder, in worktrees under $WT
-# (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch); the Python environment is main's.
+# (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch); the
+# Python environment is main's.
 set -euo pipefail
 
 MAIN=${MAIN:-$(git -C "$(dirname "$0")" rev-parse --show-toplevel)}
@@ -41,37 +42,41 @@ worktree() {  # worktree NAME PATCH...: the run's code with these patches, made 
     fi
 }
 
-stage() {  # stage WORKTREE [--settings ...]: one `run` of the driver from that worktree
-    local dir=$WT/$1
-    shift
+stage() {  # stage WORKTREE DRIVER-STAGE [--settings ...]: one stage of the driver from that worktree
+    local dir=$WT/$1 what=$2
+    shift 2
     local cmd=(env PYTHONPATH="$dir" MUJOCO_GL=egl MENAGERIE_ROOT="$MENAGERIE_ROOT" PATH="$MAIN/.venv/bin:$PATH"
-        nice -n 15 "$MAIN/.venv/bin/python" benchmarks/augmentation_experiment.py run --work "$RUN"
+        nice -n 15 "$MAIN/.venv/bin/python" benchmarks/augmentation_experiment.py "$what" --work "$RUN"
         --docs "$RUN/docs" --keep "$HERE/episodes" --workers 1 --jobs 2 "$@")
     if [ -n "${DRY:-}" ]; then
         echo "+ (cd $dir && ${cmd[*]})"
         return
     fi
-    say "run from $dir $*"
+    say "$what from $dir $*"
     # a stage that fails (its log says why) does not stop the others; a restart runs it again
-    (cd "$dir" && "${cmd[@]}" >> "$RUN/logs/run.log" 2>&1) || say "stage $* exited with $?; going on"
+    (cd "$dir" && "${cmd[@]}" >> "$RUN/logs/run.log" 2>&1) || say "stage $what $* exited with $?; going on"
 }
 
 # exp2: the run's code with all three driver commits (the registered settings' commands are the
 # first commit's; the other two only add opt-in settings). On the machine of stops 47-49, exp holds
 # the first commit only and exp2 all three.
 worktree exp2 exp-run.patch
-stage exp2                                                                 # registered cells
+stage exp2 run                                                             # registered cells
 A8=raw_seed1001,aug_all_seed1001,raw_seed1002,aug_all_seed1002
 PICK=pipette/PickUpTestTube-v1 PLACE=pipette/PlaceTubeOnBalance-v1
 REMOVE=pipette/RemoveTubeFromBalance-v1 CLOSE=pipette/CloseCentrifugeLid-v1
-stage exp2 --settings $A8 --tasks $PICK,$PLACE                              # amendment 8, first two tasks
+stage exp2 run --settings $A8 --tasks $PICK,$PLACE                          # amendment 8, first two tasks
 worktree seg exp-run.patch exp-seg.patch
-# amendment 9's order: two lanes at once, each one cell at a time; then amendment 8's last two tasks
-lane1() { stage exp2 --settings aug_all_ep,more_demos_ep --tasks $PICK,$CLOSE --jobs 1; }  # amendment 6
-lane2() {
-    stage seg --settings aug_all_seg,aug_object_seg --tasks $PLACE --jobs 1               # amendment 5
-    stage exp2 --settings aug_all_ep,more_demos_ep --tasks $PLACE,$REMOVE --jobs 1        # amendment 6
+worktree dart exp-run.patch exp-dart.patch
+stage seg run --settings aug_all_seg,aug_object_seg --tasks $PLACE          # amendment 5 (done: restored)
+# amendment 11's order: two lanes at once, each one cell at a time; then the rest as the budget allows
+lane1() {  # amendment 10; each task's raw demonstrations made by the run's code first
+    for task in $PICK $PLACE; do
+        stage exp2 data --settings raw --tasks $task
+        stage dart run --settings aug_all_dart --tasks $task --jobs 1
+    done
 }
+lane2() { stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $REMOVE --jobs 1; }  # amendment 6
 if [ -n "${DRY:-}" ]; then
     lane1
     lane2
@@ -80,5 +85,7 @@ else
     lane2 &
     wait
 fi
-stage exp2 --settings $A8 --tasks $REMOVE,$CLOSE                            # amendment 8, last two tasks
+stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $PICK,$CLOSE,$PLACE --jobs 2   # amendment 6, the rest
+stage dart run --settings aug_all_dart_ep --tasks $PICK,$PLACE --jobs 2     # amendment 10 at matched passes
+stage exp2 run --settings $A8 --tasks $REMOVE,$CLOSE                        # amendment 8, last two tasks
 say "all stages done: run main's report (benchmarks/augmentation_experiment.py report)"
