@@ -561,8 +561,69 @@ def image_reliance(ex: Experiment, task: TaskSpec, policy: Path) -> dict[str, fl
     return {"predicted_spread": round(spread, 4), "recorded_spread": round(demos, 4), "ratio": round(spread / demos, 3)}
 
 
+def noise_excursion(ex: Experiment, task: TaskSpec, demos: int = 8) -> dict[str, float]:
+    """How far amendment 10's corrective joint noise takes the arm off the demonstrated path: the first
+    ``demos`` raw demonstrations run again with the noise ``aug_all_dart`` uses (no other perturbation),
+    the arm joints' deviation from the recorded ones (mean over steps and joints, and the largest), and
+    how many still succeed."""
+    from pipette_cli.augment.perturb import plan_variant
+    from pipette_cli.augment.simulate import Rollout, settle_steps, simulate
+    from pipette_cli.augment.specs import VariantSpec
+    from pipette_cli.sim.world import World
+    from pipette_cli.specs.perturbations import JointNoiseSpec
+
+    noise = JointNoiseSpec(**SETTING_ATOMS["aug_all_dart"]["noise"])
+    world = World(task)
+    means: list[float] = []
+    peaks: list[float] = []
+    hand: list[float] = []
+    hand_peaks: list[float] = []
+    kept = 0
+    refs = scan(ex.folder(task, "raw.h5")).episodes[:demos]
+    for ref in refs:
+        demo = Rollout.from_record(read_episode(ref))
+        plan = plan_variant(
+            VariantSpec(name="noise", perturbations=[noise]), demo.actions, seed=0, demo_seed=ref.summary.seed
+        )
+        executed = plan.executed()
+        assert executed is not None
+        run = simulate(world, ref.summary.seed, demo.states[0], executed, settle_steps=settle_steps(world, 1.0))
+        n = min(run.num_steps, demo.num_steps)
+        arm = np.abs(run.obs_state[:n, : world.robot.arm_dof] - demo.obs_state[:n, : world.robot.arm_dof])
+        means.append(float(arm.mean()))
+        peaks.append(float(arm.max()))
+        gaps = np.linalg.norm(tcp_path(world, run.states[:n]) - tcp_path(world, demo.states[:n]), axis=1)
+        hand.append(float(gaps.mean()))
+        hand_peaks.append(float(gaps.max()))
+        kept += bool(run.verdict.success)
+    return {
+        "demos": len(refs),
+        "sigma": noise.sigma,
+        "mean_joint_deviation_rad": round(float(np.mean(means)), 5),
+        "largest_joint_deviation_rad": round(max(peaks), 4),
+        "mean_tcp_deviation_mm": round(1000 * float(np.mean(hand)), 2),
+        "largest_tcp_deviation_mm": round(1000 * max(hand_peaks), 2),
+        "still_succeed": kept,
+    }
+
+
+def tcp_path(world: Any, states: np.ndarray) -> np.ndarray:
+    """The tool centre point's position at each recorded simulator state."""
+    import mujoco
+
+    from pipette_cli.demos.recorder import SIM_STATE
+
+    path = []
+    for state in states:
+        mujoco.mj_setState(world.model, world.data, state, SIM_STATE)
+        mujoco.mj_kinematics(world.model, world.data)
+        path.append(world.tcp_position())
+    return np.array(path)
+
+
 def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> str:
-    """diagnosis.json in ``docs``: :func:`image_reliance` of every trained setting (no suite seed)."""
+    """diagnosis.json in ``docs``: :func:`image_reliance` of every trained setting (no suite seed), and
+    :func:`noise_excursion` of each task with raw demonstrations (``<task> corrective noise``)."""
     found: dict[str, dict[str, Any]] = {}
     for task in tasks:
         for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, "aug_all_dart"):
@@ -573,10 +634,21 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
             policy = final_checkpoint(ex, task, setting, at)
             if policy is not None:
                 found[f"{task.id} {setting}"] = image_reliance(ex, task, policy)
+    excursions = {f"{t.id} corrective noise": noise_excursion(ex, t) for t in tasks if ex.folder(t, "raw.h5").is_file()}
     docs.mkdir(parents=True, exist_ok=True)
-    (docs / "diagnosis.json").write_text(json.dumps(found, indent=2) + "\n")
+    (docs / "diagnosis.json").write_text(json.dumps(found | excursions, indent=2) + "\n")
     lines = ["| task, setting | predicted spread | recorded spread | ratio |", "|---|---:|---:|---:|"]
     lines += [f"| {k} | {v['predicted_spread']} | {v['recorded_spread']} | {v['ratio']} |" for k, v in found.items()]
+    lines += [
+        "",
+        "| task | corrective noise: mean joint deviation (rad) | largest | mean TCP deviation (mm) | largest | succeed |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {k} | {v['mean_joint_deviation_rad']} | {v['largest_joint_deviation_rad']} | {v['mean_tcp_deviation_mm']} "
+        f"| {v['largest_tcp_deviation_mm']} | {v['still_succeed']}/{v['demos']} |"
+        for k, v in excursions.items()
+    ]
     return "\n".join(lines)
 
 

@@ -393,3 +393,22 @@ def test_corrective_noise_records_the_demonstrated_targets_runs_the_noisy_ones_a
     assert first.ok and first.states_compared == len(episodes[0].arrays["action"])
     plain = [read_episode(ref) for ref in scan(run[1]).episodes]
     assert all("executed_action" not in e.arrays and e.attrs["augment_actions"] == "executed" for e in plain)
+
+
+def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, task, tmp_path) -> None:
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "augmentation_experiment.py"
+    spec = importlib.util.spec_from_file_location("augmentation_experiment_sim", path)
+    assert spec is not None and spec.loader is not None
+    experiment = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = experiment  # its dataclasses look their module up
+    spec.loader.exec_module(experiment)
+    ex = experiment.Experiment(tmp_path, 1, 16, "fast", 1, (500,), 1, None, 1)
+    ex.folder(task).mkdir(parents=True)
+    shutil.copy(run[0], ex.folder(task, "raw.h5"))
+    found = experiment.noise_excursion(ex, task)
+    assert found == experiment.noise_excursion(ex, task)  # same seed, same noise
+    assert found["demos"] == 1 and found["sigma"] == JointNoiseSpec().sigma
+    assert 0 < found["mean_joint_deviation_rad"] < found["largest_joint_deviation_rad"] < 0.1
+    assert 0 < found["mean_tcp_deviation_mm"] < found["largest_tcp_deviation_mm"] < 50
