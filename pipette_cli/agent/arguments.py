@@ -22,17 +22,13 @@ from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
 from pipette_cli.errors import TaskNotFound
 from pipette_cli.language.assets import load_vocabulary as load_asset_words
-from pipette_cli.language.lexicon import short_name, stem
+from pipette_cli.language.lexicon import short_name, stem, stem_phrase, stems
 from pipette_cli.language.mentions import ARROW, PathMention, find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex, singular, words_of
 from pipette_cli.registry import Registry
 
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
-
-
-def _stems(text: str) -> str:
-    return " ".join(stem(w) for w in text.split())
 
 
 PARTS_SUFFIX = ".parts"
@@ -326,17 +322,17 @@ class ArgumentReader:
         return None
 
     def _flags(self, info: CommandInfo, words: str, args: dict[str, Any]) -> None:
-        stemmed = _stems(words)
+        stemmed = stems(words)
         flags = [p for p in info.params.values() if p.is_flag and p.name not in ("yes",)]
-        said = {p.name: find_phrase([_stems(w) for w in p.names], stemmed) for p in flags}
+        said = {p.name: find_phrase([stem_phrase(w) for w in p.names], stemmed) for p in flags}
         for param in flags:
             on = said[param.name]
             inside = on is not None and any(  # "allow mixed robots" is no "allow mixed" (tasks) as well
                 m is not None and m.start() <= on.start() and on.end() <= m.end() and m.span() != on.span()
                 for m in said.values()
             )
-            negated = [p for w in param.names for p in param.negated(_stems(w))]  # "without the physics build"
-            if find_phrase([*(_stems(w) for w in param.off_words), *negated], stemmed):
+            negated = [p for w in param.names for p in param.negated(stem_phrase(w))]  # "without the physics build"
+            if find_phrase([*(stem_phrase(w) for w in param.off_words), *negated], stemmed):
                 args[param.name] = False
             elif on is not None and not inside:  # "allow mixing" = allow mixed
                 args[param.name] = True

@@ -28,7 +28,6 @@ from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.validate import Validator
 from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
-from pipette_cli.language.lexicon import stem
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
@@ -56,10 +55,6 @@ def one_path_each(text: str, names: list[str]) -> list[str]:
 
 
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
-
-
-def _stems(text: str) -> str:
-    return " ".join(stem(w) for w in text.split())
 
 
 def _recipe_value(value: Any, before: int) -> Any:

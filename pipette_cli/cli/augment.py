@@ -168,6 +168,11 @@ def augment(
     if not names:
         raise SpecError("--variants is empty")
     spec = AugmentSpec(variants=make_variants(names, atoms), seed=seed, image_size=image_size)
+    if noise_corrective and not any(v.get(JointNoiseSpec) for v in spec.variants):
+        raise SpecError(
+            f"--noise-corrective changes joint-noise variants, and --variants {variants!r} has none: "
+            "add noise to a variant (e.g. --variants original,noise*5 or object+noise)"
+        )
 
     recorded = check_inputs(load_task(task_id), input, output, rejected).embodiment
     if robot is not None and resolve_robot(robot).name != recorded:

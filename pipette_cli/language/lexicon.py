@@ -30,6 +30,25 @@ def stem(word: str) -> str:
     return word
 
 
+def stems(text: str) -> str:
+    """Every word of ``text`` by its :func:`stem`."""
+    return " ".join(stem(w) for w in text.split())
+
+
+def stem_phrase(phrase: str) -> str:
+    """A vocabulary phrase with its words stemmed as :func:`stems` stems a request's, inside ``(a|b)``
+    alternatives too; ``word*`` and ``...`` stay as written (``phrases`` syntax)."""
+
+    def one(token: str) -> str:
+        optional = "?" if token.endswith("?") and len(token) > 1 else ""
+        token = token[: len(token) - len(optional)]
+        if token.startswith("(") and token.endswith(")"):
+            return "(" + "|".join(stems(alt) for alt in token[1:-1].split("|")) + ")" + optional
+        return (token if token.endswith("*") or token == "..." else stem(token)) + optional
+
+    return " ".join(one(t) for t in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()))
+
+
 def camel_words(name: str) -> list[str]:
     """``PickUpTestTube`` -> ``["pick", "up", "test", "tube"]``."""
     return [w.lower() for w in re.findall(r"[A-Z][a-z]*|[0-9]+[a-z]*", name)]

@@ -22,6 +22,7 @@ HOLD_REGISTRY = Path(__file__).resolve().parents[1] / "fixtures" / "demos" / "re
         (["--speed", "0"], "factor"),
         (["--wrist-radius", "-1"], "wrist_radius"),
         (["--variants", "light,sped"], "did you mean 'speed'"),
+        (["--variants", "light,speed", "--noise-corrective"], "has none: add noise to a variant"),
     ],
 )
 def test_impossible_parameters_fail_before_any_work(run_cli, tmp_path_factory, tmp_path: Path, args, needle) -> None:

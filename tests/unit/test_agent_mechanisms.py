@@ -174,3 +174,15 @@ def test_a_listing_asked_as_json_is_tasks_list_with_a_registered_tag() -> None:
     assert commands("print the piper tasks in json") == [("tasks list", {"tag": "piper", "as_json": True})]
     assert commands("list the protocols as json") == [("tasks list", {"tag": "protocol", "as_json": True})]
     assert commands("list the protocols")[0][0] == "answer tasks"  # no JSON asked: answered
+
+
+def test_a_flag_said_with_alternatives_is_read_in_any_of_their_forms() -> None:
+    # the flag's words are stemmed inside (a|b) alternatives as the request's are ("labels" -> "label")
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task adding joint noise with dart labels")
+    assert args["variants"] == "noise" and args["noise_corrective"] is True
+    [(_, args)] = commands(
+        "augment data/t.h5 of the tube pick-up task: 3 noise draws per demo, keeping the clean actions"
+    )
+    assert args["variants"] == "noise*3" and args["noise_corrective"] is True
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task using illumination")
+    assert args["variants"] == "light" and "noise_corrective" not in args
