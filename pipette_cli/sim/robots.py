@@ -43,7 +43,16 @@ def _menagerie_spec(ref: MenagerieRef) -> mujoco.MjSpec:
     import mujoco_menagerie  # deferred: mujoco_menagerie (~20 ms; only robots taken from the menagerie)
 
     try:
-        spec = mujoco_menagerie.get(ref.model).spec(ref.entry)
+        robot = mujoco_menagerie.get(ref.model)
+        cache = mujoco_menagerie.Cache()
+        if cache.root is None and not cache.is_cached(robot):  # a download, which can take minutes to fail offline
+            log.warning(
+                "robot %r: first use, downloading it from mujoco_menagerie (%.0f MB); an offline machine sets "
+                "MENAGERIE_ROOT to a local menagerie checkout instead",
+                ref.model,
+                (robot.download_size or 0) / 2**20,
+            )
+        spec = robot.spec(ref.entry)
     except Exception as exc:
         raise SimError(
             f"cannot load robot {ref.model!r} from mujoco_menagerie ({exc}); offline machines must set "

@@ -66,3 +66,15 @@ def test_ur5e_with_robotiq_builds_and_grips() -> None:
     for _ in range(30):
         world.step(np.append(world.arm_qpos(), 0.0))  # close
     assert world.state()[-1] > opened + 0.3  # the driver joint turns as the fingers close
+
+
+def test_a_robot_not_on_this_machine_says_it_downloads_and_how_to_work_offline(monkeypatch, tmp_path, caplog) -> None:
+    from pipette_cli.sim.robots import _menagerie_spec
+    from pipette_cli.specs.robot import robot_spec
+
+    monkeypatch.delenv("MENAGERIE_ROOT", raising=False)
+    monkeypatch.setenv("MENAGERIE_CACHE_DIR", str(tmp_path))  # nothing cached
+    monkeypatch.setenv("MENAGERIE_BASE_URL", "http://127.0.0.1:9")  # nothing listens: refused at once
+    with caplog.at_level("WARNING"), pytest.raises(SimError, match="MENAGERIE_ROOT to a local menagerie checkout"):
+        _menagerie_spec(robot_spec("franka_panda").menagerie)
+    assert "'franka_emika_panda': first use, downloading it from mujoco_menagerie" in caplog.text  # said before
