@@ -102,14 +102,24 @@ VARIANTS = {
 VARIANTS |= {"aug_all_seg": VARIANTS["aug_all"], "aug_object_seg": VARIANTS["aug_object"]}
 """Amendment 5: the same variants built by the segmented retargeting (the code after 2740d3a)."""
 VARIANTS["aug_all_dart"] = "original,object+light+cam+table+noise*5"
-SETTING_ATOMS: dict[str, dict[str, dict[str, Any]]] = {"aug_all_dart": {"noise": {"corrective": True}}}
+VARIANTS["aug_all_drift"] = VARIANTS["aug_all_dart"]
+SETTING_ATOMS: dict[str, dict[str, dict[str, Any]]] = {
+    "aug_all_dart": {"noise": {"corrective": True}},
+    "aug_all_drift": {"noise": {"sigma": 0.01, "bound": 0.03, "window": 15, "corrective": True}},
+}
 """Amendment 10: aug_all's variants with corrective joint noise (``pipette augment``'s sigma and bound),
-whose episodes record the demonstrated targets while the noisy ones run."""
+whose episodes record the demonstrated targets while the noisy ones run. Amendment 12: the same with the
+noise drifting over 15 steps at sigma 0.01 rad (the hand about 9 mm off the path on average, not 2)."""
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
 tasks whose skill program hands the held object over to another object (:func:`segmented`)."""
-EPOCH_MATCHED = {"aug_all_ep": "aug_all", "more_demos_ep": "more_demos", "aug_all_dart_ep": "aug_all_dart"}
+EPOCH_MATCHED = {
+    "aug_all_ep": "aug_all",
+    "more_demos_ep": "more_demos",
+    "aug_all_dart_ep": "aug_all_dart",
+    "aug_all_drift_ep": "aug_all_drift",
+}
 """Amendment 6: the data of the setting named, trained for as many passes over it as ``raw`` gets in
 S steps (:func:`matched_steps`)."""
 REPLICATE_SEEDS = (1001, 1002)
@@ -117,9 +127,19 @@ REPLICATES = {f"{s}_seed{seed}": (s, seed) for seed in REPLICATE_SEEDS for s in 
 """Amendment 8: the primary comparison's settings trained again with other training seeds on the same
 data, evaluated on the nominal and shifted suites; run after the registered cells (``--settings``)."""
 SUITE_SETTINGS = {
-    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart"),
-    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart"),
-    "clutter": ("raw", "aug_all", "aug_clutter", "aug_all_seg", "aug_all_ep", "aug_all_dart", "aug_all_dart_ep"),
+    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart", "aug_all_drift"),
+    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart", "aug_all_drift"),
+    "clutter": (
+        "raw",
+        "aug_all",
+        "aug_clutter",
+        "aug_all_seg",
+        "aug_all_ep",
+        "aug_all_dart",
+        "aug_all_dart_ep",
+        "aug_all_drift",
+        "aug_all_drift_ep",
+    ),
 }
 """The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1; the
 segmented ones: amendment 5; the epoch-matched ones: amendment 6; the replicates: amendment 8;
@@ -137,6 +157,14 @@ AMENDMENT_10 = [
     ("raw", "aug_all_dart_ep"),
 ]
 """On every suite: the change itself and against raw; at matched passes against amendment 6's cell."""
+AMENDMENT_12 = [
+    ("aug_all_dart", "aug_all_drift"),
+    ("aug_all", "aug_all_drift"),
+    ("raw", "aug_all_drift"),
+    ("aug_all_ep", "aug_all_drift_ep"),
+    ("raw", "aug_all_drift_ep"),
+]
+"""On every suite: the drift against amendment 10's noise, against aug_all and raw; at matched passes."""
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -447,7 +475,7 @@ def matched_steps(ex: Experiment, task: TaskSpec, setting: str, steps: int, unit
     return max(steps, -(-steps * frames[0] // (frames[1] * unit)) * unit)
 
 
-MATCHED_ABOVE = {"aug_all_dart_ep": 1.5}
+MATCHED_ABOVE = {"aug_all_dart_ep": 1.5, "aug_all_drift_ep": 1.5}
 """Amendment 10: a matched-passes setting trained only where its data hold more than this many times
 raw's frames (below it, the S-step setting is already close to matched)."""
 
@@ -561,18 +589,22 @@ def image_reliance(ex: Experiment, task: TaskSpec, policy: Path) -> dict[str, fl
     return {"predicted_spread": round(spread, 4), "recorded_spread": round(demos, 4), "ratio": round(spread / demos, 3)}
 
 
-def noise_excursion(ex: Experiment, task: TaskSpec, demos: int = 8) -> dict[str, float]:
-    """How far amendment 10's corrective joint noise takes the arm off the demonstrated path: the first
-    ``demos`` raw demonstrations run again with the noise ``aug_all_dart`` uses (no other perturbation),
-    the arm joints' deviation from the recorded ones (mean over steps and joints, and the largest), and
-    how many still succeed."""
+EXCURSIONS = {"aug_all_dart": "corrective noise", "aug_all_drift": "corrective drift"}
+"""The settings whose joint noise :func:`noise_excursion` measures, by the name the diagnosis gives it."""
+
+
+def noise_excursion(ex: Experiment, task: TaskSpec, setting: str = "aug_all_dart", demos: int = 8) -> dict[str, float]:
+    """How far a setting's corrective joint noise (amendments 10 and 12) takes the arm off the demonstrated
+    path: the first ``demos`` raw demonstrations run again with that noise (no other perturbation), the arm
+    joints' and the TCP's deviation from the recorded ones (mean over steps, and the largest), and how many
+    still succeed."""
     from pipette_cli.augment.perturb import plan_variant
     from pipette_cli.augment.simulate import Rollout, settle_steps, simulate
     from pipette_cli.augment.specs import VariantSpec
     from pipette_cli.sim.world import World
     from pipette_cli.specs.perturbations import JointNoiseSpec
 
-    noise = JointNoiseSpec(**SETTING_ATOMS["aug_all_dart"]["noise"])
+    noise = JointNoiseSpec(**SETTING_ATOMS[setting]["noise"])
     world = World(task)
     means: list[float] = []
     peaks: list[float] = []
@@ -599,6 +631,7 @@ def noise_excursion(ex: Experiment, task: TaskSpec, demos: int = 8) -> dict[str,
     return {
         "demos": len(refs),
         "sigma": noise.sigma,
+        "window": noise.window,
         "mean_joint_deviation_rad": round(float(np.mean(means)), 5),
         "largest_joint_deviation_rad": round(max(peaks), 4),
         "mean_tcp_deviation_mm": round(1000 * float(np.mean(hand)), 2),
@@ -626,7 +659,7 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
     :func:`noise_excursion` of each task with raw demonstrations (``<task> corrective noise``)."""
     found: dict[str, dict[str, Any]] = {}
     for task in tasks:
-        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, "aug_all_dart"):
+        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, "aug_all_dart", "aug_all_drift"):
             base = EPOCH_MATCHED.get(setting)
             if base is not None and not ex.folder(task, f"{base}.h5").is_file():
                 continue
@@ -634,14 +667,19 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
             policy = final_checkpoint(ex, task, setting, at)
             if policy is not None:
                 found[f"{task.id} {setting}"] = image_reliance(ex, task, policy)
-    excursions = {f"{t.id} corrective noise": noise_excursion(ex, t) for t in tasks if ex.folder(t, "raw.h5").is_file()}
+    excursions = {
+        f"{t.id} {name}": noise_excursion(ex, t, setting)
+        for t in tasks
+        if ex.folder(t, "raw.h5").is_file()
+        for setting, name in EXCURSIONS.items()
+    }
     docs.mkdir(parents=True, exist_ok=True)
     (docs / "diagnosis.json").write_text(json.dumps(found | excursions, indent=2) + "\n")
     lines = ["| task, setting | predicted spread | recorded spread | ratio |", "|---|---:|---:|---:|"]
     lines += [f"| {k} | {v['predicted_spread']} | {v['recorded_spread']} | {v['ratio']} |" for k, v in found.items()]
     lines += [
         "",
-        "| task | corrective noise: mean joint deviation (rad) | largest | mean TCP deviation (mm) | largest | succeed |",
+        "| task, noise | mean joint deviation (rad) | largest | mean TCP deviation (mm) | largest | succeed |",
         "|---|---:|---:|---:|---:|---:|",
     ]
     lines += [
@@ -730,6 +768,7 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
             ("amendment 5", extra),
             ("amendment 6", AMENDMENT_6[:2]),
             ("amendment 10", AMENDMENT_10),
+            ("amendment 12", AMENDMENT_12),
         ]
     return [
         ("primary", PRIMARY),
@@ -737,6 +776,7 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
         ("amendment 5", extra),
         ("amendment 6", AMENDMENT_6),
         ("amendment 10", AMENDMENT_10),
+        ("amendment 12", AMENDMENT_12),
     ]
 
 

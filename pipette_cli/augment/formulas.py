@@ -95,10 +95,16 @@ def resample_actions(actions: np.ndarray, x: np.ndarray, method: Interpolation =
 
 
 def joint_noise(
-    rng: np.random.Generator, shape: tuple[int, ...], sigma: float = 0.005, bound: float = 0.02
+    rng: np.random.Generator, shape: tuple[int, int], sigma: float = 0.005, bound: float = 0.02, window: int = 1
 ) -> np.ndarray:
-    """``eta ~ N(0, sigma^2)`` clipped to ``[-bound, bound]`` (radians)."""
-    return np.clip(rng.normal(0.0, sigma, size=shape), -bound, bound)
+    """``eta ~ N(0, sigma^2)`` clipped to ``[-bound, bound]`` (radians), shape (steps, joints). With
+    ``window`` > 1 each joint's noise is a moving average over ``window`` steps (:func:`smoothed_noise`)
+    scaled to std ``sigma``: a slow drift off the path instead of a jitter the arm's controller filters out."""
+    if window <= 1:
+        return np.clip(rng.normal(0.0, sigma, size=shape), -bound, bound)
+    steps, joints = shape
+    drift = np.stack([smoothed_noise(rng, steps, window) for _ in range(joints)], axis=1).reshape(steps, joints)
+    return np.clip(sigma * drift, -bound, bound)
 
 
 def ball_offset(rng: np.random.Generator, radius: float, size: int | None = None) -> np.ndarray:

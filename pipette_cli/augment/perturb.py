@@ -137,7 +137,8 @@ def plan_variant(
         params["speed"] = {**speed.model_dump(), "source_steps": source_steps, "steps": len(x)}
     if (noise := variant.get(JointNoiseSpec)) is not None:
         assert isinstance(noise, JointNoiseSpec)
-        eta = formulas.joint_noise(rng, (len(physics_actions), physics_actions.shape[1] - 1), noise.sigma, noise.bound)
+        shape = (len(physics_actions), physics_actions.shape[1] - 1)
+        eta = formulas.joint_noise(rng, shape, noise.sigma, noise.bound, noise.window)
         if noise.corrective:
             plan.noise = eta  # executed, not recorded: the episode's actions stay the demonstrated targets
         else:

@@ -78,6 +78,9 @@ def augment(
     noise_clip: Annotated[float, typer.Option("--noise-clip", help=spec_help(JointNoiseSpec, "bound"))] = spec_default(
         JointNoiseSpec, "bound"
     ),
+    noise_window: Annotated[
+        int, typer.Option("--noise-window", min=1, help=spec_help(JointNoiseSpec, "window"))
+    ] = spec_default(JointNoiseSpec, "window"),
     noise_corrective: Annotated[
         bool, typer.Option("--noise-corrective", help=spec_help(JointNoiseSpec, "corrective"))
     ] = spec_default(JointNoiseSpec, "corrective"),
@@ -158,7 +161,7 @@ def augment(
     atoms = default_atoms(
         light={"scale": light_scale, "jitter": light_jitter},
         speed={"factor": speed, "rho": rho, "interpolation": interpolation},
-        noise={"sigma": noise_sigma, "bound": noise_clip, "corrective": noise_corrective},
+        noise={"sigma": noise_sigma, "bound": noise_clip, "window": noise_window, "corrective": noise_corrective},
         cam={"camera": camera, "radius": camera_radius, "wrist_radius": wrist_radius},
         object={"xy": object_xy, "yaw_deg": object_yaw, "task_range": object_range},
         table={"blend": table_blend},

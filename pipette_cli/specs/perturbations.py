@@ -103,6 +103,12 @@ class JointNoiseSpec(PerturbationSpec):
     needs_demo: ClassVar[bool] = True
     sigma: float = Field(0.005, ge=0, description="rad, std of the joint-target noise; paper A.7")
     bound: float = Field(0.02, ge=0, description="rad, bound of the joint-target noise; paper A.7")
+    window: int = Field(
+        1,
+        ge=1,
+        description="control steps of a moving average over each joint's noise, rescaled to sigma (1: independent "
+        "per step, the paper's; more: a slow drift off the demonstrated path)",
+    )
     corrective: bool = Field(
         False,
         description="record the clean demonstrated targets as the actions while the simulation executes the noisy "
@@ -113,7 +119,8 @@ class JointNoiseSpec(PerturbationSpec):
         return self.model_copy(update={"sigma": self.sigma * factor, "bound": self.bound * factor})
 
     def magnitude(self) -> str:
-        return f"sigma={self.sigma:.3g},clip={self.bound:.3g}" + (",corrective" if self.corrective else "")
+        window = f",window={self.window}" if self.window > 1 else ""
+        return f"sigma={self.sigma:.3g},clip={self.bound:.3g}{window}" + (",corrective" if self.corrective else "")
 
 
 @PERTURBATIONS.register

@@ -412,3 +412,5 @@ def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, t
     assert found["demos"] == 1 and found["sigma"] == JointNoiseSpec().sigma
     assert 0 < found["mean_joint_deviation_rad"] < found["largest_joint_deviation_rad"] < 0.1
     assert 0 < found["mean_tcp_deviation_mm"] < found["largest_tcp_deviation_mm"] < 50
+    drift = experiment.noise_excursion(ex, task, "aug_all_drift")  # amendment 12: the hand further off the path
+    assert drift["window"] == 15 and drift["mean_tcp_deviation_mm"] > 2 * found["mean_tcp_deviation_mm"]

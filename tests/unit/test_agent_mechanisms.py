@@ -186,3 +186,5 @@ def test_a_flag_said_with_alternatives_is_read_in_any_of_their_forms() -> None:
     assert args["variants"] == "noise*3" and args["noise_corrective"] is True
     [(_, args)] = commands("augment data/t.h5 of the tube pick-up task using illumination")
     assert args["variants"] == "light" and "noise_corrective" not in args
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task adding joint noise averaged over 20 steps")
+    assert args["variants"] == "noise" and args["noise_window"] == 20

@@ -77,3 +77,15 @@ def test_ball_samples_are_inside_and_uniform_in_volume() -> None:
     assert np.max(np.abs(u - np.arange(1, len(u) + 1) / len(u))) < 0.01  # Kolmogorov-Smirnov distance
     np.testing.assert_allclose(d.mean(axis=0), 0.0, atol=0.003)  # isotropic
     assert f.ball_offset(np.random.default_rng(6), 0.002).shape == (3,)
+
+
+def test_joint_noise_with_a_window_drifts_slowly_with_the_same_scale_and_bound() -> None:
+    white = f.joint_noise(np.random.default_rng(3), (600, 7), sigma=0.01, bound=0.03)
+    drift = f.joint_noise(np.random.default_rng(3), (600, 7), sigma=0.01, bound=0.03, window=15)
+    again = f.joint_noise(np.random.default_rng(3), (600, 7), sigma=0.01, bound=0.03, window=15)
+    assert drift.shape == white.shape and drift.tobytes() == again.tobytes()  # same seed, same drift
+    assert np.abs(drift).max() <= 0.03 and 0.008 < drift.std() < 0.0105
+    lag1 = [np.corrcoef(joint[:-1], joint[1:])[0, 1] for noise in (white, drift) for joint in noise.T]
+    assert max(lag1[:7]) < 0.2 and min(lag1[7:]) > 0.8  # independent steps vs a slow drift
+    same = f.joint_noise(np.random.default_rng(3), (600, 7), sigma=0.01, bound=0.03, window=1)
+    assert same.tobytes() == white.tobytes()  # window 1 draws as before

@@ -302,6 +302,22 @@ def test_amendment_10_is_aug_all_with_corrective_noise_compared_in_its_own_famil
     assert [r["p_holm"] for r in rows] == pytest.approx(experiment.holm([r["p_value"] for r in rows]))
 
 
+def test_amendment_12_drifts_the_corrective_noise_and_compares_it_with_amendment_10s() -> None:
+    from pipette_cli.augment.specs import default_atoms, make_variants
+    from pipette_cli.specs.perturbations import JointNoiseSpec
+
+    assert experiment.VARIANTS["aug_all_drift"] == experiment.VARIANTS["aug_all_dart"]
+    atoms = default_atoms(**(experiment.ATOMS | experiment.SETTING_ATOMS["aug_all_drift"]))
+    noise = make_variants(experiment.VARIANTS["aug_all_drift"].split(","), atoms)[1].get(JointNoiseSpec)
+    assert isinstance(noise, JointNoiseSpec)
+    assert (noise.sigma, noise.bound, noise.window, noise.corrective) == (0.01, 0.03, 15, True)
+    assert experiment.EPOCH_MATCHED["aug_all_drift_ep"] == "aug_all_drift"
+    for suite in ("nominal", "shifted", "clutter"):
+        pairs = dict(experiment.families(suite))["amendment 12"]
+        assert ("aug_all_dart", "aug_all_drift") in pairs and ("raw", "aug_all_drift") in pairs
+        assert "aug_all_drift" in experiment.SUITE_SETTINGS[suite]
+
+
 def pick_and_suites() -> tuple[Any, dict[str, Any]]:
     """PickUpTestTube and the experiment's three registered suites, by name."""
     from pipette_cli.evaluation.suites import load_suites

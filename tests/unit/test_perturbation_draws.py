@@ -89,6 +89,15 @@ def test_corrective_noise_keeps_the_demonstrated_targets_and_runs_the_same_draw_
     assert again is not None and executed.tobytes() == again.tobytes()  # same seed, same noise
 
 
+def test_windowed_noise_drifts_and_is_recorded() -> None:
+    actions = np.zeros((300, 8))
+    plan = draw(JointNoiseSpec(sigma=0.01, bound=0.03, window=15, corrective=True), actions=actions)
+    assert plan.noise is not None and np.abs(plan.noise).max() <= 0.03
+    lag1 = min(np.corrcoef(joint[:-1], joint[1:])[0, 1] for joint in plan.noise.T)
+    assert lag1 > 0.8  # each joint drifts; the white noise of the paper does not
+    assert plan.params["joint_noise"]["window"] == 15 and "window=15" in plan.magnitude
+
+
 def test_surface_color_draws_a_colour_for_each_surface() -> None:
     plan = draw(SurfaceColorSpec(blend=0.3))
     assert set(plan.surface_tint) == {"bench", "floor"} and plan.visual and not plan.physics

@@ -2,8 +2,9 @@
 # Resume the augmentation experiment of docs/reproduction/plan.md on this machine, in the plan's order:
 # the registered cells, amendment 8's training-seed replicates on the first two tasks, amendment 5, then
 # (amendment 11) two lanes at once: amendment 10 (corrective noise) on PickUpTestTube then PlaceTubeOnBalance;
-# amendment 6 on RemoveTubeFromBalance; then amendment 6's other cells, amendment 10 at matched passes and
-# amendment 8 on the last two tasks. Each stage resumes where its work stopped
+# amendment 6 on RemoveTubeFromBalance; then (amendment 12) two lanes: amendment 10 at matched passes and
+# amendment 12 (drifting corrective noise) at matched passes; amendment 12 at S; then amendment 6's other cells
+# and amendment 8 on the last two tasks. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
 # "Machines": such a restart is written into the plan first).
@@ -12,8 +13,8 @@
 #   DRY=1 bash docs/reproduction/augmentation/resume.sh      # print what it would run
 #
 # The code is the run's: 8739549 with the driver patches of this folder, in worktrees under $WT
-# (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch); the
-# Python environment is main's.
+# (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch; drift:
+# dart's + exp-drift.patch); the Python environment is main's.
 set -euo pipefail
 
 MAIN=${MAIN:-$(git -C "$(dirname "$0")" rev-parse --show-toplevel)}
@@ -68,24 +69,38 @@ REMOVE=pipette/RemoveTubeFromBalance-v1 CLOSE=pipette/CloseCentrifugeLid-v1
 stage exp2 run --settings $A8 --tasks $PICK,$PLACE                          # amendment 8, first two tasks
 worktree seg exp-run.patch exp-seg.patch
 worktree dart exp-run.patch exp-dart.patch
+worktree drift exp-run.patch exp-dart.patch exp-drift.patch
 stage seg run --settings aug_all_seg,aug_object_seg --tasks $PLACE          # amendment 5 (done: restored)
-# amendment 11's order: two lanes at once, each one cell at a time; then the rest as the budget allows
-lane1() {  # amendment 10; each task's raw demonstrations made by the run's code first
+# amendment 11's lanes: amendment 10 at S on PickUpTestTube, PlaceTubeOnBalance; amendment 6 on RemoveTubeFromBalance
+lane1() {  # each task's raw demonstrations made by the run's code first
     for task in $PICK $PLACE; do
         stage exp2 data --settings raw --tasks $task
         stage dart run --settings aug_all_dart --tasks $task --jobs 1
     done
 }
 lane2() { stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $REMOVE --jobs 1; }  # amendment 6
+# then amendment 12's lanes (its "Order")
+lane3() {
+    stage dart run --settings aug_all_dart_ep --tasks $PICK --jobs 1                 # amendment 10, matched passes
+    stage exp2 data --settings raw --tasks $REMOVE
+    stage drift run --settings aug_all_drift_ep --tasks $REMOVE --jobs 1             # amendment 12, matched passes
+}
+lane4() {
+    for task in $PICK $REMOVE; do
+        stage exp2 data --settings raw --tasks $task
+        stage drift run --settings aug_all_drift --tasks $task --jobs 1              # amendment 12 at S
+    done
+}
 if [ -n "${DRY:-}" ]; then
-    lane1
-    lane2
+    lane1; lane2; lane3; lane4
 else
     lane1 &
     lane2 &
     wait
+    lane3 &
+    lane4 &
+    wait
 fi
 stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $PICK,$CLOSE,$PLACE --jobs 2   # amendment 6, the rest
-stage dart run --settings aug_all_dart_ep --tasks $PICK,$PLACE --jobs 2     # amendment 10 at matched passes
 stage exp2 run --settings $A8 --tasks $REMOVE,$CLOSE                        # amendment 8, last two tasks
 say "all stages done: run main's report (benchmarks/augmentation_experiment.py report)"
