@@ -551,6 +551,9 @@ def run_task(
             run = trained(ex, task, setting, source, total, quarter, folder)
         last = total if setting in EPOCH_MATCHED else steps
         for label, into, step, plan, suite in evaluations(ex, task, setting, steps, suites):
+            if finished(ex, into, plan):  # kept from a policy trained before, maybe another realization (amendment 11)
+                say(f"{task.id} {label} -> {into.parent.name}: finished before (kept episode logs)")
+                continue
             evaluated(ex, task, checkpoint(run, step or last, total), label, into, plan, suite)
 
 

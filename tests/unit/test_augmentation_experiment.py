@@ -372,6 +372,18 @@ def test_amendment_7_a_new_machine_restores_the_kept_logs_and_runs_only_unfinish
         experiment.run_task(ex, task, 2000, suites, ["raw", "aug_object"])
     assert built == [["aug_object"]]
 
+    # a setting trained again with some of its evaluations kept (amendment 11): only the others are evaluated
+    evaluated: list[str] = []
+    monkeypatch.setattr(experiment, "data", lambda ex, task, settings: {settings[0]: tmp_path / "raw.h5"})
+    monkeypatch.setattr(experiment, "trained", lambda *args, **kwargs: tmp_path / "run")
+    monkeypatch.setattr(experiment, "checkpoint", lambda run, step, total: run / str(step))
+    monkeypatch.setattr(
+        experiment, "evaluated", lambda ex, task, policy, label, into, plan, suite: evaluated.append(str(into))
+    )
+    ex.folder(task, "eval", "curve", "raw@500").joinpath("episode_0000.json").unlink()  # one evaluation unfinished
+    experiment.run_task(ex, task, 2000, suites, ["raw"])
+    assert evaluated == [str(ex.folder(task, "eval", "curve", "raw@500"))]
+
 
 def test_amendment_8_replicates_train_the_same_data_with_other_seeds_and_are_read_across_seeds(
     tmp_path, monkeypatch
