@@ -14,7 +14,8 @@
 #
 # The code is the run's: 8739549 with the driver patches of this folder, in worktrees under $WT
 # (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch; drift:
-# dart's + exp-drift.patch); the Python environment is main's.
+# dart's + exp-drift.patch; each then exp-skip.patch, which skips an evaluation kept from a policy trained on a
+# lost machine, amendment 11); the Python environment is main's.
 set -euo pipefail
 
 MAIN=${MAIN:-$(git -C "$(dirname "$0")" rev-parse --show-toplevel)}
@@ -61,15 +62,15 @@ stage() {  # stage WORKTREE DRIVER-STAGE [--settings ...]: one stage of the driv
 # exp2: the run's code with all three driver commits (the registered settings' commands are the
 # first commit's; the other two only add opt-in settings). On the machine of stops 47-49, exp holds
 # the first commit only and exp2 all three.
-worktree exp2 exp-run.patch
+worktree exp2 exp-run.patch exp-skip.patch
 stage exp2 run                                                             # registered cells
 A8=raw_seed1001,aug_all_seed1001,raw_seed1002,aug_all_seed1002
 PICK=pipette/PickUpTestTube-v1 PLACE=pipette/PlaceTubeOnBalance-v1
 REMOVE=pipette/RemoveTubeFromBalance-v1 CLOSE=pipette/CloseCentrifugeLid-v1
 stage exp2 run --settings $A8 --tasks $PICK,$PLACE                          # amendment 8, first two tasks
-worktree seg exp-run.patch exp-seg.patch
-worktree dart exp-run.patch exp-dart.patch
-worktree drift exp-run.patch exp-dart.patch exp-drift.patch
+worktree seg exp-run.patch exp-seg.patch exp-skip.patch
+worktree dart exp-run.patch exp-dart.patch exp-skip.patch
+worktree drift exp-run.patch exp-dart.patch exp-drift.patch exp-skip.patch
 stage seg run --settings aug_all_seg,aug_object_seg --tasks $PLACE          # amendment 5 (done: restored)
 # amendment 11's lanes: amendment 10 at S on PickUpTestTube, PlaceTubeOnBalance; amendment 6 on RemoveTubeFromBalance
 lane1() {  # each task's raw demonstrations made by the run's code first
