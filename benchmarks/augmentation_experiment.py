@@ -110,6 +110,8 @@ SETTING_ATOMS: dict[str, dict[str, dict[str, Any]]] = {
 """Amendment 10: aug_all's variants with corrective joint noise (``pipette augment``'s sigma and bound),
 whose episodes record the demonstrated targets while the noisy ones run. Amendment 12: the same with the
 noise drifting over 15 steps at sigma 0.01 rad (the hand about 9 mm off the path on average, not 2)."""
+CORRECTIVE = tuple(SETTING_ATOMS)
+"""The settings with corrective joint noise (amendments 10 and 12), each at S."""
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
@@ -127,8 +129,8 @@ REPLICATES = {f"{s}_seed{seed}": (s, seed) for seed in REPLICATE_SEEDS for s in 
 """Amendment 8: the primary comparison's settings trained again with other training seeds on the same
 data, evaluated on the nominal and shifted suites; run after the registered cells (``--settings``)."""
 SUITE_SETTINGS = {
-    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart", "aug_all_drift"),
-    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, "aug_all_dart", "aug_all_drift"),
+    "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, *CORRECTIVE),
+    "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, *CORRECTIVE),
     "clutter": (
         "raw",
         "aug_all",
@@ -662,7 +664,7 @@ def diagnose(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int) -> s
     :func:`noise_excursion` of each task with raw demonstrations (``<task> corrective noise``)."""
     found: dict[str, dict[str, Any]] = {}
     for task in tasks:
-        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, "aug_all_dart", "aug_all_drift"):
+        for setting in (*SETTINGS, *SEGMENTED, *EPOCH_MATCHED, *CORRECTIVE):
             base = EPOCH_MATCHED.get(setting)
             if base is not None and not ex.folder(task, f"{base}.h5").is_file():
                 continue

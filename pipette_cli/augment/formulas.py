@@ -103,7 +103,7 @@ def joint_noise(
     if window <= 1:
         return np.clip(rng.normal(0.0, sigma, size=shape), -bound, bound)
     steps, joints = shape
-    drift = np.stack([smoothed_noise(rng, steps, window) for _ in range(joints)], axis=1).reshape(steps, joints)
+    drift = np.stack([smoothed_noise(rng, steps, window) for _ in range(joints)], axis=1)
     return np.clip(sigma * drift, -bound, bound)
 
 

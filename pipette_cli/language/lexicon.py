@@ -8,10 +8,11 @@ from __future__ import annotations
 
 import itertools
 import re
+from functools import cache
 from typing import TYPE_CHECKING
 
 from pipette_cli.errors import PipetteError
-from pipette_cli.language.phrases import phrase_pattern
+from pipette_cli.language.phrases import phrase_pattern, phrase_tokens
 from pipette_cli.specs.robot import robot_words
 
 if TYPE_CHECKING:
@@ -35,6 +36,7 @@ def stems(text: str) -> str:
     return " ".join(stem(w) for w in text.split())
 
 
+@cache
 def stem_phrase(phrase: str) -> str:
     """A vocabulary phrase with its words stemmed as :func:`stems` stems a request's, inside ``(a|b)``
     alternatives too; ``word*`` and ``...`` stay as written (``phrases`` syntax)."""
@@ -46,7 +48,7 @@ def stem_phrase(phrase: str) -> str:
             return "(" + "|".join(stems(alt) for alt in token[1:-1].split("|")) + ")" + optional
         return (token if token.endswith("*") or token == "..." else stem(token)) + optional
 
-    return " ".join(one(t) for t in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()))
+    return " ".join(one(t) for t in phrase_tokens(phrase))
 
 
 def camel_words(name: str) -> list[str]:

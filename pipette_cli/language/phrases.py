@@ -48,10 +48,15 @@ def _item(token: str) -> str:
     return re.escape(token)
 
 
+def phrase_tokens(phrase: str) -> list[str]:
+    """A phrase's tokens: ``(a|b c)`` alternatives (with their ``?``) whole, other tokens by spaces."""
+    return re.findall(r"\([^)]*\)\??|\S+", phrase.strip())
+
+
 def phrase_regex(phrase: str) -> str:
     """The regular expression of a phrase, unbounded (see the module docstring)."""
     out, gap, lead = "", r"\s+", ""
-    for token in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()):
+    for token in phrase_tokens(phrase):
         if token == "...":
             gap = r"\s+(?:\S+\s+){0,10}?"
             continue
