@@ -2,8 +2,8 @@
 # Resume the augmentation experiment of docs/reproduction/plan.md on this machine, in the plan's order:
 # the registered cells, amendment 8's training-seed replicates on the first two tasks, amendment 5, then
 # (amendment 11) two lanes at once: amendment 10 (corrective noise) on PickUpTestTube then PlaceTubeOnBalance;
-# amendment 6 on RemoveTubeFromBalance; then (amendment 12) two lanes: amendment 10 at matched passes and
-# amendment 12 (drifting corrective noise) at matched passes; amendment 12 at S; then amendment 6's other cells
+# amendment 6 on RemoveTubeFromBalance; then (amendments 12 and 13) two lanes: amendment 12 (drifting corrective
+# noise) at S on three tasks; amendment 12 then amendment 10 at matched passes; then amendment 6's other cells
 # and amendment 8 on the last two tasks. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
@@ -80,14 +80,15 @@ lane1() {  # each task's raw demonstrations made by the run's code first
     done
 }
 lane2() { stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $REMOVE --jobs 1; }  # amendment 6
-# then amendment 12's lanes (its "Order")
+# then amendment 13's order: amendment 12 first (at S on RemoveTubeFromBalance then PlaceTubeOnBalance; at
+# matched passes on RemoveTubeFromBalance), amendment 10 at matched passes on PickUpTestTube after it
 lane3() {
-    stage dart run --settings aug_all_dart_ep --tasks $PICK --jobs 1                 # amendment 10, matched passes
     stage exp2 data --settings raw --tasks $REMOVE
     stage drift run --settings aug_all_drift_ep --tasks $REMOVE --jobs 1             # amendment 12, matched passes
+    stage dart run --settings aug_all_dart_ep --tasks $PICK --jobs 1                 # amendment 10, matched passes
 }
 lane4() {
-    for task in $PICK $REMOVE; do
+    for task in $PICK $REMOVE $PLACE; do  # PickUpTestTube's cells are done (part 6): restored and skipped
         stage exp2 data --settings raw --tasks $task
         stage drift run --settings aug_all_drift --tasks $task --jobs 1              # amendment 12 at S
     done
