@@ -99,6 +99,10 @@ else
     lane1 &
     lane2 &
     wait
+    # both lanes train on RemoveTubeFromBalance's aug_all_drift data: made once, before they start (two
+    # augmentations writing the same file at once fail)
+    stage exp2 data --settings raw --tasks $REMOVE
+    stage drift data --settings aug_all_drift --tasks $REMOVE
     lane3 &
     lane4 &
     wait
