@@ -27,7 +27,7 @@ from pipette_cli.augment.report import yield_report
 from pipette_cli.augment.specs import AugmentSpec
 from pipette_cli.demos.provenance import mixing_problem, provenance
 from pipette_cli.demos.recorder import DatasetInfo, commit_tmp, fsync_dir, write_json_atomic
-from pipette_cli.demos.store import clean, pack, part_path, parts_dir, scan
+from pipette_cli.demos.store import clean, pack, part_path, parts_dir, scan, writing
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.specs.task import TaskSpec
 
@@ -153,80 +153,81 @@ def augment(
     """
     source, out = Path(source), Path(out)
     started = time.perf_counter()
-    in_info = check_inputs(task, source, out, rejected)
-    check_robot(task, in_info, source)
-    size = spec.image_size
-    info = dataclasses.replace(in_info, image_height=size, image_width=size) if size else in_info
     outputs = [out] + ([Path(rejected)] if rejected is not None else [])
-    for path in outputs:
-        have = scan(path).info
-        if have is not None and (why := have.mismatch(info)) is not None:
-            raise DatasetError(f"cannot write to {path}: {why}")
-    ledger = _load_ledger(out, task, spec, source)
-    done = set(ledger["demos"])
-    for path in outputs:
-        clean(scan(path))
-        if n := _drop_unledgered(path, done):
-            log.warning("%s: dropped %d parts of an unfinished demo; it is redone", path, n)
-    source_eps = scan(source).episodes
-    next_index = {path: len(scan(path).episodes) for path in outputs}
-    jobs = [
-        DemoJob(ref.index, ref, parts_dir(out), parts_dir(Path(rejected)) if rejected is not None else None)
-        for ref in source_eps
-        if ref.summary.uid not in done
-    ]
-    for path in outputs if jobs else []:
-        if (have_eps := scan(path)).episodes and (mixing := mixing_problem(have_eps, task)) is not None:
-            raise DatasetError(mixing)
-    result = AugmentResult(out, {}, skipped_demos=len(source_eps) - len(jobs))
-    if on_start is not None:
-        on_start(result.skipped_demos, len(jobs))
-    kwargs = dict(task=task, spec=spec, info=info, render=render, attrs=dict(provenance(task)))
-    try:
-        if jobs:
-            for path in outputs:
-                parts_dir(path).mkdir(parents=True, exist_ok=True)
-            runs = run_jobs(
-                kwargs, jobs, executor=executor, workers=workers or default_workers(), stop=stop, address=address
-            )
-            try:
-                for _job, outcome in runs:
-                    if outcome is None:
-                        result.interrupted = True
-                        break
-                    rejected_to = Path(rejected) if rejected else None
-                    for tmps, dest in ((outcome.kept, out), (outcome.rejected, rejected_to)):
-                        for tmp in tmps:
-                            assert dest is not None
-                            commit_tmp(tmp, part_path(dest, next_index[dest]))
-                            next_index[dest] += 1
-                    ledger["demos"][outcome.uid] = {
-                        "position": outcome.position,
-                        "seed": outcome.seed,
-                        "status": outcome.status,
-                        "detail": outcome.detail,
-                        "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],
-                    }
-                    write_json_atomic(ledger_path(out), ledger)
-                    for key, value in outcome.seconds.items():
-                        result.timings[key] += value
-                    result.new_demos += 1
-                    if on_demo is not None:
-                        on_demo(outcome)
-            finally:
-                runs.close()
-    finally:
+    with writing(*outputs):  # a second run on these files stops here
+        in_info = check_inputs(task, source, out, rejected)
+        check_robot(task, in_info, source)
+        size = spec.image_size
+        info = dataclasses.replace(in_info, image_height=size, image_width=size) if size else in_info
+        for path in outputs:
+            have = scan(path).info
+            if have is not None and (why := have.mismatch(info)) is not None:
+                raise DatasetError(f"cannot write to {path}: {why}")
+        ledger = _load_ledger(out, task, spec, source)
+        done = set(ledger["demos"])
         for path in outputs:
             clean(scan(path))
-            for leftover in parts_dir(path).glob("aug_*.tmp") if parts_dir(path).is_dir() else []:
-                leftover.unlink()
-            pack(path)
-            fsync_dir(path.parent)
-    if not out.exists():  # nothing kept at all: still leave a valid, empty file
-        _empty_file(out, info)
-    result.report = yield_report(ledger["demos"])
-    result.seconds = time.perf_counter() - started
-    return result
+            if n := _drop_unledgered(path, done):
+                log.warning("%s: dropped %d parts of an unfinished demo; it is redone", path, n)
+        source_eps = scan(source).episodes
+        next_index = {path: len(scan(path).episodes) for path in outputs}
+        jobs = [
+            DemoJob(ref.index, ref, parts_dir(out), parts_dir(Path(rejected)) if rejected is not None else None)
+            for ref in source_eps
+            if ref.summary.uid not in done
+        ]
+        for path in outputs if jobs else []:
+            if (have_eps := scan(path)).episodes and (mixing := mixing_problem(have_eps, task)) is not None:
+                raise DatasetError(mixing)
+        result = AugmentResult(out, {}, skipped_demos=len(source_eps) - len(jobs))
+        if on_start is not None:
+            on_start(result.skipped_demos, len(jobs))
+        kwargs = dict(task=task, spec=spec, info=info, render=render, attrs=dict(provenance(task)))
+        try:
+            if jobs:
+                for path in outputs:
+                    parts_dir(path).mkdir(parents=True, exist_ok=True)
+                runs = run_jobs(
+                    kwargs, jobs, executor=executor, workers=workers or default_workers(), stop=stop, address=address
+                )
+                try:
+                    for _job, outcome in runs:
+                        if outcome is None:
+                            result.interrupted = True
+                            break
+                        rejected_to = Path(rejected) if rejected else None
+                        for tmps, dest in ((outcome.kept, out), (outcome.rejected, rejected_to)):
+                            for tmp in tmps:
+                                assert dest is not None
+                                commit_tmp(tmp, part_path(dest, next_index[dest]))
+                                next_index[dest] += 1
+                        ledger["demos"][outcome.uid] = {
+                            "position": outcome.position,
+                            "seed": outcome.seed,
+                            "status": outcome.status,
+                            "detail": outcome.detail,
+                            "outcomes": [dataclasses.asdict(o) for o in outcome.outcomes],
+                        }
+                        write_json_atomic(ledger_path(out), ledger)
+                        for key, value in outcome.seconds.items():
+                            result.timings[key] += value
+                        result.new_demos += 1
+                        if on_demo is not None:
+                            on_demo(outcome)
+                finally:
+                    runs.close()
+        finally:
+            for path in outputs:
+                clean(scan(path))
+                for leftover in parts_dir(path).glob("aug_*.tmp") if parts_dir(path).is_dir() else []:
+                    leftover.unlink()
+                pack(path)
+                fsync_dir(path.parent)
+        if not out.exists():  # nothing kept at all: still leave a valid, empty file
+            _empty_file(out, info)
+        result.report = yield_report(ledger["demos"])
+        result.seconds = time.perf_counter() - started
+        return result
 
 
 def _empty_file(path: Path, info: DatasetInfo) -> None:

@@ -13,7 +13,7 @@ from pipette_cli.cli.listing import Column, Listing
 from pipette_cli.demos.embodiment import on_robot
 from pipette_cli.demos.replay import replay_episode
 from pipette_cli.demos.store import delete_episode as delete
-from pipette_cli.demos.store import episode_arrays, file_size, parts_dir, scan
+from pipette_cli.demos.store import episode_arrays, file_size, parts_dir, scan, writing
 from pipette_cli.demos.store import pack as pack_parts
 from pipette_cli.demos.video import write_episode_video
 from pipette_cli.errors import DatasetError, plural
@@ -144,9 +144,11 @@ def pack(file: Annotated[Path, typer.Argument(help="HDF5 episode file.")]) -> No
 
     Example: pipette data pack tube.h5
     """
-    if scan(file).info is None:
-        raise DatasetError(f"{file}: no such file")
-    err_console.print(f"packed {plural(pack_parts(file), 'pending episode')} into {file}", soft_wrap=True)
+    with writing(file):
+        if scan(file).info is None:
+            raise DatasetError(f"{file}: no such file")
+        packed = pack_parts(file)
+    err_console.print(f"packed {plural(packed, 'pending episode')} into {file}", soft_wrap=True)
 
 
 @app.command("video")

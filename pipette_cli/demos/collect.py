@@ -35,7 +35,7 @@ from pipette_cli.demos.experts.base import Expert, expert_failure, find_expert
 from pipette_cli.demos.pool import ordered_pool
 from pipette_cli.demos.provenance import mixing_problem, model_sha256, provenance
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeSummary, EpisodeWriter, commit_tmp, sim_state
-from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan
+from pipette_cli.demos.store import DatasetStatus, clean, pack, part_path, scan, writing
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import PipetteEnv
@@ -255,55 +255,56 @@ def collect(
     if episodes < 0 or workers < 1:
         raise PipetteError("--episodes must be >= 0 and --workers >= 1")
     started = time.perf_counter()
-    status = scan(out)
-    check_target(status, task, image_size)
-    have = len(status.episodes)
-    jobs = [
-        Job(have + i, s, part_path(out, have + i))
-        for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))
-    ]
-    if jobs and have and (mixing := mixing_problem(status, task)) is not None:
-        raise DatasetError(mixing)
-    result = CollectResult(out, total=have)
-    if expert_factory is None and jobs:
-        find_expert(task)  # fail fast, before building anything
-    if workers > 1 and expert_factory is not None:
-        _check_picklable(expert_factory)
-    clean(status)
-    if on_start is not None:
-        on_start(have, len(jobs))
-    try:
-        if jobs:
-            attrs = dict(provenance(task))
-            kwargs = dict(
-                task=task,
-                image_size=image_size,
-                render_profile=render_profile,
-                expert_factory=expert_factory,
-                attrs=attrs,
-                max_steps=max_steps or step_cap(task),
-                source="scripted",
-            )
-            runs = _in_process(kwargs, jobs, stop) if workers == 1 else _in_pool(kwargs, jobs, workers, stop)
-            try:
-                for job, outcome in runs:
-                    if outcome is None:
-                        result.interrupted = True
-                        break
-                    tmp, summary, info = outcome
-                    _accept(status, info, tmp)
-                    commit_tmp(tmp, job.part)
-                    result.added.append(summary)
-                    result.total += 1
-                    if on_episode is not None:
-                        on_episode(summary)
-            finally:
-                runs.close()  # releases the env or terminates the pool
-    finally:
-        clean(scan(out))
-        pack(out)
-    result.seconds = time.perf_counter() - started
-    return result
+    with writing(out):  # a second run on this file stops here
+        status = scan(out)
+        check_target(status, task, image_size)
+        have = len(status.episodes)
+        jobs = [
+            Job(have + i, s, part_path(out, have + i))
+            for i, s in enumerate(plan_seeds(status.seeds, seed + have, episodes - have))
+        ]
+        if jobs and have and (mixing := mixing_problem(status, task)) is not None:
+            raise DatasetError(mixing)
+        result = CollectResult(out, total=have)
+        if expert_factory is None and jobs:
+            find_expert(task)  # fail fast, before building anything
+        if workers > 1 and expert_factory is not None:
+            _check_picklable(expert_factory)
+        clean(status)
+        if on_start is not None:
+            on_start(have, len(jobs))
+        try:
+            if jobs:
+                attrs = dict(provenance(task))
+                kwargs = dict(
+                    task=task,
+                    image_size=image_size,
+                    render_profile=render_profile,
+                    expert_factory=expert_factory,
+                    attrs=attrs,
+                    max_steps=max_steps or step_cap(task),
+                    source="scripted",
+                )
+                runs = _in_process(kwargs, jobs, stop) if workers == 1 else _in_pool(kwargs, jobs, workers, stop)
+                try:
+                    for job, outcome in runs:
+                        if outcome is None:
+                            result.interrupted = True
+                            break
+                        tmp, summary, info = outcome
+                        _accept(status, info, tmp)
+                        commit_tmp(tmp, job.part)
+                        result.added.append(summary)
+                        result.total += 1
+                        if on_episode is not None:
+                            on_episode(summary)
+                finally:
+                    runs.close()  # releases the env or terminates the pool
+        finally:
+            clean(scan(out))
+            pack(out)
+        result.seconds = time.perf_counter() - started
+        return result
 
 
 Outcome = tuple[Path, EpisodeSummary, DatasetInfo] | None

@@ -10,14 +10,17 @@ replace and the clean-up) are recognised by their episode ``uid`` and dropped.
 
 Every reader here opens files read-only; every writer writes a temporary file and replaces
 the target only after everything it needs has been read and checked, so a failing command
-leaves the file's bytes unchanged.
+leaves the file's bytes unchanged. A run that adds to or rewrites a file holds its lock
+(:func:`writing`), so a second run on the same file stops before it touches anything.
 """
 
 from __future__ import annotations
 
+import fcntl
+import os
 import re
 from collections.abc import Iterator, Sequence
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,6 +50,58 @@ def parts_dir(path: Path) -> Path:
 
 def part_path(path: Path, index: int) -> Path:
     return parts_dir(path) / f"{episode_name(index)}.h5"
+
+
+def lock_path(path: Path) -> Path:
+    """The file a writer of ``path`` holds locked (:func:`writing`) while it writes."""
+    return path.with_name(path.name + ".lock")
+
+
+@contextmanager
+def writing(*paths: Path) -> Iterator[None]:
+    """Hold every ``paths``' writer lock for the block; a second writer fails at once, saying who holds it.
+
+    Two runs appending to one file at once would race on its parts (both number them from the same count).
+    The lock is ``flock`` on ``FILE.h5.lock`` (released when the process ends, however it ends); the file
+    holds the writer's pid and is removed when the block ends.
+    """
+    with ExitStack() as stack:
+        held: set[Path] = set()
+        for path in map(Path, paths):
+            if path.absolute() not in held:  # the same file named twice is locked once
+                held.add(path.absolute())
+                stack.enter_context(_locked(path))
+        yield
+
+
+@contextmanager
+def _locked(path: Path) -> Iterator[None]:
+    lock = lock_path(path)
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    while True:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "unknown"
+            os.close(fd)
+            raise DatasetError(
+                f"{path} is being written by another run (pid {holder}, lock {lock}); "
+                "wait for it to finish, or write to another file"
+            ) from None
+        try:
+            if os.stat(lock).st_ino == os.fstat(fd).st_ino:
+                break
+        except FileNotFoundError:
+            pass
+        os.close(fd)  # the holder removed the file between our open and our lock: lock the new one
+    try:
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        yield
+    finally:
+        lock.unlink(missing_ok=True)
+        os.close(fd)
 
 
 def _tmp(path: Path) -> Path:
@@ -229,6 +284,11 @@ def pack(path: Path) -> int:
 
 def delete_episode(path: Path, index: int) -> EpisodeSummary:
     """Remove episode ``index`` (later episodes move down by one); the file is rewritten atomically."""
+    with writing(path):
+        return _delete_episode(path, index)
+
+
+def _delete_episode(path: Path, index: int) -> EpisodeSummary:
     status = scan(path)
     if not path.exists():
         raise DatasetError(f"{path}: no such file")

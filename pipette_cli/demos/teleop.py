@@ -33,7 +33,7 @@ import numpy as np
 from pipette_cli.demos.collect import CollectResult, check_target, plan_seeds, step_cap
 from pipette_cli.demos.provenance import model_sha256, provenance
 from pipette_cli.demos.recorder import STOPPED, TRUNCATED, DatasetInfo, EpisodeSummary, EpisodeWriter, sim_state
-from pipette_cli.demos.store import clean, pack, part_path, scan
+from pipette_cli.demos.store import clean, pack, part_path, scan, writing
 from pipette_cli.errors import DatasetError, PipetteError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.controllers import DifferentialIK
@@ -288,67 +288,68 @@ def teleop_collect(
     """
     require_display()
     out = Path(out)
-    status = scan(out)
-    check_target(status, task, image_size)
-    have = len(status.episodes)
-    result = CollectResult(out, total=have)
-    clean(status)
-    if on_start is not None:
-        on_start(have, max(0, episodes - have))
-    if have >= episodes:
-        pack(out)
-        return result
-    import mujoco.viewer  # deferred: glfw (~30 ms; needs a display)
+    with writing(out):  # a second run on this file stops here
+        status = scan(out)
+        check_target(status, task, image_size)
+        have = len(status.episodes)
+        result = CollectResult(out, total=have)
+        clean(status)
+        if on_start is not None:
+            on_start(have, max(0, episodes - have))
+        if have >= episodes:
+            pack(out)
+            return result
+        import mujoco.viewer  # deferred: glfw (~30 ms; needs a display)
 
-    env = PipetteEnv(task, image_size=image_size)
-    try:
-        info = DatasetInfo.from_env(env)
-        if status.info is not None and (why := status.info.mismatch(info)) is not None:
-            raise DatasetError(f"cannot add to {out}: {why}")
-        attrs = {
-            **provenance(task),
-            "model_sha256": model_sha256(env.world.model),
-            "expert": f"{KeyboardTeleop.__module__}.KeyboardTeleop",
-            "sensitivity": sensitivity,
-        }
-        teleop = KeyboardTeleop(env.world, sensitivity=sensitivity)
-        used = set(status.seeds)
-        current = plan_seeds(used, seed + have, 1)[0]
-        cap = max_steps or step_cap(task)
-        with mujoco.viewer.launch_passive(
-            env.world.model, env.world.data, key_callback=teleop.on_key, show_left_ui=False, show_right_ui=False
-        ) as viewer:
-            while result.total < episodes:
-                index = result.total
-                writer = EpisodeWriter(
-                    part_path(out, index), info, index=index, seed=current, source="teleop", attrs=attrs
-                )
-                outcome = teleop_episode(
-                    env,
-                    teleop,
-                    writer,
-                    max_steps=cap,
-                    sync=viewer.sync,
-                    running=viewer.is_running,
-                    lock=viewer.lock,
-                    stop=stop,
-                    on_done=on_done,
-                )
-                if outcome.event == "quit":
-                    result.interrupted = stop()
-                    break
-                if outcome.event == "save":
-                    assert outcome.summary is not None
-                    writer.commit()
-                    result.added.append(outcome.summary)
-                    result.total += 1
-                    if on_episode is not None:
-                        on_episode(outcome.summary)
-                if outcome.event in ("save", "discard"):
-                    used.add(current)
-                    current = plan_seeds(used, current + 1, 1)[0]
-    finally:
-        env.close()
-        clean(scan(out))
-        pack(out)
-    return result
+        env = PipetteEnv(task, image_size=image_size)
+        try:
+            info = DatasetInfo.from_env(env)
+            if status.info is not None and (why := status.info.mismatch(info)) is not None:
+                raise DatasetError(f"cannot add to {out}: {why}")
+            attrs = {
+                **provenance(task),
+                "model_sha256": model_sha256(env.world.model),
+                "expert": f"{KeyboardTeleop.__module__}.KeyboardTeleop",
+                "sensitivity": sensitivity,
+            }
+            teleop = KeyboardTeleop(env.world, sensitivity=sensitivity)
+            used = set(status.seeds)
+            current = plan_seeds(used, seed + have, 1)[0]
+            cap = max_steps or step_cap(task)
+            with mujoco.viewer.launch_passive(
+                env.world.model, env.world.data, key_callback=teleop.on_key, show_left_ui=False, show_right_ui=False
+            ) as viewer:
+                while result.total < episodes:
+                    index = result.total
+                    writer = EpisodeWriter(
+                        part_path(out, index), info, index=index, seed=current, source="teleop", attrs=attrs
+                    )
+                    outcome = teleop_episode(
+                        env,
+                        teleop,
+                        writer,
+                        max_steps=cap,
+                        sync=viewer.sync,
+                        running=viewer.is_running,
+                        lock=viewer.lock,
+                        stop=stop,
+                        on_done=on_done,
+                    )
+                    if outcome.event == "quit":
+                        result.interrupted = stop()
+                        break
+                    if outcome.event == "save":
+                        assert outcome.summary is not None
+                        writer.commit()
+                        result.added.append(outcome.summary)
+                        result.total += 1
+                        if on_episode is not None:
+                            on_episode(outcome.summary)
+                    if outcome.event in ("save", "discard"):
+                        used.add(current)
+                        current = plan_seeds(used, current + 1, 1)[0]
+        finally:
+            env.close()
+            clean(scan(out))
+            pack(out)
+        return result

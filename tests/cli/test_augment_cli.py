@@ -11,6 +11,8 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fixtures" / "augment"))
 from raw_demo import raw_demo
 
+from pipette_cli.demos.store import writing
+
 pytestmark = pytest.mark.render
 HOLD_REGISTRY = Path(__file__).resolve().parents[1] / "fixtures" / "demos" / "registry"
 
@@ -38,6 +40,15 @@ def test_raw_file_of_another_task_is_refused(run_cli, tmp_path_factory, tmp_path
     result = run_cli("--registry-dir", HOLD_REGISTRY, "augment", "testlab/HoldTube", "-i", raw, "-o", tmp_path / "a.h5")
     assert result.exit_code == 1 and "not testlab/HoldTube-v1" in result.stderr
     assert not list(tmp_path.iterdir())
+
+
+def test_a_file_another_run_is_writing_is_refused_before_any_work(run_cli, tmp_path_factory, tmp_path: Path) -> None:
+    raw = raw_demo(tmp_path_factory)
+    rejected = tmp_path / "rejected.h5"
+    with writing(rejected):  # as a second augment writing its failures to the same file would
+        result = run_cli("augment", "PickUpTestTube", "-i", raw, "-o", tmp_path / "a.h5", "--rejected", rejected)
+    assert result.exit_code == 1 and "rejected.h5 is being written by another run (pid" in result.stderr
+    assert not list(tmp_path.iterdir())  # nothing made, no lock left behind
 
 
 def test_demos_replay_on_the_robot_that_recorded_them(run_cli, tmp_path_factory, tmp_path: Path) -> None:

@@ -20,7 +20,7 @@ import pytest
 
 from pipette_cli.demos.collect import collect
 from pipette_cli.demos.replay import replay_episode
-from pipette_cli.demos.store import parts_dir, read_episode, scan
+from pipette_cli.demos.store import lock_path, parts_dir, read_episode, scan
 from pipette_cli.errors import DatasetError
 from pipette_cli.registry import load_registry
 
@@ -196,6 +196,8 @@ def test_sigkill_mid_run_leaves_a_readable_file_and_a_rerun_resumes(task, tmp_pa
     before = out.read_bytes()
     process = _cli_subprocess(out, episodes=8)
     _wait_for_parts(out, 2, process, writing=True)
+    with pytest.raises(DatasetError, match=rf"killed.h5 is being written by another run \(pid {process.pid},"):
+        collect(task, out, episodes=8, image_size=16, expert_factory=demo_experts.Wiggle)  # a second run stops
     process.send_signal(signal.SIGKILL)  # while an episode is being written
     process.wait()
     assert out.read_bytes() == before  # the file itself was never touched
@@ -206,7 +208,7 @@ def test_sigkill_mid_run_leaves_a_readable_file_and_a_rerun_resumes(task, tmp_pa
     assert [s.seed for s in resumed.added] == list(range(len(seeds), 5))
     final = scan(out)
     assert [r.summary.seed for r in final.packed] == [0, 1, 2, 3, 4] and not final.pending and not final.leftovers
-    assert not parts_dir(out).exists()
+    assert not parts_dir(out).exists() and not lock_path(out).exists()  # the dead run's lock went with it
     assert replay_episode(out, 1, task).ok  # an episode written by the killed run replays exactly
 
 

@@ -7,13 +7,24 @@ that leave the file's bytes unchanged.
 
 from __future__ import annotations
 
+import os
+
 import h5py
 import numpy as np
 import pytest
 
 from pipette_cli.demos.collect import plan_seeds
 from pipette_cli.demos.recorder import DatasetInfo, EpisodeWriter
-from pipette_cli.demos.store import delete_episode, pack, part_path, parts_dir, read_episode, scan
+from pipette_cli.demos.store import (
+    delete_episode,
+    lock_path,
+    pack,
+    part_path,
+    parts_dir,
+    read_episode,
+    scan,
+    writing,
+)
 from pipette_cli.errors import DatasetError
 from pipette_cli.evaluators.base import Verdict
 from pipette_cli.sim.env import Observation
@@ -184,6 +195,21 @@ def test_delete_refuses_while_parts_are_pending(tmp_path) -> None:
     with pytest.raises(DatasetError, match="pending"):
         delete_episode(out, 0)
     assert out.read_bytes() == before
+
+
+def test_a_second_writer_stops_before_touching_the_file(tmp_path) -> None:
+    out = tmp_path / "data.h5"
+    write_episode(part_path(out, 0), 0, seed=0)
+    pack(out)
+    before = out.read_bytes()
+    with writing(out, tmp_path / "." / "data.h5"):  # one file named twice is locked once
+        assert lock_path(out).read_text() == f"{os.getpid()}\n"
+        message = rf"data.h5 is being written by another run \(pid {os.getpid()}, lock .*data.h5.lock\)"
+        with pytest.raises(DatasetError, match=message):
+            delete_episode(out, 0)
+        assert out.read_bytes() == before
+    assert not lock_path(out).exists()  # released and removed with the block
+    assert delete_episode(out, 0).seed == 0
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "foreign"])
