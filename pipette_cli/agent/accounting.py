@@ -27,7 +27,14 @@ from typing import Any
 
 from pipette_cli.agent.catalog import TASK_PARAMS, CommandCatalog, ParamInfo
 from pipette_cli.agent.mentions import SAVE_VERBS, option_words
-from pipette_cli.agent.numbers import in_metres, length_phrases
+from pipette_cli.agent.numbers import (
+    TIME_UNITS,
+    control_rate,
+    durations,
+    in_control_steps,
+    in_metres,
+    length_phrases,
+)
 from pipette_cli.agent.plan import CheckedPlan, StepRef
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.vocabulary import ANSWER_PREFIX, RecipeSpec, WorkflowVocabularySpec, distributed
@@ -42,7 +49,7 @@ FREE_TEXT = ("description", "about", "name", "asset_id")
 """Parameters whose value is the request's own words."""
 _NUMBER = re.compile(r"^-?\d+(?:,\d{3})*(?:\.\d+)?(k)?(%)?$")
 _SIZE = re.compile(r"^(\d+)[x×](\d+)$")
-_GLUED = re.compile(r"^(\d+(?:\.\d+)?)([a-z]+)$")
+_GLUED = re.compile(r"^(\d+(?:\.\d+)?k?)-?([a-z]+)$")
 SAVE_VERB = re.compile(rf"(?:{SAVE_VERBS})[sd]?|saved|written|stored|wrote|writing|saving|storing")
 
 
@@ -93,8 +100,8 @@ class _Words:
     @classmethod
     def of(cls, text: str, units: set[str]) -> _Words:
         """The words the parser reads of ``text`` (paths and addresses already out); quotes and a
-        final full stop taken off, one of ``units`` glued to its number set apart ("48px" ->
-        "48 px"; "15k", "5e" stay)."""
+        final full stop taken off, one of ``units`` glued or hyphened to its number set apart ("48px",
+        "48-px" -> "48 px"; "15k", "5e", "96-well" stay)."""
         tokens: list[str] = []
         for token in words_of(text).split():
             token = token.strip("'\"").rstrip(".")
@@ -145,6 +152,7 @@ class Accountant:
         self.index = index
         self.filler = {w.lower() for w in vocab.filler}
         self.units = {u for info in catalog.commands.values() for p in info.params.values() for u in p.units}
+        self.units |= TIME_UNITS  # "0.5-second", "500ms": a duration of an option counted in control steps
 
     def unused_words(self, request: str, plan: CheckedPlan) -> list[str]:
         """The words of ``request`` that ``plan`` does not explain, in order (see the module docstring)."""
@@ -195,10 +203,12 @@ class Accountant:
             if step.command.startswith(ANSWER_PREFIX):
                 for phrase in self.vocab.questions:
                     words.phrase(phrase)
+            task = step.args.get(param.name) if (param := info.task_param()) is not None else None
+            hz = control_rate(self.index.registry, task)
             for name, value in step.args.items():
                 param = info.params.get(name)
                 if param is not None:
-                    self._value(words, param, value)
+                    self._value(words, param, value, hz)
                     for word in option_words(param):  # "the same suite": a value taken from the step before
                         words.phrase(f"same {word}")
             if info.task_param() is not None:
@@ -248,10 +258,10 @@ class Accountant:
 
     # -- one argument -------------------------------------------------------------------------
 
-    def _value(self, words: _Words, param: ParamInfo, value: Any) -> None:
+    def _value(self, words: _Words, param: ParamInfo, value: Any, control_hz: float = 30.0) -> None:
         if isinstance(value, list):
             for item in value:
-                self._value(words, param, item)
+                self._value(words, param, item, control_hz)
             return
         if value is None or isinstance(value, StepRef):
             return
@@ -272,6 +282,10 @@ class Accountant:
             if in_metres(param):  # "a 3 cm range" for --object-xy 0.03
                 for phrase in length_phrases(float(value)):
                     words.phrase(phrase)
+            if in_control_steps(param):  # "a 0.5-second window", "half a second" for --noise-window 15 at 30 Hz
+                for amount, unit in durations(float(value), control_hz):
+                    for spoken in [f"{amount:g}", *(w for w, n in self.vocab.spelled.items() if n == amount)]:
+                        words.phrase(f"{spoken} {unit}")
             if param.name in self.vocab.from_zero:  # "the third episode" is index 2
                 position = int(value) + 1
                 words.where(lambda t: t == f"{position}{_suffix(position)}")

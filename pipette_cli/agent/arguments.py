@@ -17,7 +17,7 @@ from typing import Any
 from pipette_cli.agent.catalog import TASK_PARAMS, AgentError, CommandCatalog, CommandInfo, is_empty
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.mentions import SAVE, assign_paths, names_no_file, option_words
-from pipette_cli.agent.numbers import read_numbers
+from pipette_cli.agent.numbers import control_rate, read_numbers
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
 from pipette_cli.errors import TaskNotFound
@@ -119,7 +119,7 @@ class ArgumentReader:
             args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
         quoted = "description" in info.params and _QUOTED.search(mentions.words)  # its numbers describe the task
         said = words_of(distributed(_QUOTED.sub(" ", mentions.words), self.vocab.distributes)) if quoted else words
-        read_numbers(self.vocab, info, said, args, bound)
+        read_numbers(self.vocab, info, said, args, bound, self._control_hz(info, args))
         self._values(info, words, args)
         if copied and is_empty(args.get(copied)) and self._copies(info, words):
             match = self.index.match(_QUOTED.sub(" ", mentions.words))  # "a copy of the water bath lid task"
@@ -127,7 +127,24 @@ class ArgumentReader:
                 args[copied] = match.task
         self._flags(info, words, args)
         self._text(info, text, saved, mentions.words, words, args)
+        self._implied(info, args)
         return args
+
+    def _implied(self, info: CommandInfo, args: dict[str, Any]) -> None:
+        """Values the options set need (vocabulary ``implies``): "a 15-step noise window" -> noise
+        variants; "with lighting and a 15-step noise window" -> light,noise (a comma list grows)."""
+        for option, needs in self.vocab.implies.get(info.name, {}).items():
+            if args.get(option) in (None, False, "", []):
+                continue
+            for name, value in needs.items():
+                param = info.params.get(name)
+                have = args.get(name)
+                if param is None:
+                    continue
+                if is_empty(have):
+                    args[name] = value
+                elif param.comma_list and value not in re.split(r"[,+*\s]+", str(have)):
+                    args[name] = f"{have},{value}"
 
     def _each_task(self, text: str) -> list[str]:
         """The tasks of a list of described tasks ("the tube pick-up and the centrifuge lid
@@ -376,12 +393,21 @@ class ArgumentReader:
             ):
                 continue
             pattern = "|".join(phrase_pattern(n).pattern for n in param.names)
-            stop = {*self.vocab.tasks.stop, *self.vocab.filler}
+            # a value of another option ("the act backbone weights": the policy) is never this one's
+            stop = {
+                *self.vocab.tasks.stop,
+                *self.vocab.filler,
+                *(v.lower() for p in info.params.values() for v in p.values()),
+            }
             m = re.search(rf"(?:{pattern})\s*(?:=|:|is|of|as|to)?\s*(\"[^\"]+\"|'[^']+'|[^\s,;]+)", raw, re.IGNORECASE)
             if not m or m.group(1).lower() in stop:  # "in the mylab namespace": the value before its name
                 m = re.search(rf"\b(?:the|a|an)\s+([\w-]+)\s+(?:{pattern})(?![\w-])", raw, re.IGNORECASE)
             if m and m.group(1).lower() not in stop:
                 args[param.name] = m.group(1).strip("\"'")
+
+    def _control_hz(self, info: CommandInfo, args: dict[str, Any]) -> float:
+        """The control rate of the task the arguments name (durations count its control steps)."""
+        return control_rate(self.registry, args.get(param.name) if (param := info.task_param()) else None)
 
     def _unknown_task(self, path: str, problems: list[str] | None) -> bool:
         """Whether ``path`` is a task id no task has ("pipette/CloseIncubatorDoor-v1"): said as

@@ -47,9 +47,10 @@ def option_words(param: ParamInfo) -> set[str]:
     return {singular(w) for w in words} - generic
 
 
-def _named(before: str, params: list[ParamInfo]) -> ParamInfo | None:
-    """The option among ``params`` that the words before a path name ("the policy in")."""
-    said = {singular(w) for t in before.split()[-3:] for w in (t, *t.split("-"))}  # "fine-tune", "tune"
+def _named(before: str, params: list[ParamInfo], values: AbstractSet[str] = frozenset()) -> ParamInfo | None:
+    """The option among ``params`` that the words before a path name ("the policy in"); a word that
+    is a value of the command ("train ACT on x": the policy) names no option (``--act-backbone-weights``)."""
+    said = {singular(w) for t in before.split()[-3:] for w in (t, *t.split("-"))} - values  # "fine-tune", "tune"
     return next((p for p in params if option_words(p) & said), None)
 
 
@@ -73,6 +74,7 @@ def assign_paths(
         return param.multiple or is_empty(args.get(param.name))
 
     choice = catalog.one_of.get(info.name, ())
+    values = {v.lower() for p in info.params.values() if not p.path for v in p.values()}
     named_strings = [p for p in info.params.values() if p.kind == "str" and not p.address and not p.values()]
     previous: ParamInfo | None = None
     for mention in paths:
@@ -81,8 +83,10 @@ def assign_paths(
             continue
         string = (
             None
-            if FILE_SUFFIX.search(mention.path) or _named(mention.before, options) or _INTO.search(mention.before)
-            else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))])
+            if FILE_SUFFIX.search(mention.path)
+            or _named(mention.before, options, values)
+            or _INTO.search(mention.before)
+            else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))], values)
         )
         if string is None and names_no_file(mention.path):
             string = next((p for p in named_strings if p.name.endswith("id") and is_empty(args.get(p.name))), None)
@@ -106,7 +110,7 @@ def assign_paths(
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
         candidates = [
-            _named(mention.before, reads if reads_from else writes + reads),
+            _named(mention.before, reads if reads_from else writes + reads, values),
             writes[0] if wants_output and writes else None,
             next((p for p in reads if p.required), None),
             next((p for p in reads if p.name in choice), None),

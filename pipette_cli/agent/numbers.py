@@ -9,7 +9,9 @@ from typing import Any
 
 from pipette_cli.agent.catalog import CommandInfo, ParamInfo, is_empty
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
-from pipette_cli.language.phrases import phrase_pattern
+from pipette_cli.language.phrases import phrase_pattern, phrase_regex
+from pipette_cli.registry import Registry
+from pipette_cli.specs.task import TimingSpec
 
 _NUMBER = re.compile(r"(?<![\w.])(-?\d+(?:,\d{3})*(?:\.\d+)?)(?!-[a-z])(\s*(?:k|thousand)\b)?(%)?")
 """A number, not one that opens a compound word ("the 96-well plate")."""
@@ -20,6 +22,43 @@ _METRES = {"mm": 0.001, "millimetre": 0.001, "millimetres": 0.001, "millimeter":
            "m": 1.0, "metre": 1.0, "metres": 1.0, "meter": 1.0, "meters": 1.0}  # fmt: skip
 _LENGTH = re.compile(rf"({'|'.join(sorted(_METRES, key=len, reverse=True))})\b", re.IGNORECASE)
 """A length after a number ("3 cm"): the value of the command's one option measured in metres."""
+
+
+_SECONDS = {"ms": 0.001, "millisecond": 0.001, "milliseconds": 0.001, "s": 1.0, "sec": 1.0, "secs": 1.0,
+            "second": 1.0, "seconds": 1.0, "min": 60.0, "mins": 60.0, "minute": 60.0, "minutes": 60.0}  # fmt: skip
+TIME_UNITS = frozenset(_SECONDS)
+_TIME = "|".join(sorted(map(re.escape, _SECONDS), key=len, reverse=True))
+
+
+def in_control_steps(param: ParamInfo) -> bool:
+    """Whether the help counts ``param`` in control steps ("Control-step cap per episode", "control
+    steps of a moving average"): a duration said in seconds is that many seconds of control steps."""
+    return param.kind == "int" and re.search(r"\bcontrol[- ]steps?\b", param.help, re.IGNORECASE) is not None
+
+
+def control_rate(registry: Registry, task: Any) -> float:
+    """The control rate of ``task`` (a registered id), else every task spec's default."""
+    if isinstance(task, str) and task in registry.ids():
+        return float(registry.get(task).timing.control_hz)
+    return float(TimingSpec().control_hz)
+
+
+def durations(steps: float, control_hz: float) -> list[tuple[float, str]]:
+    """How ``steps`` control steps may have been said as a duration: (amount, unit) pairs ((0.5, "s"),
+    (500, "ms"), ... at 30 Hz for 15)."""
+    return [(steps / control_hz / factor, unit) for unit, factor in _SECONDS.items()]
+
+
+def _durations(numeric: list[ParamInfo], text: str, control_hz: float) -> str:
+    """ "a 0.5-second window" -> "a 15 control steps window" for the command's one option counted in
+    control steps, at the task's control rate; a duration no such option takes stays as said."""
+    if len([p for p in numeric if in_control_steps(p)]) != 1:
+        return text
+
+    def steps(m: re.Match[str]) -> str:
+        return f"{round(float(m.group(1)) * _SECONDS[m.group(2).lower()] * control_hz)} control steps"
+
+    return re.sub(rf"(?<![\w.])(\d+(?:\.\d+)?)[\s-]?({_TIME})(?![\w'-])", steps, text, flags=re.IGNORECASE)
 
 
 def in_metres(param: ParamInfo) -> bool:
@@ -56,9 +95,11 @@ def read_numbers(
     words: str,
     args: dict[str, Any],
     bound: AbstractSet[float] = frozenset(),
+    control_hz: float = 30.0,
 ) -> None:
     """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
-    before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``)."""
+    before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``).
+    A duration is counted in control steps at ``control_hz`` (the task's) for an option that counts them."""
     numeric = [p for p in info.params.values() if p.kind in ("int", "float") and is_empty(args.get(p.name))]
     if not numeric:
         return
@@ -66,6 +107,7 @@ def read_numbers(
     text = _positions(vocab, numeric, text)
     for word, value in sorted(vocab.spelled.items(), key=lambda kv: -len(kv[0])):
         text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
+    text = _unhyphenated(numeric, _durations(numeric, text, control_hz))  # "half a second" is 0.5 s by now
     taken: set[str] = set()
     bare: list[float] = []
     for m in _NUMBER.finditer(text):
@@ -108,6 +150,13 @@ def read_numbers(
     fallback = info.params.get(vocab.bare_number)
     if bare and fallback is not None and fallback.name not in taken and is_empty(args.get(fallback.name)):
         args[fallback.name] = _typed(fallback, bare[0])
+
+
+def _unhyphenated(numeric: list[ParamInfo], text: str) -> str:
+    """ "a 15-step window", "a 2k-step run": a number joined to one of the options' units is read as
+    said apart; other compounds stay ("the 96-well plate")."""
+    units = "|".join(phrase_regex(u) for p in numeric for u in p.units)
+    return re.sub(rf"(?<![\w.])(\d+(?:\.\d+)?k?)-(?=(?:{units})(?![\w'-]))", r"\1 ", text) if units else text
 
 
 def _positions(vocab: WorkflowVocabularySpec, numeric: list[ParamInfo], text: str) -> str:

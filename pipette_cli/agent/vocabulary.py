@@ -100,7 +100,7 @@ class WorkflowVocabularySpec(Spec):
     chain: ChainSpec
     options: dict[str, OptionWordsSpec]
     values: dict[str, dict[str, list[str]]]
-    numbers: dict[str, int]
+    numbers: dict[str, int | float]
     bare_number: str
     ordinals: dict[str, int] = Field(default_factory=dict)
     """"third" -> 3: a position, for the parameters in ``from_zero`` ("the third episode" is index 2)."""
@@ -124,6 +124,9 @@ class WorkflowVocabularySpec(Spec):
     files: dict[str, str] = Field(default_factory=dict)
     """A file suffix -> the kind of thing such a file is (``h5`` -> ``demos``)."""
     stands_in: dict[str, dict[str, str]] = {}
+    implies: dict[str, dict[str, dict[str, str]]] = Field(default_factory=dict)
+    """Command -> an option -> values of other options it needs, filled in when the request gives
+    none (``augment --noise-window`` acts on noise variants only: ``--variants noise``)."""
     about_an_asset: dict[str, str] = Field(default_factory=dict)
     """Command -> the command its clause asks for when it names an asset and no task ("show me the
     spectrophotometer": ``assets show``, not the one task that uses it)."""
@@ -204,7 +207,7 @@ class WorkflowVocabularySpec(Spec):
         return out
 
     @cached_property
-    def spelled(self) -> dict[str, int]:
+    def spelled(self) -> dict[str, int | float]:
         """The number words and the compounds of their tens and units: "twenty-five", "twenty five"
         -> 25 (built once per vocabulary)."""
         out = dict(self.numbers)

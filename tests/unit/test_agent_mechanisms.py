@@ -188,3 +188,39 @@ def test_a_flag_said_with_alternatives_is_read_in_any_of_their_forms() -> None:
     assert args["variants"] == "light" and "noise_corrective" not in args
     [(_, args)] = commands("augment data/t.h5 of the tube pick-up task adding joint noise averaged over 20 steps")
     assert args["variants"] == "noise" and args["noise_window"] == 20
+
+
+def test_a_number_hyphened_to_its_unit_is_read_and_other_compounds_stay() -> None:
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with 20-step drifting joint noise")
+    assert args["variants"] == "noise" and args["noise_window"] == 20
+    [(_, args)] = commands("train ACT on the tube pick-up task for a 3k-step run")
+    assert args["steps"] == 3000
+    plan = AGENT.plan("record 4 demos of the 96-well plate task")
+    assert plan.steps[0].args["episodes"] == 4 and "96-well" in plan.unused  # a compound, not 96 of anything
+
+
+def test_a_duration_counts_the_tasks_control_steps_for_an_option_counted_in_them() -> None:
+    # 30 Hz control (every registered task): 0.25 s is 7.5 -> 8 steps, 2 s 60, 400 ms 12
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task, joint noise smoothed over 2 seconds")
+    assert args["noise_window"] == 60 and args["variants"] == "noise"
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with a 400 ms drift window")
+    assert args["noise_window"] == 12
+    [(_, args)] = commands("collect 3 demos of the tube pick-up task, capped at 12 s each")
+    assert args["max_steps"] == 360 and args["episodes"] == 3
+    # a duration no option counts is no number of steps (training steps are no time): listed, not read
+    assert AGENT.plan("train ACT on the tube pick-up task for 30 seconds").unused == ["30"]
+
+
+def test_a_noise_option_brings_the_noise_variants_it_acts_on() -> None:
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with dart labels and a 10-step window")
+    assert args["variants"] == "noise" and args["noise_corrective"] is True and args["noise_window"] == 10
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with camera jitter and noise sigma 0.02")
+    assert args["variants"] == "cam,noise" and args["noise_sigma"] == 0.02
+    [(_, args)] = commands("augment data/t.h5 of the tube pick-up task with 2 light+noise draws and dart labels")
+    assert args["variants"] == "light+noise*2"  # noise already in a variant: nothing added
+
+
+def test_a_value_of_the_command_names_no_option_before_a_path() -> None:
+    # "ACT" is the policy, not --act-backbone-weights: the folder's role is asked for
+    with pytest.raises(AgentError, match="cannot tell what 'runs/d' is for in 'pipette train'"):
+        AGENT.plan("train ACT on runs/d")
