@@ -132,19 +132,24 @@ class ArgumentReader:
 
     def _implied(self, info: CommandInfo, args: dict[str, Any]) -> None:
         """Values the options set need (vocabulary ``implies``): "a 15-step noise window" -> noise
-        variants; "with lighting and a 15-step noise window" -> light,noise (a comma list grows)."""
+        variants; "with lighting and a 15-step noise window" -> light,noise (a comma list grows); a
+        value the list (or the default) already holds is not added ("speed factor 1.5": paper has speed)."""
         for option, needs in self.vocab.implies.get(info.name, {}).items():
             if args.get(option) in (None, False, "", []):
                 continue
             for name, value in needs.items():
                 param = info.params.get(name)
-                have = args.get(name)
                 if param is None:
                     continue
-                if is_empty(have):
+                have = str(args.get(name) or param.default or "")
+                holds = self.vocab.contains.get(name, {})
+                said = {w for part in re.split(r"[,+*\s]+", have) for w in (part, *holds.get(part, []))}
+                if value in said:
+                    continue  # the list, or the default, holds it
+                if is_empty(args.get(name)):
                     args[name] = value
-                elif param.comma_list and value not in re.split(r"[,+*\s]+", str(have)):
-                    args[name] = f"{have},{value}"
+                elif param.comma_list:
+                    args[name] = f"{args[name]},{value}"
 
     def _each_task(self, text: str) -> list[str]:
         """The tasks of a list of described tasks ("the tube pick-up and the centrifuge lid

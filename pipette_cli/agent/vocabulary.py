@@ -127,6 +127,9 @@ class WorkflowVocabularySpec(Spec):
     implies: dict[str, dict[str, dict[str, str]]] = Field(default_factory=dict)
     """Command -> an option -> values of other options it needs, filled in when the request gives
     none (``augment --noise-window`` acts on noise variants only: ``--variants noise``)."""
+    contains: dict[str, dict[str, list[str]]] = Field(default_factory=dict)
+    """Option -> a value that stands for several -> the values it holds (``--variants paper``: light,
+    speed, cam); :attr:`implies` adds none of these to it."""
     about_an_asset: dict[str, str] = Field(default_factory=dict)
     """Command -> the command its clause asks for when it names an asset and no task ("show me the
     spectrophotometer": ``assets show``, not the one task that uses it)."""

@@ -48,7 +48,30 @@ def _table(report: dict) -> Table:
     return table
 
 
+ATOM_OPTIONS = {
+    "light": ("light_scale", "light_jitter"),
+    "speed": ("speed", "rho", "interpolation"),
+    "noise": ("noise_sigma", "noise_clip", "noise_window", "noise_corrective"),
+    "cam": ("camera", "camera_radius", "wrist_radius"),
+    "object": ("object_xy", "object_yaw", "object_range"),
+    "table": ("table_blend",),
+    "clutter": ("distractors",),
+}
+"""The options of ``augment`` that set each atom's perturbation."""
+
+
+def _given_options(ctx: typer.Context) -> dict[str, list[str]]:
+    """Atom -> the flags of its options this command line gives."""
+    flags = {p.name: p.opts[0] for p in ctx.command.params}
+    given = {
+        atom: [flags[n] for n in names if getattr(ctx.get_parameter_source(n), "name", None) == "COMMANDLINE"]
+        for atom, names in ATOM_OPTIONS.items()
+    }
+    return {atom: found for atom, found in given.items() if found}
+
+
 def augment(
+    ctx: typer.Context,
     task_id: Annotated[str, typer.Argument(help="Task id, e.g. PickUpTestTube.")],
     input: Annotated[Path, typer.Option("--input", "-i", help="Raw demos (HDF5 from `pipette collect`).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Augmented file to create or resume.")],
@@ -171,11 +194,12 @@ def augment(
     if not names:
         raise SpecError("--variants is empty")
     spec = AugmentSpec(variants=make_variants(names, atoms), seed=seed, image_size=image_size)
-    if noise_corrective and not any(v.get(JointNoiseSpec) for v in spec.variants):
-        raise SpecError(
-            f"--noise-corrective changes joint-noise variants, and --variants {variants!r} has none: "
-            "add noise to a variant (e.g. --variants original,noise*5 or object+noise)"
-        )
+    for atom, given in _given_options(ctx).items():  # "--noise-window 15 --variants light" would change nothing
+        if not any(v.get(type(atoms[atom])) for v in spec.variants):
+            raise SpecError(
+                f"{', '.join(given)} {'changes' if len(given) == 1 else 'change'} {atom} variants, and --variants "
+                f"{variants!r} has none: add {atom} to a variant (e.g. --variants original,{atom}*5 or object+{atom})"
+            )
 
     recorded = check_inputs(load_task(task_id), input, output, rejected).embodiment
     if robot is not None and resolve_robot(robot).name != recorded:

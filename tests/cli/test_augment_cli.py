@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 import json
 import sys
 from pathlib import Path
@@ -25,6 +26,11 @@ HOLD_REGISTRY = Path(__file__).resolve().parents[1] / "fixtures" / "demos" / "re
         (["--wrist-radius", "-1"], "wrist_radius"),
         (["--variants", "light,sped"], "did you mean 'speed'"),
         (["--variants", "light,speed", "--noise-corrective"], "has none: add noise to a variant"),
+        (
+            ["--variants", "light", "--noise-window", "15", "--noise-sigma", "0.01"],
+            "--noise-sigma, --noise-window change",
+        ),
+        (["--variants", "object*3", "--speed", "1.5"], "--speed changes speed variants, and --variants 'object*3' has"),
     ],
 )
 def test_impossible_parameters_fail_before_any_work(run_cli, tmp_path_factory, tmp_path: Path, args, needle) -> None:
@@ -33,6 +39,18 @@ def test_impossible_parameters_fail_before_any_work(run_cli, tmp_path_factory, t
     result = run_cli("augment", "PickUpTestTube", "--input", raw, "--output", out, *args)
     assert result.exit_code == 1 and needle in result.stderr
     assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_every_perturbation_option_belongs_to_its_atom() -> None:
+    from pipette_cli.augment.specs import default_atoms
+    from pipette_cli.cli.augment import ATOM_OPTIONS, augment
+
+    params = set(inspect.signature(augment).parameters) - {"ctx"}
+    assert set(ATOM_OPTIONS) == set(default_atoms())  # every atom, no other
+    assert {n for names in ATOM_OPTIONS.values() for n in names} <= params
+    assert {n for n in params if n.split("_")[0] in ("light", "noise", "camera", "object", "table")} <= {
+        n for names in ATOM_OPTIONS.values() for n in names
+    }
 
 
 def test_raw_file_of_another_task_is_refused(run_cli, tmp_path_factory, tmp_path: Path) -> None:
@@ -85,3 +103,20 @@ def test_small_run_reports_yield_as_json(run_cli, tmp_path_factory, tmp_path: Pa
     assert rows["light"]["kept"] == 1 and rows["light"]["magnitude"] == "s_I=0.8"
     assert rows["speed"]["magnitude"].startswith("s_v=6") and rows["speed"]["kept"] == 0  # 6x too fast to lift
     assert data["kept"] == 1 and out.exists()
+
+
+def test_the_agent_brings_the_variant_each_perturbation_option_acts_on() -> None:
+    # `pipette augment` refuses an atom's option with no variant of that atom; the agent's plan adds it
+    from pipette_cli.agent.vocabulary import load_vocabulary
+    from pipette_cli.cli.augment import ATOM_OPTIONS
+
+    implies = load_vocabulary().implies["augment"]
+    assert implies == {name: {"variants": atom} for atom, names in ATOM_OPTIONS.items() for name in names}
+
+
+def test_what_the_agent_takes_the_paper_grid_to_hold_is_what_it_holds() -> None:
+    from pipette_cli.agent.vocabulary import load_vocabulary
+    from pipette_cli.augment.specs import PAPER_GRID
+
+    held = {atom for variant in PAPER_GRID for atom in variant.split("+")}
+    assert set(load_vocabulary().contains["variants"]["paper"]) == held
