@@ -77,6 +77,7 @@ def writing(*paths: Path) -> Iterator[None]:
 @contextmanager
 def _locked(path: Path) -> Iterator[None]:
     lock = lock_path(path)
+    made = [f for f in (lock.parent, *lock.parent.parents) if not f.exists()]  # deepest first
     lock.parent.mkdir(parents=True, exist_ok=True)
     while True:
         fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o644)
@@ -102,6 +103,11 @@ def _locked(path: Path) -> Iterator[None]:
     finally:
         lock.unlink(missing_ok=True)
         os.close(fd)
+        for folder in made:  # a folder made for the lock alone goes with it (a run that failed early)
+            try:
+                folder.rmdir()
+            except OSError:
+                break
 
 
 def _tmp(path: Path) -> Path:

@@ -210,6 +210,9 @@ def test_a_second_writer_stops_before_touching_the_file(tmp_path) -> None:
         assert out.read_bytes() == before
     assert not lock_path(out).exists()  # released and removed with the block
     assert delete_episode(out, 0).seed == 0
+    with writing(tmp_path / "new" / "deeper" / "x.h5"):  # folders made for the lock alone go with it
+        assert (tmp_path / "new" / "deeper").is_dir()
+    assert not (tmp_path / "new").exists()
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "foreign"])
