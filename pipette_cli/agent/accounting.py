@@ -285,7 +285,7 @@ class Accountant:
             if in_control_steps(param):  # "a 0.5-second window", "half a second" for --noise-window 15 at 30 Hz
                 for amount, unit in durations(float(value), control_hz):
                     for spoken in [f"{amount:g}", *(w for w, n in self.vocab.spelled.items() if n == amount)]:
-                        words.phrase(f"{spoken} {unit}")
+                        words.phrase(f"{spoken} {unit} (long)?")
             if param.name in self.vocab.from_zero:  # "the third episode" is index 2
                 position = int(value) + 1
                 words.where(lambda t: t == f"{position}{_suffix(position)}")

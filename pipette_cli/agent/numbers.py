@@ -58,7 +58,8 @@ def _durations(numeric: list[ParamInfo], text: str, control_hz: float) -> str:
     def steps(m: re.Match[str]) -> str:
         return f"{round(float(m.group(1)) * _SECONDS[m.group(2).lower()] * control_hz)} control steps"
 
-    return re.sub(rf"(?<![\w.])(\d+(?:\.\d+)?)[\s-]?({_TIME})(?![\w'-])", steps, text, flags=re.IGNORECASE)
+    pattern = rf"(?<![\w.])(\d+(?:\.\d+)?)[\s-]?({_TIME})(?![\w'-])(?:\s+long\b)?"  # "6 seconds long"
+    return re.sub(pattern, steps, text, flags=re.IGNORECASE)
 
 
 def in_metres(param: ParamInfo) -> bool:

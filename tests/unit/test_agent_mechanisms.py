@@ -207,6 +207,10 @@ def test_a_duration_counts_the_tasks_control_steps_for_an_option_counted_in_them
     assert args["noise_window"] == 12
     [(_, args)] = commands("collect 3 demos of the tube pick-up task, capped at 12 s each")
     assert args["max_steps"] == 360 and args["episodes"] == 3
+    [(_, args)] = commands("collect 2 demos of the tube pick-up task, none more than 5 seconds long")
+    assert args["max_steps"] == 150
+    [(_, args)] = commands("collect 2 demos of the tube pick-up task with a 250-step limit")
+    assert args["max_steps"] == 250
     # a duration no option counts is no number of steps (training steps are no time): listed, not read
     assert AGENT.plan("train ACT on the tube pick-up task for 30 seconds").unused == ["30"]
 
