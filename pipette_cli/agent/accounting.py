@@ -43,7 +43,7 @@ from pipette_cli.language.assets import load_vocabulary as load_asset_words
 from pipette_cli.language.clauses import LIST_MARK, Separators, pieces
 from pipette_cli.language.lexicon import short_name, stem
 from pipette_cli.language.mentions import find_mentions
-from pipette_cli.language.phrases import find_phrase, phrase_pattern, words_of
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_tokens, words_of
 
 FREE_TEXT = ("description", "about", "name", "asset_id")
 """Parameters whose value is the request's own words."""
@@ -62,7 +62,7 @@ def _literals(phrase: str) -> tuple[set[str], tuple[str, ...]]:
     """The literal words of a vocabulary phrase and its ``word*`` prefixes."""
     words: set[str] = set()
     prefixes: list[str] = []
-    for token in re.findall(r"\([^)]*\)\??|\S+", phrase.strip()):
+    for token in phrase_tokens(phrase):
         token = token.rstrip("?") if len(token) > 1 else token
         for alt in token.strip("()").split("|"):
             for word in alt.split():
@@ -203,8 +203,7 @@ class Accountant:
             if step.command.startswith(ANSWER_PREFIX):
                 for phrase in self.vocab.questions:
                     words.phrase(phrase)
-            task = step.args.get(param.name) if (param := info.task_param()) is not None else None
-            hz = control_rate(self.index.registry, task)
+            hz = control_rate(self.index.registry, info, step.args)
             for name, value in step.args.items():
                 param = info.params.get(name)
                 if param is not None:
@@ -258,7 +257,7 @@ class Accountant:
 
     # -- one argument -------------------------------------------------------------------------
 
-    def _value(self, words: _Words, param: ParamInfo, value: Any, control_hz: float = 30.0) -> None:
+    def _value(self, words: _Words, param: ParamInfo, value: Any, control_hz: float) -> None:
         if isinstance(value, list):
             for item in value:
                 self._value(words, param, item, control_hz)
@@ -267,7 +266,7 @@ class Accountant:
             return
         if param.comma_list and isinstance(value, str) and "," in value:  # --variants light,cam
             for item in value.split(","):
-                self._value(words, param, item.strip())
+                self._value(words, param, item.strip(), control_hz)
             return
         if isinstance(value, str) and (
             (param.name in TASK_PARAMS and param.kind == "task") or value in self.index.terms

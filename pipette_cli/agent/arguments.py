@@ -119,7 +119,7 @@ class ArgumentReader:
             args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
         quoted = "description" in info.params and _QUOTED.search(mentions.words)  # its numbers describe the task
         said = words_of(distributed(_QUOTED.sub(" ", mentions.words), self.vocab.distributes)) if quoted else words
-        read_numbers(self.vocab, info, said, args, bound, self._control_hz(info, args))
+        read_numbers(self.vocab, info, said, args, bound, control_rate(self.registry, info, args))
         self._values(info, words, args)
         if copied and is_empty(args.get(copied)) and self._copies(info, words):
             match = self.index.match(_QUOTED.sub(" ", mentions.words))  # "a copy of the water bath lid task"
@@ -409,10 +409,6 @@ class ArgumentReader:
                 m = re.search(rf"\b(?:the|a|an)\s+([\w-]+)\s+(?:{pattern})(?![\w-])", raw, re.IGNORECASE)
             if m and m.group(1).lower() not in stop:
                 args[param.name] = m.group(1).strip("\"'")
-
-    def _control_hz(self, info: CommandInfo, args: dict[str, Any]) -> float:
-        """The control rate of the task the arguments name (durations count its control steps)."""
-        return control_rate(self.registry, args.get(param.name) if (param := info.task_param()) else None)
 
     def _unknown_task(self, path: str, problems: list[str] | None) -> bool:
         """Whether ``path`` is a task id no task has ("pipette/CloseIncubatorDoor-v1"): said as

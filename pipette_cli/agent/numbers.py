@@ -36,8 +36,10 @@ def in_control_steps(param: ParamInfo) -> bool:
     return param.kind == "int" and re.search(r"\bcontrol[- ]steps?\b", param.help, re.IGNORECASE) is not None
 
 
-def control_rate(registry: Registry, task: Any) -> float:
-    """The control rate of ``task`` (a registered id), else every task spec's default."""
+def control_rate(registry: Registry, info: CommandInfo, args: dict[str, Any]) -> float:
+    """The control rate of the task ``args`` name for ``info`` (a registered id), else every task spec's
+    default: durations said for an option counted in control steps count that task's steps."""
+    task = args.get(param.name) if (param := info.task_param()) is not None else None
     if isinstance(task, str) and task in registry.ids():
         return float(registry.get(task).timing.control_hz)
     return float(TimingSpec().control_hz)
@@ -49,7 +51,7 @@ def durations(steps: float, control_hz: float) -> list[tuple[float, str]]:
     return [(steps / control_hz / factor, unit) for unit, factor in _SECONDS.items()]
 
 
-def _durations(numeric: list[ParamInfo], text: str, control_hz: float) -> str:
+def _durations_in_steps(numeric: list[ParamInfo], text: str, control_hz: float) -> str:
     """ "a 0.5-second window" -> "a 15 control steps window" for the command's one option counted in
     control steps, at the task's control rate; a duration no such option takes stays as said."""
     if len([p for p in numeric if in_control_steps(p)]) != 1:
@@ -95,8 +97,8 @@ def read_numbers(
     info: CommandInfo,
     words: str,
     args: dict[str, Any],
-    bound: AbstractSet[float] = frozenset(),
-    control_hz: float = 30.0,
+    bound: AbstractSet[float],
+    control_hz: float,
 ) -> None:
     """Numbers next to an option's words: units after ("30 demos", "60 expert demos"), names
     before ("seed 3", "batch size of 8"); a number with neither counts episodes (``bare_number``).
@@ -108,7 +110,7 @@ def read_numbers(
     text = _positions(vocab, numeric, text)
     for word, value in sorted(vocab.spelled.items(), key=lambda kv: -len(kv[0])):
         text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
-    text = _unhyphenated(numeric, _durations(numeric, text, control_hz))  # "half a second" is 0.5 s by now
+    text = _unhyphenated(numeric, _durations_in_steps(numeric, text, control_hz))  # "half a second" is 0.5 s by now
     taken: set[str] = set()
     bare: list[float] = []
     for m in _NUMBER.finditer(text):
