@@ -15,6 +15,8 @@ Stages (each resumes: rerun the same command after an interruption and finished 
           results.json and table.md in --docs.
   diagnose  how much each trained policy's actions follow its images, on the first frames of the
           raw demonstrations (no suite seed): diagnosis.json in --docs (plan.md, point 6).
+  contained  per task, whether a setting's data hold the replays of the setting it contains unchanged
+          (amendment 14: aug_all_plus_drift holds aug_all's): contained.json beside the kept logs.
   hashes  per task, a hash of every dataset's arrays (all but wall time), the code that made them and
           the CPU: data_hashes.json beside the kept logs, to tell on another machine whether its
           datasets, or only its policies, differ (plan.md, amendments 7 and 8).
@@ -64,7 +66,7 @@ from pipette_cli.demo import SMALL_ACT, SMALL_ACT_THREADS  # noqa: E402
 from pipette_cli.demos.collect import collect  # noqa: E402
 from pipette_cli.demos.experts.base import expert_program  # noqa: E402
 from pipette_cli.demos.provenance import describe_code, git_state, recorded_code  # noqa: E402
-from pipette_cli.demos.store import DatasetStatus, read_episode, scan  # noqa: E402
+from pipette_cli.demos.store import DatasetStatus, EpisodeRef, read_episode, scan  # noqa: E402
 from pipette_cli.evaluation.results import read_logs  # noqa: E402
 from pipette_cli.evaluation.runner import PolicySource, TaskRun, evaluate_runs  # noqa: E402
 from pipette_cli.evaluation.settings import DecodeConfig, EvalSettings  # noqa: E402
@@ -103,15 +105,22 @@ VARIANTS |= {"aug_all_seg": VARIANTS["aug_all"], "aug_object_seg": VARIANTS["aug
 """Amendment 5: the same variants built by the segmented retargeting (the code after 2740d3a)."""
 VARIANTS["aug_all_dart"] = "original,object+light+cam+table+noise*5"
 VARIANTS["aug_all_drift"] = VARIANTS["aug_all_dart"]
+VARIANTS["aug_all_plus_drift"] = VARIANTS["aug_all"] + ",light+cam+table+noise*5"
+DRIFT = {"sigma": 0.01, "bound": 0.03, "window": 15, "corrective": True}
 SETTING_ATOMS: dict[str, dict[str, dict[str, Any]]] = {
     "aug_all_dart": {"noise": {"corrective": True}},
-    "aug_all_drift": {"noise": {"sigma": 0.01, "bound": 0.03, "window": 15, "corrective": True}},
+    "aug_all_drift": {"noise": DRIFT},
+    "aug_all_plus_drift": {"noise": DRIFT},
 }
 """Amendment 10: aug_all's variants with corrective joint noise (``pipette augment``'s sigma and bound),
 whose episodes record the demonstrated targets while the noisy ones run. Amendment 12: the same with the
-noise drifting over 15 steps at sigma 0.01 rad (the hand about 9 mm off the path on average, not 2)."""
+noise drifting over 15 steps at sigma 0.01 rad (the hand about 9 mm off the path on average, not 2).
+Amendment 14: aug_all's variants as they are (the same names, so the same draws) followed by five of the
+drift without moving the objects."""
 CORRECTIVE = tuple(SETTING_ATOMS)
-"""The settings with corrective joint noise (amendments 10 and 12), each at S."""
+"""The settings with corrective joint noise (amendments 10, 12 and 14), each at S."""
+CONTAINS = {"aug_all_plus_drift": "aug_all"}
+"""Amendment 14: a setting whose data hold another's replays, which :func:`contained` checks."""
 SETTINGS = ("raw", "aug_all", "aug_object", "aug_visual", "more_demos", "aug_clutter")
 SEGMENTED = ("aug_all_seg", "aug_object_seg")
 """Amendment 5's settings, run after the main run (``--settings aug_all_seg,aug_object_seg``) for the
@@ -141,11 +150,12 @@ SUITE_SETTINGS = {
         "aug_all_dart_ep",
         "aug_all_drift",
         "aug_all_drift_ep",
+        "aug_all_plus_drift",
     ),
 }
 """The settings evaluated on each suite (aug_clutter and the clutter suite: amendment 1; the
 segmented ones: amendment 5; the epoch-matched ones: amendment 6; the replicates: amendment 8;
-the corrective ones: amendment 10)."""
+the corrective ones: amendments 10, 12 and 14)."""
 PRIMARY = [("raw", "aug_all")]
 AMENDMENT_1 = [("raw", "aug_clutter"), ("raw", "aug_all"), ("aug_all", "aug_clutter")]
 AMENDMENT_5 = [("aug_all", "aug_all_seg"), ("raw", "aug_all_seg")]
@@ -167,6 +177,12 @@ AMENDMENT_12 = [
     ("raw", "aug_all_drift_ep"),
 ]
 """On every suite: the drift against amendment 10's noise, against aug_all and raw; at matched passes."""
+AMENDMENT_14 = [
+    ("aug_all", "aug_all_plus_drift"),
+    ("aug_all_drift", "aug_all_plus_drift"),
+    ("raw", "aug_all_plus_drift"),
+]
+"""On every suite: what the added drift buys, drift beside rather than on the moved objects, and against raw."""
 SECONDARY = [
     ("raw", "aug_object"),
     ("raw", "aug_visual"),
@@ -463,6 +479,80 @@ def data(ex: Experiment, task: TaskSpec, settings: list[str]) -> dict[str, Path]
     if "more_demos" in settings:
         sources["more_demos"] = demonstrations(ex, task, len(scan(sources["aug_all"]).episodes), "more_demos")
     return sources
+
+
+def variant_kind(name: str) -> str:
+    """A variant's name without its draw: ``object+light@3`` -> ``object+light``."""
+    return name.partition("@")[0]
+
+
+def yield_by_kind(report: dict[str, Any]) -> dict[str, tuple[int, int]]:
+    """(kept, tried) of an augmentation's yield report per kind of variant (:func:`variant_kind`)."""
+    found: dict[str, tuple[int, int]] = {}
+    for row in report["variants"]:
+        kept, tried = found.get(variant_kind(row["variant"]), (0, 0))
+        found[variant_kind(row["variant"])] = (kept + row["kept"], tried + row["attempts"])
+    return found
+
+
+def contained(ex: Experiment, task: TaskSpec, outer: str) -> dict[str, Any]:
+    """Whether ``outer``'s data hold the setting it contains (:data:`CONTAINS`) unchanged: per variant of
+    the inner setting, the same kept count and failures in both yield reports; and, where the inner file
+    is on this machine, every kept inner episode found in ``outer`` (same demonstration seed and variant)
+    with every array (wall time aside) and image equal byte for byte."""
+    inner = CONTAINS[outer]
+    reports = json.loads(ex.folder(task, "yield.json").read_text())
+    rows = {s: {r["variant"]: (r["kept"], r["failures"]) for r in reports[s]["variants"]} for s in (inner, outer)}
+    found: dict[str, Any] = {
+        "inner": inner,
+        "same_yield": all(rows[outer].get(v) == row for v, row in rows[inner].items()),
+    }
+    if not ex.folder(task, f"{inner}.h5").is_file():
+        return found | {"episodes": None}
+
+    def episodes(setting: str) -> dict[tuple[int, str], EpisodeRef]:
+        refs = scan(ex.folder(task, f"{setting}.h5")).episodes
+        return {(r.summary.seed, str(read_episode(r).attrs["augment_variant"])): r for r in refs}
+
+    def same(a: np.ndarray, b: np.ndarray) -> bool:  # strings (object arrays) by value, numbers by bytes
+        return (
+            a.dtype == b.dtype
+            and a.shape == b.shape
+            and (a.tolist() if a.dtype == object else a.tobytes()) == (b.tolist() if b.dtype == object else b.tobytes())
+        )
+
+    def equal(x: Any, y: Any) -> bool:  # wall time is when it ran, not what
+        return x.keys() == y.keys() and all(same(x[k], y[k]) for k in x if k != "wall_time")
+
+    theirs, ours = episodes(inner), episodes(outer)
+    identical = 0
+    for key, ref in theirs.items():
+        if key in ours:
+            a, b = read_episode(ref, images=True), read_episode(ours[key], images=True)
+            identical += equal(a.arrays, b.arrays) and equal(a.images, b.images)
+    return found | {"episodes": len(theirs), "identical": identical}
+
+
+def yield_by_kind_lines(found: dict[str, dict[str, Any]], tasks: list[TaskSpec]) -> list[str]:
+    """The yield table's line per kind of variant, for each setting that mixes kinds (amendment 14)."""
+    lines = []
+    for t in tasks:
+        for setting, report in found.get(t.id, {}).items():
+            kinds = {k: v for k, v in yield_by_kind(report).items() if k != "original"}
+            if len(kinds) > 1:
+                lines += [f"| {t.id} {setting}: {kind} | {kept}/{tried} |" for kind, (kept, tried) in kinds.items()]
+    return (
+        [
+            "",
+            "By kind of variant, where a setting mixes them:",
+            "",
+            "| task, setting: variants | kept / tried |",
+            "|---|---|",
+            *lines,
+        ]
+        if lines
+        else []
+    )
 
 
 def frames_of(ex: Experiment, task: TaskSpec, setting: str) -> int:
@@ -774,6 +864,7 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
             ("amendment 6", AMENDMENT_6[:2]),
             ("amendment 10", AMENDMENT_10),
             ("amendment 12", AMENDMENT_12),
+            ("amendment 14", AMENDMENT_14),
         ]
     return [
         ("primary", PRIMARY),
@@ -782,6 +873,7 @@ def families(suite: str) -> list[tuple[str, list[tuple[str, str]]]]:
         ("amendment 6", AMENDMENT_6),
         ("amendment 10", AMENDMENT_10),
         ("amendment 12", AMENDMENT_12),
+        ("amendment 14", AMENDMENT_14),
     ]
 
 
@@ -1124,6 +1216,17 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
             + " | ".join(f"{found[s]['kept']}/{found[s]['attempts']}" if s in found else "-" for s in VARIANTS)
             + " |"
         )
+    lines += yield_by_kind_lines(results["yield"], tasks)
+    results["contained"] = {
+        t.id: json.loads(ex.folder(t, "contained.json").read_text())
+        for t in tasks
+        if ex.folder(t, "contained.json").is_file()
+    }
+    for t, found in results["contained"].items():
+        for outer, c in found.items():
+            same = "have its yield, variant by variant" if c["same_yield"] else "do NOT have its yield"
+            arrays = "" if c["episodes"] is None else f"; {c['identical']} of its {c['episodes']} episodes identical"
+            lines += ["", f"{t} {outer}: {c['inner']}'s replays inside it {same}{arrays} array for array."]
     results["training_speed"], speed_lines = training_speed()
     lines += ["", *speed_lines]
     results["data_code"] = {t.id: data_code(ex, t) for t in tasks}
@@ -1153,7 +1256,7 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("stage", choices=("data", "pilot", "run", "report", "diagnose", "hashes"))
+    parser.add_argument("stage", choices=("data", "pilot", "run", "report", "diagnose", "hashes", "contained"))
     parser.add_argument("--work", type=Path, default=Path("runs/augmentation"))
     parser.add_argument("--docs", type=Path, default=ROOT / "docs" / "reproduction" / "augmentation")
     parser.add_argument(
@@ -1209,6 +1312,14 @@ def main() -> None:
             into.parent.mkdir(parents=True, exist_ok=True)
             into.write_text(json.dumps(data_hashes(ex, task), indent=1) + "\n")
             say(f"{task.id}: {into}")
+        return
+    if args.stage == "contained":  # amendment 14: the data that hold another setting's replays, checked
+        for task in tasks:
+            checked = {s: contained(ex, task, s) for s in CONTAINS if ex.folder(task, f"{s}.h5").is_file()}
+            if checked:
+                ex.folder(task, "contained.json").write_text(json.dumps(checked, indent=1) + "\n")
+                kept(ex, ex.folder(task, "contained.json"))
+                say(f"{task.id}: {checked}")
         return
     if args.stage == "data":  # what does not depend on training: demonstrations and augmentation
         for task in tasks:

@@ -395,7 +395,8 @@ def test_corrective_noise_records_the_demonstrated_targets_runs_the_noisy_ones_a
     assert all("executed_action" not in e.arrays and e.attrs["augment_actions"] == "executed" for e in plain)
 
 
-def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, task, tmp_path) -> None:
+def the_experiment():
+    """benchmarks/augmentation_experiment.py as a module."""
     import importlib.util
 
     path = Path(__file__).resolve().parents[2] / "benchmarks" / "augmentation_experiment.py"
@@ -404,6 +405,11 @@ def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, t
     experiment = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = experiment  # its dataclasses look their module up
     spec.loader.exec_module(experiment)
+    return experiment
+
+
+def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, task, tmp_path) -> None:
+    experiment = the_experiment()
     ex = experiment.Experiment(tmp_path, 1, 16, "fast", 1, (500,), 1, None, 1)
     ex.folder(task).mkdir(parents=True)
     shutil.copy(run[0], ex.folder(task, "raw.h5"))
@@ -414,3 +420,33 @@ def test_the_corrective_noise_excursion_is_measured_off_the_recorded_path(run, t
     assert 0 < found["mean_tcp_deviation_mm"] < found["largest_tcp_deviation_mm"] < 50
     drift = experiment.noise_excursion(ex, task, "aug_all_drift")  # amendment 12: the hand further off the path
     assert drift["window"] == 15 and drift["mean_tcp_deviation_mm"] > 2 * found["mean_tcp_deviation_mm"]
+
+
+def test_aug_alls_replays_inside_amendment_14s_data_are_identical_array_for_array(
+    run, task, tmp_path, monkeypatch
+) -> None:
+    experiment = the_experiment()
+    for setting in ("aug_all", "aug_all_plus_drift"):  # the experiment's variants, two draws of each kind
+        monkeypatch.setitem(experiment.VARIANTS, setting, experiment.VARIANTS[setting].replace("*5", "*2"))
+    ex = experiment.Experiment(tmp_path, 1, 16, "fast", 1, (500,), 1, None, 1)
+    ex.folder(task).mkdir(parents=True)
+    shutil.copy(run[0], ex.folder(task, "raw.h5"))
+    experiment.data(ex, task, ["aug_all", "aug_all_plus_drift"])
+    reports = json.loads(ex.folder(task, "yield.json").read_text())
+    kinds = experiment.yield_by_kind(reports["aug_all_plus_drift"])
+    assert set(kinds) == {"original", "object+light+cam+table", "light+cam+table+noise"}  # a yield line per kind
+    assert kinds["light+cam+table+noise"][1] == 2
+    found = experiment.contained(ex, task, "aug_all_plus_drift")
+    assert found["same_yield"] and found["episodes"] == len(scan(ex.folder(task, "aug_all.h5")).episodes) >= 2
+    assert found["identical"] == found["episodes"]
+    drifted = [read_episode(r) for r in scan(ex.folder(task, "aug_all_plus_drift.h5")).episodes]
+    drifted = [e for e in drifted if str(e.attrs["augment_variant"]).startswith("light+cam+table+noise")]
+    for episode in drifted:  # the demonstrated targets recorded, the drifting ones run
+        params = json.loads(episode.attrs["augment_params"])
+        assert params["joint_noise"]["window"] == 15 and "object_pose" not in params
+        assert "executed_action" in episode.arrays
+    refs = scan(ex.folder(task, "aug_all_plus_drift.h5")).episodes
+    original = next(r for r in refs if read_episode(r).attrs["augment_variant"] == "original")
+    with h5py.File(ex.folder(task, "aug_all_plus_drift.h5"), "r+") as f:  # one changed action is seen
+        f[original.group]["action"][0, 0] += 1.0
+    assert experiment.contained(ex, task, "aug_all_plus_drift")["identical"] == found["identical"] - 1

@@ -318,6 +318,48 @@ def test_amendment_12_drifts_the_corrective_noise_and_compares_it_with_amendment
         assert "aug_all_drift" in experiment.SUITE_SETTINGS[suite]
 
 
+def test_amendment_14_holds_aug_alls_variants_followed_by_drift_on_the_demonstrated_placement() -> None:
+    from pipette_cli.augment.specs import default_atoms, make_variants
+    from pipette_cli.specs.perturbations import JointNoiseSpec, ObjectPoseSpec
+
+    atoms = default_atoms(**(experiment.ATOMS | experiment.SETTING_ATOMS["aug_all_plus_drift"]))
+    plus = make_variants(experiment.VARIANTS["aug_all_plus_drift"].split(","), atoms)
+    alone = make_variants(experiment.VARIANTS["aug_all"].split(","), default_atoms(**experiment.ATOMS))
+    assert plus[: len(alone)] == alone and len(plus) == len(alone) + 5  # the same names, so the same draws
+    for added in plus[len(alone) :]:
+        noise = added.get(JointNoiseSpec)
+        assert isinstance(noise, JointNoiseSpec) and added.get(ObjectPoseSpec) is None  # objects where shown
+        assert noise.model_dump(include=set(experiment.DRIFT)) == experiment.DRIFT
+    assert experiment.SETTING_ATOMS["aug_all_drift"]["noise"] == experiment.DRIFT  # amendment 12's drift
+    assert experiment.CONTAINS["aug_all_plus_drift"] == "aug_all"
+    assert "aug_all_plus_drift" not in experiment.EPOCH_MATCHED  # no matched-passes cell
+    for suite in ("nominal", "shifted", "clutter"):
+        assert "aug_all_plus_drift" in experiment.SUITE_SETTINGS[suite]
+        pairs = dict(experiment.families(suite))["amendment 14"]
+        assert pairs == [
+            ("aug_all", "aug_all_plus_drift"),
+            ("aug_all_drift", "aug_all_plus_drift"),
+            ("raw", "aug_all_plus_drift"),
+        ]
+
+
+def test_a_setting_that_mixes_kinds_of_variant_gets_a_yield_line_per_kind() -> None:
+    def row(variant: str, kept: int) -> dict[str, Any]:
+        return {"variant": variant, "kept": kept, "attempts": 30}
+
+    report = {"variants": [row("original", 30), row("object+cam@1", 20), row("object+cam@2", 10), row("noise@1", 25)]}
+    assert experiment.yield_by_kind(report) == {"original": (30, 30), "object+cam": (30, 60), "noise": (25, 30)}
+    task = type("Task", (), {"id": PICK})()
+    lines = experiment.yield_by_kind_lines(
+        {PICK: {"mixed": report, "one": {"variants": report["variants"][:3]}}}, [task]
+    )
+    assert [line for line in lines if line.startswith(f"| {PICK}")] == [
+        f"| {PICK} mixed: object+cam | 30/60 |",
+        f"| {PICK} mixed: noise | 25/30 |",
+    ]
+    assert experiment.yield_by_kind_lines({PICK: {"one": {"variants": report["variants"][:3]}}}, [task]) == []
+
+
 def pick_and_suites() -> tuple[Any, dict[str, Any]]:
     """PickUpTestTube and the experiment's three registered suites, by name."""
     from pipette_cli.evaluation.suites import load_suites

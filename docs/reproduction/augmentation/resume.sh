@@ -3,8 +3,9 @@
 # the registered cells, amendment 8's training-seed replicates on the first two tasks, amendment 5, then
 # (amendment 11) two lanes at once: amendment 10 (corrective noise) on PickUpTestTube then PlaceTubeOnBalance;
 # amendment 6 on RemoveTubeFromBalance; then (amendments 12 and 13) two lanes: amendment 12 (drifting corrective
-# noise) at S on three tasks; amendment 12 then amendment 10 at matched passes; then amendment 6's other cells
-# and amendment 8 on the last two tasks. Each stage resumes where its work stopped
+# noise) at S on three tasks; amendment 12 then amendment 10 at matched passes; then (amendment 15) amendment 10's
+# matched-passes cell beside amendment 14 (drift beside aug_all's moved objects) on three tasks; then amendment 6's
+# other cells and amendment 8 on the last two tasks. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
 # "Machines": such a restart is written into the plan first).
@@ -14,7 +15,7 @@
 #
 # The code is the run's: 8739549 with the driver patches of this folder, in worktrees under $WT
 # (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch; drift:
-# dart's + exp-drift.patch; each then exp-skip.patch, which skips an evaluation kept from a policy trained on a
+# dart's + exp-drift.patch; plusdrift: drift's + exp-plusdrift.patch; each then exp-skip.patch, which skips an evaluation kept from a policy trained on a
 # lost machine, amendment 11); the Python environment is main's.
 set -euo pipefail
 
@@ -44,6 +45,17 @@ worktree() {  # worktree NAME PATCH...: the run's code with these patches, made 
     fi
 }
 
+main_stage() {  # main_stage DRIVER-STAGE ...: a check by main's driver (it changes no data)
+    local cmd=(env MUJOCO_GL=egl MENAGERIE_ROOT="$MENAGERIE_ROOT" "$MAIN/.venv/bin/python" benchmarks/augmentation_experiment.py
+        "$@" --work "$RUN" --docs "$RUN/docs" --keep "$HERE/episodes")
+    if [ -n "${DRY:-}" ]; then
+        echo "+ (cd $MAIN && ${cmd[*]})"
+        return
+    fi
+    say "main's $*"
+    (cd "$MAIN" && "${cmd[@]}" >> "$RUN/logs/run.log" 2>&1) || say "main's $* exited with $?; going on"
+}
+
 stage() {  # stage WORKTREE DRIVER-STAGE [--settings ...]: one stage of the driver from that worktree
     local dir=$WT/$1 what=$2
     shift 2
@@ -71,6 +83,7 @@ stage exp2 run --settings $A8 --tasks $PICK,$PLACE                          # am
 worktree seg exp-run.patch exp-seg.patch exp-skip.patch
 worktree dart exp-run.patch exp-dart.patch exp-skip.patch
 worktree drift exp-run.patch exp-dart.patch exp-drift.patch exp-skip.patch
+worktree plusdrift exp-run.patch exp-dart.patch exp-drift.patch exp-plusdrift.patch exp-skip.patch
 stage seg run --settings aug_all_seg,aug_object_seg --tasks $PLACE          # amendment 5 (done: restored)
 # amendment 11's lanes: amendment 10 at S on PickUpTestTube, PlaceTubeOnBalance; amendment 6 on RemoveTubeFromBalance
 lane1() {  # each task's raw demonstrations made by the run's code first
@@ -85,7 +98,6 @@ lane2() { stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $REMOVE --j
 lane3() {
     stage exp2 data --settings raw --tasks $REMOVE
     stage drift run --settings aug_all_drift_ep --tasks $REMOVE --jobs 1             # amendment 12, matched passes
-    stage dart run --settings aug_all_dart_ep --tasks $PICK --jobs 1                 # amendment 10, matched passes
 }
 lane4() {
     for task in $PICK $REMOVE $PLACE; do  # PickUpTestTube's cells are done (part 6): restored and skipped
@@ -105,6 +117,23 @@ else
     stage drift data --settings aug_all_drift --tasks $REMOVE
     lane3 &
     lane4 &
+    wait
+fi
+# amendment 15: amendment 10 at matched passes on PickUpTestTube beside amendment 14 at S on three tasks
+lane5() { stage dart run --settings aug_all_dart_ep --tasks $PICK --jobs 1; }
+lane6() {
+    for task in $PICK $REMOVE $PLACE; do
+        stage exp2 data --settings raw --tasks $task
+        stage plusdrift data --settings aug_all_plus_drift --tasks $task
+        main_stage contained --tasks $task                    # aug_all's replays inside, unchanged (amendment 15)
+        stage plusdrift run --settings aug_all_plus_drift --tasks $task --jobs 1
+    done
+}
+if [ -n "${DRY:-}" ]; then
+    lane5; lane6
+else
+    lane5 &
+    lane6 &
     wait
 fi
 stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $PICK,$CLOSE,$PLACE --jobs 2   # amendment 6, the rest
