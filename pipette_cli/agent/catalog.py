@@ -15,7 +15,7 @@ import enum
 import re
 import types
 import typing
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -80,6 +80,8 @@ class ParamInfo:
     """Words that follow a number meant for it ("demos" for ``--episodes``, "px")."""
     off_words: tuple[str, ...] = ()
     """Words that switch a flag off ("png images" for ``--video``)."""
+    parse: Callable[[str], Any] | None = None
+    """The CLI's own parser of a value (typer's ``parser=``): a plan's value goes through it too."""
 
     @property
     def is_flag(self) -> bool:
@@ -326,7 +328,15 @@ def _param(p: Any, hint: Any) -> ParamInfo:
         off_flag=secondary[0] if secondary else None,
         writes=writes,
         address=address,
+        parse=_parser(p),
     )
+
+
+def _parser(param: Any) -> Callable[[str], Any] | None:
+    """The parser a CLI option was given (typer's ``parser=``; older typer: a click ``FuncParamType``)."""
+    info = getattr(getattr(param, "type_descriptor", None), "parameter_info", None)
+    parser = getattr(info, "parser", None) or getattr(getattr(param, "type", None), "func", None)
+    return parser if callable(parser) else None
 
 
 def own_names(param: ParamInfo) -> tuple[str, ...]:

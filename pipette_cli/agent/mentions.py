@@ -48,10 +48,13 @@ def option_words(param: ParamInfo) -> set[str]:
 
 
 def _named(before: str, params: list[ParamInfo], values: AbstractSet[str] = frozenset()) -> ParamInfo | None:
-    """The option among ``params`` that the words before a path name ("the policy in"); a word that
-    is a value of the command ("train ACT on x": the policy) names no option (``--act-backbone-weights``)."""
+    """The option among ``params`` that the words before a path name ("the policy in"), the one they
+    name with the most words ("backbone weights in": ``--act-backbone-weights``, not ``--pretrained-path``
+    for "weights" alone; ties: the first); a word that is a value of the command ("train ACT on x": the
+    policy) names no option."""
     said = {singular(w) for t in before.split()[-3:] for w in (t, *t.split("-"))} - values  # "fine-tune", "tune"
-    return next((p for p in params if option_words(p) & said), None)
+    best = max(params, key=lambda p: len(option_words(p) & said), default=None)
+    return best if best is not None and option_words(best) & said else None
 
 
 def assign_paths(
@@ -81,13 +84,11 @@ def assign_paths(
         if previous is not None and previous.multiple and mention.listed:
             args[previous.name] = [*args.get(previous.name, []), mention.path]  # "a.h5 and b.h5"
             continue
-        string = (
-            None
-            if FILE_SUFFIX.search(mention.path)
-            or _named(mention.before, options, values)
-            or _INTO.search(mention.before)
-            else _named(mention.before, [p for p in named_strings if is_empty(args.get(p.name))], values)
-        )
+        strings = [p for p in named_strings if is_empty(args.get(p.name))]
+        named = None if _INTO.search(mention.before) else _named(mention.before, options + strings, values)
+        # a name with a slash ("repo id me/centrifuge"), or a value the words name that is no path option's
+        # ("the backbone weights in w/r18.pt": the option says what it takes)
+        string = named if named in strings else None
         if string is None and names_no_file(mention.path):
             string = next((p for p in named_strings if p.name.endswith("id") and is_empty(args.get(p.name))), None)
         if string is not None:  # "repo id me/centrifuge", "as mylab/X-v1": a name with a slash, not a file

@@ -122,7 +122,13 @@ class Validator:
         if param.multiple:
             values = value if isinstance(value, list) else [value]
             return [self._value(info, _single(param), v, index, steps, where) for v in values]
-        return self._scalar(param, value, label)
+        value = self._scalar(param, value, label)
+        if param.parse is not None and isinstance(value, str):  # the CLI's own check, before anything runs
+            try:
+                param.parse(value)
+            except PipetteError as e:
+                raise AgentError(f"{where}: {e}") from None
+        return value
 
     def _scalar(self, param: ParamInfo, value: Any, label: str) -> Any:
         try:

@@ -25,6 +25,7 @@ from pipette_cli.lerobot.train import (
     plan,
     resolve_tasks,
     run_job,
+    torchvision_weights,
 )
 from pipette_cli.registry import load_registry
 
@@ -62,7 +63,12 @@ def train(
         str | None, typer.Option("--vlm-path", help=spec_help(TrainOptions, "vlm_path"))
     ] = spec_default(TrainOptions, "vlm_path"),
     act_backbone_weights: Annotated[
-        str | None, typer.Option("--act-backbone-weights", help=spec_help(TrainOptions, "act_backbone_weights"))
+        str | None,
+        typer.Option(
+            "--act-backbone-weights",
+            parser=torchvision_weights,
+            help=spec_help(TrainOptions, "act_backbone_weights"),
+        ),
     ] = spec_default(TrainOptions, "act_backbone_weights"),
     offline: Annotated[bool, typer.Option("--offline", help=spec_help(TrainOptions, "offline"))] = spec_default(
         TrainOptions, "offline"

@@ -22,12 +22,11 @@ import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
-from typing import IO, Any
+from typing import IO
 
 from pipette_cli.errors import DatasetError, PipetteError, plural
 from pipette_cli.lerobot.convert import DatasetVersion, slug
@@ -116,6 +115,32 @@ class TrainOptions:
         None, "CPU threads of the training process (OMP_NUM_THREADS; default: torch's, one per core)"
     )
     extra: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.act_backbone_weights is not None:
+            torchvision_weights(self.act_backbone_weights)
+
+
+TORCHVISION_WEIGHTS = re.compile(r"(?:[A-Za-z0-9]+_Weights\.)?[A-Z][A-Z0-9_]*|null")
+"""A torchvision weights enum's name, with or without its class (``ResNet18_Weights.IMAGENET1K_V1``,
+``IMAGENET1K_V1``, ``DEFAULT``), or ``null``: what lerobot's ``--policy.pretrained_backbone_weights``
+passes on to torchvision."""
+
+
+def torchvision_weights(value: str) -> str:
+    """``value`` if it names torchvision weights (:data:`TORCHVISION_WEIGHTS`; ``pipette train
+    --act-backbone-weights`` parses with it).
+
+    Raises:
+        TrainError: anything else, such as a file: lerobot loads no backbone from one.
+    """
+    if not TORCHVISION_WEIGHTS.fullmatch(value):
+        raise TrainError(
+            f"--act-backbone-weights {value!r}: give a torchvision weights name such as "
+            "ResNet18_Weights.IMAGENET1K_V1 (torchvision loads it into its cache), not a file: lerobot reads no "
+            "backbone file; a whole policy checkpoint goes to --pretrained-path"
+        )
+    return value
 
 
 @dataclass(frozen=True)
@@ -468,31 +493,3 @@ def trained_steps(output_dir: Path) -> int:
         return int(json.loads(state.read_text())["step"])
     except (OSError, ValueError, KeyError, TypeError):
         return 0
-
-
-@contextmanager
-def _argv(argv: Sequence[str]) -> Iterator[None]:
-    saved = sys.argv
-    sys.argv = list(argv)
-    try:
-        yield
-    finally:
-        sys.argv = saved
-
-
-def parse_train_config(argv: Sequence[str]) -> Any:
-    """Build and validate LeRobot's ``TrainPipelineConfig`` from a ``lerobot-train`` argv, as
-    ``lerobot-train`` does, without training (no dataset or weights are loaded; a ``--policy.path``
-    must hold a ``config.json``). Returns the config; raises what LeRobot raises on a bad flag.
-    """
-    # deferred: lerobot, torch (~3 s; `pipette --help` imports this module)
-    from lerobot.configs import parser
-    from lerobot.configs.train import TrainPipelineConfig
-
-    def build(cfg: TrainPipelineConfig) -> TrainPipelineConfig:
-        cfg.validate()
-        return cfg
-
-    build.__annotations__["cfg"] = TrainPipelineConfig
-    with _argv(argv):
-        return parser.wrap()(build)()

@@ -224,6 +224,15 @@ def test_a_noise_option_brings_the_noise_variants_it_acts_on() -> None:
     assert args["variants"] == "light+noise*2"  # noise already in a variant: nothing added
 
 
+def test_the_option_named_with_the_most_words_takes_the_path_and_checks_it_as_the_cli_does() -> None:
+    # "weights" alone would be --pretrained-path; "backbone weights" name --act-backbone-weights, which
+    # takes a torchvision name: the plan stops with the CLI's reason instead of fine-tuning from a file
+    with pytest.raises(AgentError, match=r"--act-backbone-weights 'w/r18\.pt'.*torchvision.*--pretrained-path"):
+        AGENT.plan("train ACT on the datasets in runs/d with the backbone weights in w/r18.pt")
+    [(_, args)] = commands("train ACT on the datasets in runs/d starting from the weights in w/r18")
+    assert args["pretrained_path"] == "w/r18" and not args.get("act_backbone_weights")
+
+
 def test_a_value_of_the_command_names_no_option_before_a_path() -> None:
     # "ACT" is the policy, not --act-backbone-weights: the folder's role is asked for
     with pytest.raises(AgentError, match="cannot tell what 'runs/d' is for in 'pipette train'"):

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from pipette_cli.lerobot.config import parse_train_config
 from pipette_cli.lerobot.convert import DatasetVersion
 from pipette_cli.lerobot.train import (
     DECODER,
@@ -20,7 +21,6 @@ from pipette_cli.lerobot.train import (
     Policy,
     TrainError,
     TrainOptions,
-    parse_train_config,
     plan,
     run_job,
     train_argv,
@@ -75,6 +75,21 @@ def test_act_command_has_paper_defaults_and_needs_no_download(workdir: Path, run
         "wandb.enable": "false",
     }
     assert job["log"] == f"outputs/train/act/{NAME}_raw.log" and job["env"] == {}
+
+
+def test_act_backbone_weights_are_a_torchvision_name_never_a_file(workdir: Path, run_cli) -> None:
+    weights = ("--act-backbone-weights", "ResNet18_Weights.IMAGENET1K_V1")
+    [job] = dry_run(run_cli, "--tasks", "PickUpTestTube", "--policy", "act", *weights)
+    assert flags(job["argv"])["policy.pretrained_backbone_weights"] == "ResNet18_Weights.IMAGENET1K_V1"
+    result = run_cli("train", "--tasks", "PickUpTestTube", "--policy", "act", "--act-backbone-weights", "w/r18.pt")
+    assert (
+        result.exit_code != 0 and "torchvision weights name" in result.stderr and "--pretrained-path" in result.stderr
+    )
+    assert not (workdir / "outputs").exists()
+    for name in ("IMAGENET1K_V1", "DEFAULT", "null"):  # what torchvision's verify and lerobot take
+        assert TrainOptions(policy=Policy.act, act_backbone_weights=name).act_backbone_weights == name
+    with pytest.raises(TrainError, match="'weights/resnet18.pth'"):
+        TrainOptions(policy=Policy.act, act_backbone_weights="weights/resnet18.pth")
 
 
 def test_smolvla_command_defaults_and_local_backbone(workdir: Path, run_cli) -> None:
