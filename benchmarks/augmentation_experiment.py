@@ -1225,8 +1225,12 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
     for t, found in results["contained"].items():
         for outer, c in found.items():
             same = "have its yield, variant by variant" if c["same_yield"] else "do NOT have its yield"
-            arrays = "" if c["episodes"] is None else f"; {c['identical']} of its {c['episodes']} episodes identical"
-            lines += ["", f"{t} {outer}: {c['inner']}'s replays inside it {same}{arrays} array for array."]
+            arrays = (
+                f"; no array check ({c['inner']}.h5 was not on the machine)"
+                if c["episodes"] is None
+                else f"; {c['identical']} of its {c['episodes']} episodes identical array for array"
+            )
+            lines += ["", f"{t} {outer}: {c['inner']}'s replays inside it {same}{arrays}."]
     results["training_speed"], speed_lines = training_speed()
     lines += ["", *speed_lines]
     results["data_code"] = {t.id: data_code(ex, t) for t in tasks}

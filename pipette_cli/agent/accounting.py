@@ -139,6 +139,16 @@ class _Words:
             if not self.used[i] and (test(token) or (token.endswith("'s") and test(token[:-2]))):
                 self.used[i] = True
 
+    def before_used_numbers(self, leads: list[str]) -> None:
+        """Mark the words of ``leads`` right before a number that is used ("within 2x the task range")."""
+        offsets = self._index_at()
+        for phrase in leads:
+            for m in re.finditer(rf"{phrase_pattern(phrase.lower()).pattern}(?= )", self.text):
+                after = next((i for i, at in enumerate(offsets) if at == m.end() + 1), None)
+                if after is not None and self.used[after] and _NUMBER.match(self.tokens[after]):
+                    for i, at in enumerate(offsets):
+                        self.used[i] = self.used[i] or m.start() <= at < m.end()
+
     def unused(self) -> list[str]:
         return [t for t, u in zip(self.tokens, self.used, strict=True) if not u]
 
@@ -212,6 +222,7 @@ class Accountant:
                         words.phrase(f"same {word}")
             if info.task_param() is not None:
                 words.phrase("same (task|tasks)")
+        words.before_used_numbers(self.vocab.number_leads)
         return words.unused()
 
     def _reports(self, said: str) -> list[str]:
@@ -261,6 +272,9 @@ class Accountant:
         if isinstance(value, list):
             for item in value:
                 self._value(words, param, item, control_hz)
+            if param.name in self.vocab.from_zero and value == list(range(len(value))) and len(value) > 1:
+                counts = [str(len(value)), *(w for w, n in self.vocab.spelled.items() if n == len(value))]
+                words.phrase(f"first ({'|'.join(counts)})")  # "the first two episodes": 0 and 1
             return
         if value is None or isinstance(value, StepRef):
             return
@@ -318,8 +332,11 @@ class Accountant:
             self._number(words, float(index))
         lowered = value.lower()
         phrases = [*self.vocab.values.get(param.name, {}).get(value, []), lowered]
-        if param.comma_list and "+" in value:  # "the light+cam variant only"
+        if param.comma_list and "+" in value:  # "the light+cam variant only"; "lighting and camera jitter together"
             phrases.append(f"{lowered} (variant|variants|perturbation|perturbations)? (only)?")
+            for atom in value.split("+"):
+                phrases += self.vocab.values.get(param.name, {}).get(atom, [])
+            phrases += self.vocab.combined
         if param.name == "suite_id":  # "the paper benchmark with paraphrased instructions": its name's words
             phrases += self._suite_name(value).split()
         if param.kind == "path":  # "the SmolVLM2 backbone from /models/smolvlm2": the folder's name

@@ -187,12 +187,13 @@ class ArgumentReader:
             return
         unknown = self.index.unknown_name(raw)
         cues = self.intents.cue_tokens(raw, info.name)  # "grab 45 demos": grab asks for collect, not for picking
+        phrases = [*self.vocab.happened, *self.vocab.resumes]  # "was stopped", "resume it": no task's words
         for name, option in info.params.items():  # "the paper grid" is a value of --variants, not the paper's tasks
             names = [n for n in option.names if " " in n and name not in TASK_PARAMS]  # "light scale 0.6": no balance
-            for phrase in [*self._value_phrases(name), *names]:
-                raw = phrase_pattern(phrase).sub(" ", raw)
-        for phrase in [*self.vocab.happened, *self.vocab.resumes]:  # "was stopped", "resume it": no task's words
-            raw = phrase_pattern(phrase).sub(" ", raw)
+            phrases += [*self._value_phrases(name), *names]
+        spans = [m.span() for phrase in phrases for m in phrase_pattern(phrase).finditer(raw)]
+        for start, end in spans:  # all found in the words as said: "lighting scale" is light's scale, "lighting" too
+            raw = raw[:start] + " " * (end - start) + raw[end:]
         match = self.index.match(" ".join(w for w in raw.split() if w.lower().strip(",.;:!?") not in cues))
         in_file = next((t for t in (task_in_file_name(p, self.registry.ids()) for p in paths) if t), None)
         if in_file and param.required and not match.explicit and (match.task is None or in_file in match.candidates):
@@ -288,7 +289,7 @@ class ArgumentReader:
                         found = [f for f in found if f[2].partition("*")[0] not in m.group(1).split("+")]
                         found.append((m.start(), -len(m.group(1)), m.group(1)))
             if found and param.comma_list and "NAME*N" in param.help:  # "three object-pose draws": object*3
-                found = [(at, n, self._counted(words, at, value, alone=len(found) == 1)) for at, n, value in found]
+                found = self._counted(words, found, self.vocab.uncounted.get(param.name, []))
             if found and param.comma_list and not corrected:  # "object pose and camera shake"
                 args[param.name] = ",".join(dict.fromkeys(value for _, _, value in sorted(found)))
             elif found:  # the first named, or the last after a correction ("..., actually just the paper variants")
@@ -298,20 +299,58 @@ class ArgumentReader:
         """The vocabulary's words for every value of the option ``name``."""
         return [p for phrases in self.vocab.values.get(name, {}).values() for p in phrases]
 
-    def _counted(self, words: str, at: int, value: str, alone: bool) -> str:
-        """``value`` with the count said just before its words ("three object-pose draws" ->
-        ``object*3``), for an option whose help writes ``NAME*N``; a value named ``alone`` also
-        takes a count for each input said after it ("object shifts only: six draws per demo")."""
+    def _counted(
+        self, words: str, found: list[tuple[int, int, str]], uncounted: list[str]
+    ) -> list[tuple[int, int, str]]:
+        """The values ``found`` (start, -length, value) with the count said for them, for an option whose
+        help writes ``NAME*N``. A count just before a value's words is its own ("three object-pose draws"
+        -> ``object*3``). A count said after the last value ("..., 3 draws each") or before the first with
+        the vocabulary's ``counts_of`` words ("3 draws each of ...") is that of every value without its
+        own when it says "each" of them, or when there is one value. Said per input of several values
+        ("lighting and camera jitter, 3 per demo"), it is each variant combining them when the request
+        says so (vocabulary ``combined``: ``light+cam*3``); otherwise which is meant is asked. Values
+        in ``uncounted`` (``original``) take no count.
+
+        Raises:
+            AgentError: a count per input for several values, neither "each" nor combined.
+        """
         spelled = self.vocab.spelled
         numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
-        m = re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])
-        if m is None and alone:  # "object shifts only: six draws per demo": the count for each input, said after
-            each = "|".join(phrase_regex(p) for p in self.vocab.per_each)
-            m = re.search(rf"(?<![\w.-])({numbers})\s+(?:[a-z-]+\s+){{0,2}}?(?:{each})(?![\w-])", words[at:])
-        if m is None:
-            return value
-        count = int(m.group(1)) if m.group(1).isdigit() else spelled[m.group(1)]
-        return f"{value}*{count}" if count > 1 else value
+
+        def count(m: re.Match[str] | None) -> int | None:
+            return None if m is None else int(m.group(1)) if m.group(1).isdigit() else int(spelled[m.group(1)])
+
+        own = {at: count(re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])) for at, _, _ in found}
+        first, last = min(found), max(found, key=lambda f: f[0] - f[1])  # the value said last ends last
+        each = "|".join(phrase_regex(p) for p in self.vocab.per_each)
+        after = re.search(rf"(?<![\w.-])({numbers})\s+(?:[a-z-]+\s+){{0,2}}?(?:{each})(?![\w-])", words[last[0] :])
+        if after is not None and last[0] + after.start() < last[0] - last[1]:
+            after = None  # inside the last value's own words
+        of = "|".join(phrase_regex(p) for p in self.vocab.counts_of)
+        before = (
+            re.search(rf"(?<![\w.-])({numbers})\s+(?:{of})\s+(?:\S+\s+){{0,2}}$", words[: first[0]]) if of else None
+        )
+        said = after or before
+        shared = count(said)
+        if said is None or shared is None:
+            return [(at, n, f"{value}*{own[at]}" if (own[at] or 1) > 1 else value) for at, n, value in found]
+        counted = [f for f in found if f[2] not in uncounted]
+        mixed = len([f for f in counted if not own[f[0]]]) > 1
+        per_input = re.search(rf"\b(?:{'|'.join(self.vocab.inputs)})\b", said.group(0)) is not None
+        if mixed and (per_input or not re.search(r"\beach\b", said.group(0))):
+            if find_phrase(self.vocab.combined, words) is not None and not any(own.values()):
+                joined = "+".join(dict.fromkeys(v for _, _, v in sorted(counted)))
+                alone = [f for f in found if f[2] in uncounted]
+                return [*alone, (first[0], first[1], f"{joined}*{shared}" if shared > 1 else joined)]
+            names = [v for at, _, v in sorted(counted) if not own[at]]
+            raise AgentError(
+                f"{said.group(0).strip()!r} for {' and '.join(names)}: say '{shared} of each' "
+                f"({','.join(f'{v}*{shared}' for v in names)}) or '{shared} combining them' ({'+'.join(names)}*{shared})"
+            )
+        return [
+            (at, n, f"{value}*{times}" if (times := own[at] or (1 if value in uncounted else shared)) > 1 else value)
+            for at, n, value in found
+        ]
 
     def _indexed(self, info: CommandInfo, words: str, args: dict[str, Any]) -> str:
         """A value the help writes with an index ("cuda[:N]") said with one ("cuda:1", "gpu 1"):

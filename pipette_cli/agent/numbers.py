@@ -111,12 +111,28 @@ def read_numbers(
     for word, value in sorted(vocab.spelled.items(), key=lambda kv: -len(kv[0])):
         text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
     text = _unhyphenated(numeric, _durations_in_steps(numeric, text, control_hz))  # "half a second" is 0.5 s by now
+    claims = [  # the words of a value said in several ("camera jitter": the cam variants, never light's jitter)
+        m.span()
+        for phrases in vocab.values.values()
+        for found in phrases.values()
+        for phrase in found
+        if " " in phrase
+        for m in phrase_pattern(phrase).finditer(text)
+    ]
+
+    def own(name: re.Match[str] | None) -> re.Match[str] | None:
+        """A name matched before a number, unless it is a part of a longer value's words."""
+        inside = name is not None and any(
+            s <= name.start() and e >= name.end() and e - s > name.end() - name.start() for s, e in claims
+        )
+        return None if inside else name
+
     taken: set[str] = set()
     bare: list[float] = []
     for m in _NUMBER.finditer(text):
         number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
         after, before = text[m.end() :].lstrip(), text[: m.start()].rstrip()
-        best: tuple[int, ParamInfo] | None = None
+        best: tuple[int, int, ParamInfo] | None = None  # rank, then the longest words: "2x the task range"
         for param in (p for p in numeric if p.name not in taken):
             names = param.names
             tests = (
@@ -129,22 +145,24 @@ def read_numbers(
                 (
                     1,
                     names,
-                    lambda p, before=before, listing=_LISTED if param.multiple else "": re.search(
-                        rf"{phrase_pattern(p).pattern}(?:\s+(?:of|at|to|=|:|is|from))?{listing}$", before
+                    lambda p, before=before, listing=_LISTED if param.multiple else "": own(
+                        re.search(rf"{phrase_pattern(p).pattern}(?=(?:\s+(?:of|at|to|=|:|is|from))?{listing}$)", before)
                     ),
                 ),
             )
             for rank, phrases, matcher in tests:
-                if any(matcher(p) for p in phrases) and (best is None or rank > best[0]):
-                    best = (rank, param)
-        if best is not None and best[1].multiple:  # "episodes 3, 5 and 7": one value each
-            args[best[1].name] = [*args.get(best[1].name, []), _typed(best[1], number)]
-        elif best is not None:
-            length = _LENGTH.match(after) if in_metres(best[1]) else None  # "shift up to 3 cm": 0.03
-            args[best[1].name] = (
-                round(number * _METRES[length.group(1).lower()], 9) if length else _typed(best[1], number)
+                said = max((len(found.group(0)) for p in phrases if (found := matcher(p))), default=None)
+                if said is not None and (best is None or (rank, said) > best[:2]):
+                    best = (rank, said, param)
+        chosen = best[2] if best is not None else None
+        if chosen is not None and chosen.multiple:  # "episodes 3, 5 and 7": one value each
+            args[chosen.name] = [*args.get(chosen.name, []), _typed(chosen, number)]
+        elif chosen is not None:
+            length = _LENGTH.match(after) if in_metres(chosen) else None  # "shift up to 3 cm": 0.03
+            args[chosen.name] = (
+                round(number * _METRES[length.group(1).lower()], 9) if length else _typed(chosen, number)
             )
-            taken.add(best[1].name)
+            taken.add(chosen.name)
         elif (length := _LENGTH.match(after)) and len(metres := _in_metres_said(numeric, text)) == 1:
             args[metres[0].name] = round(number * _METRES[length.group(1).lower()], 9)  # "a 3 cm range": 0.03
             numeric.remove(metres[0])
@@ -163,10 +181,21 @@ def _unhyphenated(numeric: list[ParamInfo], text: str) -> str:
 
 
 def _positions(vocab: WorkflowVocabularySpec, numeric: list[ParamInfo], text: str) -> str:
-    """ "the third episode" / "the 3rd demo" -> "episode 2" for a parameter counting from 0."""
+    """ "the third episode" / "the 3rd demo" -> "episode 2" for a parameter counting from 0; "the first
+    two episodes" -> "episode 0, 1" for one that takes several."""
     ordinals = "|".join(sorted(map(re.escape, vocab.ordinals), key=len, reverse=True))
+    spelled = "|".join(sorted(map(re.escape, vocab.spelled), key=len, reverse=True))
     for param in (p for p in numeric if p.name in vocab.from_zero):
         names = "|".join(phrase_pattern(n).pattern for n in param.names)
+        if param.multiple:
+
+            def leading(m: re.Match[str], name: str = param.names[0]) -> str:
+                said = m.group(1)
+                count = int(said) if said.isdigit() else int(vocab.spelled[said])
+                return f"{name} {', '.join(map(str, range(count)))}"
+
+            pattern = rf"(?<![\w-])first\s+(\d+|{spelled})\s+(?:{names})(?![\w-])"
+            text = re.sub(pattern, leading, text)
 
         def index(m: re.Match[str], name: str = param.names[0]) -> str:
             said = m.group(1)

@@ -130,6 +130,9 @@ class WorkflowVocabularySpec(Spec):
     contains: dict[str, dict[str, list[str]]] = Field(default_factory=dict)
     """Option -> a value that stands for several -> the values it holds (``--variants paper``: light,
     speed, cam); :attr:`implies` adds none of these to it."""
+    uncounted: dict[str, list[str]] = Field(default_factory=dict)
+    """Option -> its values a count never repeats (``--variants original``, ``paper``: the CLI refuses
+    ``NAME*N`` for them): "the originals and lighting, 3 draws each" is ``original,light*3``."""
     about_an_asset: dict[str, str] = Field(default_factory=dict)
     """Command -> the command its clause asks for when it names an asset and no task ("show me the
     spectrophotometer": ``assets show``, not the one task that uses it)."""
@@ -164,6 +167,14 @@ class WorkflowVocabularySpec(Spec):
     they start a clause of their own, which takes its command from the report (every stage resumes)."""
     per_each: list[str] = Field(default_factory=list)
     """Words that say a count is for each input ("per demo"): ``--variants object*3``."""
+    number_leads: list[str] = Field(default_factory=list)
+    """Words that only lead to a number an option takes ("within 2x the task range", "up to 30 demos")."""
+    inputs: list[str] = Field(default_factory=list)
+    """Nouns for what a command takes one at a time ("per demo", "for each episode")."""
+    combined: list[str] = Field(default_factory=list)
+    """Words that ask for several values in one ("lighting and camera jitter together": ``light+cam``)."""
+    counts_of: list[str] = Field(default_factory=list)
+    """Words between a count and the values it is for ("3 draws each of lighting and camera jitter")."""
     distributes: list[str] = Field(default_factory=list)
     """Nouns that words coordinated before them each take ("object and clutter variants")."""
     filler: list[str] = Field(default_factory=list)

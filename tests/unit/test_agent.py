@@ -799,10 +799,8 @@ def test_a_length_goes_to_the_option_in_metres_its_words_name_and_a_count_per_de
     assert (args["variants"], args["object_xy"], args["object_yaw"]) == ("object*6", 0.03, 30.0)
     radius = AGENT.plan("augment data/t.h5 for PickUpTestTube with camera variants, 5 cm camera radius").steps[0]
     assert radius.args["camera_radius"] == 0.05 and "wrist_radius" not in radius.args
-    both = AGENT.plan(
-        "augment data/t.h5 for PickUpTestTube with object pose jitter and camera shake, 5 variants per demo"
-    )
-    assert both.steps[0].args["variants"] == "object,cam"  # several values: no count is guessed for each
+    with pytest.raises(AgentError, match="5 of each"):  # several values: no count is guessed for each, it is asked
+        AGENT.plan("augment data/t.h5 for PickUpTestTube with object pose jitter and camera shake, 5 variants per demo")
 
 
 def test_an_option_taking_several_tasks_takes_each_task_described_in_a_list() -> None:

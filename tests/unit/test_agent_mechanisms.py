@@ -237,3 +237,38 @@ def test_a_value_of_the_command_names_no_option_before_a_path() -> None:
     # "ACT" is the policy, not --act-backbone-weights: the folder's role is asked for
     with pytest.raises(AgentError, match="cannot tell what 'runs/d' is for in 'pipette train'"):
         AGENT.plan("train ACT on runs/d")
+
+
+def test_a_count_said_once_for_several_perturbations_is_each_or_combined_or_asked() -> None:
+    # "camera jitter" is the cam variants' words: its "jitter" never takes the count for light's --light-jitter
+    [(_, args)] = commands("augment data/a.h5 with lighting and camera jitter, 3 draws each")
+    assert args["variants"] == "light*3,cam*3" and "light_jitter" not in args
+    [(_, args)] = commands("augment data/a.h5 with 4 draws each of object shifts and camera poses")
+    assert args["variants"] == "object*4,cam*4"
+    [(_, args)] = commands("augment data/a.h5 with object shifts and camera poses combined, 4 variants per demo")
+    assert args["variants"] == "object+cam*4"
+    with pytest.raises(AgentError, match=r"say '4 of each' \(object\*4,cam\*4\) or '4 combining them'"):
+        AGENT.plan("augment data/a.h5 with object shifts and camera poses, 4 variants per demo")
+    [(_, args)] = commands("augment data/a.h5 with the originals and lighting, 3 draws per demo")
+    assert args["variants"] == "original,light*3"  # the CLI repeats no original
+    [(_, args)] = commands("augment data/a.h5 with two object draws and lighting, 4 draws per demo")
+    assert args["variants"] == "object*2,light*4"  # a count of its own stays
+
+
+def test_the_longest_words_next_to_a_number_choose_its_option_and_leading_words_are_used() -> None:
+    plan = AGENT.plan("augment data/a.h5 by moving the objects within 2x the task range")
+    [(_, args)] = [(s.command, s.args) for s in plan.steps]
+    assert args["object_range"] == 2.0 and "speed" not in args  # "x the task range", not speed's "x"
+    assert plan.unused == []  # "within" leads to the number
+
+
+def test_an_options_words_name_no_task() -> None:
+    # "scale" alone is the balance's; "lighting scale" is --light-scale, also where "lighting" is a value's word
+    [(_, args)] = commands("augment data/a.h5 of the tube pick-up task with lighting scale 0.5")
+    assert args["task_id"] == "pipette/PickUpTestTube-v1" and args["light_scale"] == 0.5
+
+
+def test_the_first_n_episodes_are_indices_from_zero() -> None:
+    [(command, args)] = commands("make videos of the first 3 demos in data/ur5.h5")
+    assert command == "data video" and args["episode"] == [0, 1, 2]
+    assert AGENT.plan("make a gif of the first two episodes of data/ur5.h5").unused == []
