@@ -273,6 +273,8 @@ class Builder:
             raise PlanError(f"say where to put the {what} (e.g. 'on the balance', 'into the tube rack')")
         if action == "remove" and source is None:
             source = self._last_place_of(items[0]) or self._taken_from(items[0])
+            if source is None and not on_bench and self._opened():  # "open the incubator, take out the dish"
+                source = self._opened()[-1]
             if source is None:
                 if on_bench:
                     raise PlanError(

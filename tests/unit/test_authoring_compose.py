@@ -372,3 +372,13 @@ def test_a_part_said_alone_belongs_to_the_object_named_before_that_has_it() -> N
         ("place", "incubator_benchtop", "shelf_1"),  # its shelf, not a reagent shelf of its own
     ]
     assert read("Put the reagent bottle on the shelf") == [("place", "reagent_shelf", None)]  # nothing before has one
+
+
+def test_what_is_taken_out_with_no_source_said_comes_out_of_the_instrument_opened_before() -> None:
+    parsed = parse_description("Open the incubator door and take out the petri dish", load_vocabulary())
+    assert [(s.action, s.object, s.source) for s in parsed.plan.steps] == [
+        ("open", "incubator", None),
+        ("remove", "dish", "incubator"),
+    ]
+    with pytest.raises(PlanError, match="say where the .* is taken from"):  # nothing opened: asked, never guessed
+        parse_description("Take out the petri dish", load_vocabulary())
