@@ -27,6 +27,12 @@ from pipette_cli.language.mentions import ARROW, PathMention, find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex, singular, words_of
 from pipette_cli.registry import Registry
 
+
+def _matches(phrases: list[str], text: str) -> list[re.Match[str]]:
+    """Every match of each of ``phrases`` in ``text``."""
+    return [m for p in phrases for m in phrase_pattern(p).finditer(text)]
+
+
 _CORRECTION = re.compile(r"\b(?:actually|instead|rather|i mean|no wait|correction)\b")
 _QUOTED = re.compile(r"[\"“'‘](.+?)[\"”'’](?!\w)")
 
@@ -371,10 +377,11 @@ class ArgumentReader:
         for param in info.params.values():
             if param.multiple or param.comma_list or param.kind != "str":
                 continue
-            found = sorted(
+            found = sorted(  # each value where its words are closest together ("the nominal and shifted
+                # augmentation suites": "shifted augmentation", not "augmentation suites and shifted")
                 (m.start(), m.end(), value)
                 for value, phrases in self.vocab.values.get(param.name, {}).items()
-                for m in [find_phrase(phrases, words)]
+                for m in [min(_matches(phrases, words), key=lambda m: (len(m.group(0)), m.start()), default=None)]
                 if m
             )
             values = list(dict.fromkeys(v for _, _, v in found))

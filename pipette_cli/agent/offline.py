@@ -27,7 +27,7 @@ from pipette_cli.agent.mentions import option_words
 from pipette_cli.agent.plan import CheckedPlan, Context, PlanSpec, StepSpec
 from pipette_cli.agent.tasks import TaskIndex
 from pipette_cli.agent.validate import Validator
-from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, lexicon
+from pipette_cli.agent.vocabulary import WEIGHTS, RecipeSpec, WorkflowVocabularySpec, distributed, lexicon
 from pipette_cli.language.mentions import find_mentions
 from pipette_cli.language.phrases import find_phrase, phrase_pattern, singular, words_of
 from pipette_cli.registry import Registry
@@ -151,7 +151,8 @@ class OfflineAgent:
             self._same_as_before(info, clause.text, args, steps)
             if self._about_the_listing(info, clause, args, steps):
                 continue  # "which suites are there, and how many episodes does each one have?": the listing says
-            both = self.arguments.both(info, words_of(find_mentions(clause.text, self.registry.ids()).words))
+            spread = distributed(find_mentions(clause.text, self.registry.ids()).words, self.vocab.distributes)
+            both = self.arguments.both(info, words_of(spread))  # "the nominal and shifted suites": two steps
             if not both and self._continues(info, clause, args, steps):
                 steps[-1].args.update(args)  # "render X. save the picture to y.png": one step
                 continue

@@ -14,6 +14,7 @@ name always wins; equal best scores are reported as ambiguous, never guessed.
 
 from __future__ import annotations
 
+import itertools
 import math
 import re
 from collections.abc import Set as AbstractSet
@@ -191,9 +192,23 @@ class TaskIndex:
         kinds = {t.removeprefix("kind:") for t in self.terms.get(task, {}) if t.startswith("kind:")}
         return [alias for alias in self._aliases if self._alias_kind[alias] in kinds]
 
+    @cached_property
+    def _joined(self) -> dict[str, str]:
+        """Two adjacent words of a task's name written as one -> said apart ("pickup" -> "pick up",
+        "testtube", "waterbath"), unless that is a word of a name itself ("microtube")."""
+        names = [[w.lower() for w in camel_words(short_name(t))] for t in self.registry.ids()]
+        words = {w for name in names for w in name}
+        return {a + b: f"{a} {b}" for name in names for a, b in itertools.pairwise(name) if a + b not in words}
+
+    def _apart(self, text: str) -> str:
+        """``text`` with :attr:`_joined` words said apart ("the pickup task" -> "the pick up task")."""
+        joined = "|".join(sorted(map(re.escape, self._joined), key=len, reverse=True))
+        return re.sub(rf"(?<![\w-])({joined})(?![\w-])", lambda m: self._joined[m.group(1)], text) if joined else text
+
     def concepts(self, text: str) -> set[str]:
-        """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out."""
-        lowered = _unhyphenated(text.lower())
+        """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out; two words of a
+        task's name written as one are read apart ("pickup")."""
+        lowered = self._apart(_unhyphenated(text.lower()))
         for pattern, word in self._synonyms:
             lowered = pattern.sub(f" {word} ", lowered)
         sized = {f"{n}{u}" for n, u in re.findall(r"\b(\d+)\s*(ml|ul|l|mm|cm)\b", lowered)}  # "50 mL": 50ml

@@ -272,3 +272,21 @@ def test_the_first_n_episodes_are_indices_from_zero() -> None:
     [(command, args)] = commands("make videos of the first 3 demos in data/ur5.h5")
     assert command == "data video" and args["episode"] == [0, 1, 2]
     assert AGENT.plan("make a gif of the first two episodes of data/ur5.h5").unused == []
+
+
+def test_two_words_of_a_task_name_written_as_one_are_read_apart() -> None:
+    [(_, args)] = commands("collect 5 demos of opening the waterbath lid")  # was the centrifuge's lid
+    assert args["task_id"] == "pipette/OpenWaterBathLid-v1"
+    [(_, args)] = commands("collect 5 demos for the testtube pickup")
+    assert args["task_id"] == "pipette/PickUpTestTube-v1"
+
+
+def test_a_value_given_twice_through_a_shared_noun_makes_a_step_each() -> None:
+    plan = AGENT.plan("evaluate runs/act/PickUpTestTube_raw on the nominal and shifted augmentation suites")
+    assert [s.args["suite_id"] for s in plan.steps] == [
+        "pipette/AugmentationNominal-v1",
+        "pipette/AugmentationShifted-v1",
+    ]
+    assert plan.unused == []
+    [(command, args)] = commands("compare evals/raw and evals/aug as a table")
+    assert command == "eval report" and args["folders"] == ["evals/raw", "evals/aug"]
