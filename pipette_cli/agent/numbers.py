@@ -1,5 +1,6 @@
 """Numbers in a request and the options they set: "30 demos", "seed 3", "64x64 images", "15k steps",
-"the third episode" (an index counting from 0), a bare count for ``bare_number``."""
+"the third episode" (an index counting from 0), a bare count for ``bare_number``; and the counts of the
+values of an option written ``NAME*N`` ("lighting and camera jitter, 3 draws each": :func:`counted`)."""
 
 from __future__ import annotations
 
@@ -7,9 +8,9 @@ import re
 from collections.abc import Set as AbstractSet
 from typing import Any
 
-from pipette_cli.agent.catalog import CommandInfo, ParamInfo, is_empty
+from pipette_cli.agent.catalog import AgentError, CommandInfo, ParamInfo, is_empty
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
-from pipette_cli.language.phrases import phrase_pattern, phrase_regex
+from pipette_cli.language.phrases import find_phrase, phrase_pattern, phrase_regex
 from pipette_cli.registry import Registry
 from pipette_cli.specs.task import TimingSpec
 
@@ -204,3 +205,55 @@ def _positions(vocab: WorkflowVocabularySpec, numeric: list[ParamInfo], text: st
 
         text = re.sub(rf"(?<![\w-])(\d+(?:st|nd|rd|th)|{ordinals})\s+(?:{names})(?![\w-])", index, text)
     return text
+
+
+def counted(
+    vocab: WorkflowVocabularySpec, words: str, found: list[tuple[int, int, str]], uncounted: list[str]
+) -> list[tuple[int, int, str]]:
+    """The values ``found`` (start, -length, value) with the count said for them, for an option whose
+    help writes ``NAME*N``. A count just before a value's words is its own ("three object-pose draws"
+    -> ``object*3``). A count said after the last value ("..., 3 draws each") or before the first with
+    the vocabulary's ``counts_of`` words ("3 draws each of ...") is that of every value without its
+    own when it says "each" of them, or when there is one value. Said per input of several values
+    ("lighting and camera jitter, 3 per demo"), it is each variant combining them when the request
+    says so (vocabulary ``combined``: ``light+cam*3``); otherwise which is meant is asked. Values
+    in ``uncounted`` (``original``) take no count.
+
+    Raises:
+        AgentError: a count per input for several values, neither "each" nor combined.
+    """
+    spelled = vocab.spelled
+    numbers = "|".join([r"\d+", *(re.escape(w) for w in sorted(spelled, key=len, reverse=True))])
+
+    def count(m: re.Match[str] | None) -> int | None:
+        return None if m is None else int(m.group(1)) if m.group(1).isdigit() else int(spelled[m.group(1)])
+
+    own = {at: count(re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])) for at, _, _ in found}
+    first, last = min(found), max(found, key=lambda f: f[0] - f[1])  # the value said last ends last
+    each = "|".join(phrase_regex(p) for p in vocab.per_each)
+    after = re.search(rf"(?<![\w.-])({numbers})\s+(?:[a-z-]+\s+){{0,2}}?(?:{each})(?![\w-])", words[last[0] :])
+    if after is not None and last[0] + after.start() < last[0] - last[1]:
+        after = None  # inside the last value's own words
+    of = "|".join(phrase_regex(p) for p in vocab.counts_of)
+    before = re.search(rf"(?<![\w.-])({numbers})\s+(?:{of})\s+(?:\S+\s+){{0,2}}$", words[: first[0]]) if of else None
+    said = after or before
+    shared = count(said)
+    if said is None or shared is None:
+        return [(at, n, f"{value}*{own[at]}" if (own[at] or 1) > 1 else value) for at, n, value in found]
+    counted = [f for f in found if f[2] not in uncounted]
+    mixed = len([f for f in counted if not own[f[0]]]) > 1
+    per_input = re.search(rf"\b(?:{'|'.join(vocab.inputs)})\b", said.group(0)) is not None
+    if mixed and (per_input or not re.search(r"\beach\b", said.group(0))):
+        if find_phrase(vocab.combined, words) is not None and not any(own.values()):
+            joined = "+".join(dict.fromkeys(v for _, _, v in sorted(counted)))
+            alone = [f for f in found if f[2] in uncounted]
+            return [*alone, (first[0], first[1], f"{joined}*{shared}" if shared > 1 else joined)]
+        names = [v for at, _, v in sorted(counted) if not own[at]]
+        raise AgentError(
+            f"{said.group(0).strip()!r} for {' and '.join(names)}: say '{shared} of each' "
+            f"({','.join(f'{v}*{shared}' for v in names)}) or '{shared} combining them' ({'+'.join(names)}*{shared})"
+        )
+    return [
+        (at, n, f"{value}*{times}" if (times := own[at] or (1 if value in uncounted else shared)) > 1 else value)
+        for at, n, value in found
+    ]
