@@ -89,8 +89,9 @@ class Builder:
         return out
 
     def pronoun(self, role: str, clause: Clause) -> Obj:
-        if role == "instrument":
+        if role == "instrument":  # one a step worked on; else one named before in this sentence ("... with X on it")
             pool = [o for s in self.steps for o in (s.object, s.target, s.source) if o is not None and self._static(o)]
+            pool = pool or [o for o in self.objects if self._static(o)]
         elif role == "holder":
             pool = self._holders() or [o for o in self.objects if self._static(o)]
         else:

@@ -382,3 +382,10 @@ def test_what_is_taken_out_with_no_source_said_comes_out_of_the_instrument_opene
     ]
     with pytest.raises(PlanError, match="say where the .* is taken from"):  # nothing opened: asked, never guessed
         parse_description("Take out the petri dish", load_vocabulary())
+
+
+def test_it_can_be_the_instrument_named_before_in_the_same_sentence() -> None:
+    parsed = parse_description("Start the centrifuge with the tube in it", load_vocabulary())
+    assert [(s.action, s.object, s.target) for s in parsed.plan.steps][:1] == [("place", "tube", "centrifuge")]
+    with pytest.raises(PlanError, match="nothing named before"):  # nothing named at all: still asked
+        parse_description("Turn it on", load_vocabulary())
