@@ -163,6 +163,7 @@ class Accountant:
         self.filler = {w.lower() for w in vocab.filler}
         self.units = {u for info in catalog.commands.values() for p in info.params.values() for u in p.units}
         self.units |= TIME_UNITS  # "0.5-second", "500ms": a duration of an option counted in control steps
+        self.units |= {"x", "×"}  # "2x": a factor or a count said as one
 
     def unused_words(self, request: str, plan: CheckedPlan) -> list[str]:
         """The words of ``request`` that ``plan`` does not explain, in order (see the module docstring)."""
@@ -322,9 +323,9 @@ class Accountant:
 
     def _choice(self, words: _Words, param: ParamInfo, value: str) -> None:
         value, _, count = value.partition("*")
-        if count:  # --variants object*3: "three object-pose draws (per demo)"
+        if count:  # --variants object*3: "three object-pose draws (per demo)", "a 3x augmentation"
             self._number(words, float(count))
-            for phrase in self.vocab.per_each:
+            for phrase in [*self.vocab.per_each, *self.vocab.counts_of, f"{count} (x|×|times)"]:
                 words.phrase(phrase)
         base, _, index = value.partition(":")
         if index and base in param.indexed:  # "cuda:1"

@@ -130,9 +130,12 @@ def read_numbers(
 
     taken: set[str] = set()
     bare: list[float] = []
+    counts = "|".join(phrase_regex(p) for p in vocab.counts_of)
     for m in _NUMBER.finditer(text):
         number = float(m.group(1).replace(",", "")) * (1000 if m.group(2) else 1) / (100 if m.group(3) else 1)
         after, before = text[m.end() :].lstrip(), text[: m.start()].rstrip()
+        if counts and re.match(rf"(?:[x×]\s*)?(?:{counts})(?![\w-])", after):
+            continue  # "a 2x augmentation with light", "3 draws each of ...": a count of variants (:func:`counted`)
         best: tuple[int, int, ParamInfo] | None = None  # rank, then the longest words: "2x the task range"
         for param in (p for p in numeric if p.name not in taken):
             names = param.names
@@ -228,14 +231,18 @@ def counted(
     def count(m: re.Match[str] | None) -> int | None:
         return None if m is None else int(m.group(1)) if m.group(1).isdigit() else int(spelled[m.group(1)])
 
-    own = {at: count(re.search(rf"(?<![\w.-])({numbers})\s+$", words[:at])) for at, _, _ in found}
+    own = {at: count(re.search(rf"(?<![\w.-])({numbers})(?:\s*[x×])?\s+$", words[:at])) for at, _, _ in found}
     first, last = min(found), max(found, key=lambda f: f[0] - f[1])  # the value said last ends last
     each = "|".join(phrase_regex(p) for p in vocab.per_each)
     after = re.search(rf"(?<![\w.-])({numbers})\s+(?:[a-z-]+\s+){{0,2}}?(?:{each})(?![\w-])", words[last[0] :])
     if after is not None and last[0] + after.start() < last[0] - last[1]:
         after = None  # inside the last value's own words
     of = "|".join(phrase_regex(p) for p in vocab.counts_of)
-    before = re.search(rf"(?<![\w.-])({numbers})\s+(?:{of})\s+(?:\S+\s+){{0,2}}$", words[: first[0]]) if of else None
+    before = (  # "3 draws each of ...", "a 2x augmentation with ..."
+        re.search(rf"(?<![\w.-])({numbers})(?:\s*[x×])?\s+(?:{of})\s+(?:\S+\s+){{0,2}}$", words[: first[0]])
+        if of
+        else None
+    )
     said = after or before
     shared = count(said)
     if said is None or shared is None:

@@ -290,3 +290,12 @@ def test_a_value_given_twice_through_a_shared_noun_makes_a_step_each() -> None:
     assert plan.unused == []
     [(command, args)] = commands("compare evals/raw and evals/aug as a table")
     assert command == "eval report" and args["folders"] == ["evals/raw", "evals/aug"]
+
+
+def test_a_multiplier_before_augmentation_counts_draws_and_one_with_speed_words_is_the_speed() -> None:
+    plan = AGENT.plan("collect 15 demos of the tube pick-up task, then a 2x augmentation with light only")
+    assert plan.steps[1].args["variants"] == "light*2" and "speed" not in plan.steps[1].args and plan.unused == []
+    [(_, args)] = commands("augment data/a.h5 at 2x speed")
+    assert args["speed"] == 2.0 and "variants" not in args
+    [(_, args)] = commands("augment data/a.h5 by moving the objects within 2x the task range")
+    assert args["variants"] == "object" and args["object_range"] == 2.0  # its number is the range's, no count
