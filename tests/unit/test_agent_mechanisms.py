@@ -301,8 +301,6 @@ def test_a_multiplier_before_augmentation_counts_draws_and_one_with_speed_words_
     assert args["variants"] == "object" and args["object_range"] == 2.0  # its number is the range's, no count
 
 
-def test_words_a_serve_and_eval_plan_explains_are_not_listed_as_not_understood() -> None:
-    serve = AGENT.plan("take the last checkpoint in runs/act/x and serve it on port 5600")
-    assert serve.steps[0].command == "serve" and serve.unused == ["take"]  # the folder is served as given
+def test_the_served_policy_is_the_endpoint_an_eval_plan_reads() -> None:
     served = AGENT.plan("evaluate the served policy at localhost:5600 on the tube pick-up task for 5 episodes")
     assert served.steps[0].args["endpoint"] == ["tcp://localhost:5600"] and served.unused == []
