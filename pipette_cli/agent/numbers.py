@@ -112,10 +112,11 @@ def read_numbers(
     for word, value in sorted(vocab.spelled.items(), key=lambda kv: -len(kv[0])):
         text = re.sub(rf"(?<![\w-]){re.escape(word)}(?![\w-])", str(value), text)
     text = _unhyphenated(numeric, _durations_in_steps(numeric, text, control_hz))  # "half a second" is 0.5 s by now
-    claims = [  # the words of a value said in several ("camera jitter": the cam variants, never light's jitter)
+    claims = [  # the words of this command's values said in several ("camera jitter": the cam variants, never
+        # light's jitter), as ArgumentReader._values claims them
         m.span()
-        for phrases in vocab.values.values()
-        for found in phrases.values()
+        for name in info.params
+        for found in vocab.values.get(name, {}).values()
         for phrase in found
         if " " in phrase
         for m in phrase_pattern(phrase).finditer(text)

@@ -200,10 +200,17 @@ class TaskIndex:
         words = {w for name in names for w in name}
         return {a + b: f"{a} {b}" for name in names for a, b in itertools.pairwise(name) if a + b not in words}
 
+    @cached_property
+    def _joined_pattern(self) -> re.Pattern[str] | None:
+        """One pattern for every :attr:`_joined` word, longest first (built once: :meth:`concepts` runs per
+        task at start and per request)."""
+        joined = "|".join(sorted(map(re.escape, self._joined), key=len, reverse=True))
+        return re.compile(rf"(?<![\w-])({joined})(?![\w-])") if joined else None
+
     def _apart(self, text: str) -> str:
         """``text`` with :attr:`_joined` words said apart ("the pickup task" -> "the pick up task")."""
-        joined = "|".join(sorted(map(re.escape, self._joined), key=len, reverse=True))
-        return re.sub(rf"(?<![\w-])({joined})(?![\w-])", lambda m: self._joined[m.group(1)], text) if joined else text
+        pattern = self._joined_pattern
+        return pattern.sub(lambda m: self._joined[m.group(1)], text) if pattern is not None else text
 
     def concepts(self, text: str) -> set[str]:
         """Stems of ``text``'s words after the vocabulary's synonyms, stop words left out; two words of a
