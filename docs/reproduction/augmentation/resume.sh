@@ -5,7 +5,8 @@
 # amendment 6 on RemoveTubeFromBalance; then (amendments 12 and 13) two lanes: amendment 12 (drifting corrective
 # noise) at S on three tasks; amendment 12 then amendment 10 at matched passes; then (amendment 15) amendment 10's
 # matched-passes cell beside amendment 14 (drift beside aug_all's moved objects) on three tasks; then amendment 6's
-# other cells and amendment 8 on the last two tasks. Each stage resumes where its work stopped
+# other cells and amendment 8 on the last two tasks, with (amendment 16) seed replicates of amendment 14's
+# RemoveTubeFromBalance cell and of raw first, in two lanes. Each stage resumes where its work stopped
 # (finished cells are reused; the kept episode logs are restored on a new machine), so this script can
 # be started again after any interruption. It stops before anything when the CPU lacks AVX-512 (plan,
 # "Machines": such a restart is written into the plan first).
@@ -15,7 +16,7 @@
 #
 # The code is the run's: 8739549 with the driver patches of this folder, in worktrees under $WT
 # (exp2: exp-run.patch; seg: exp-run.patch + exp-seg.patch; dart: exp-run.patch + exp-dart.patch; drift:
-# dart's + exp-drift.patch; plusdrift: drift's + exp-plusdrift.patch; each then exp-skip.patch, which skips an evaluation kept from a policy trained on a
+# dart's + exp-drift.patch; plusdrift: drift's + exp-plusdrift.patch; each then exp-skip.patch; rep16: plusdrift's + exp-rep16.patch, which skips an evaluation kept from a policy trained on a
 # lost machine, amendment 11); the Python environment is main's.
 set -euo pipefail
 
@@ -84,6 +85,7 @@ worktree seg exp-run.patch exp-seg.patch exp-skip.patch
 worktree dart exp-run.patch exp-dart.patch exp-skip.patch
 worktree drift exp-run.patch exp-dart.patch exp-drift.patch exp-skip.patch
 worktree plusdrift exp-run.patch exp-dart.patch exp-drift.patch exp-plusdrift.patch exp-skip.patch
+worktree rep16 exp-run.patch exp-dart.patch exp-drift.patch exp-plusdrift.patch exp-skip.patch exp-rep16.patch
 stage seg run --settings aug_all_seg,aug_object_seg --tasks $PLACE          # amendment 5 (done: restored)
 # amendment 11's lanes: amendment 10 at S on PickUpTestTube, PlaceTubeOnBalance; amendment 6 on RemoveTubeFromBalance
 lane1() {  # each task's raw demonstrations made by the run's code first
@@ -129,11 +131,16 @@ lane6() {
         stage plusdrift run --settings aug_all_plus_drift --tasks $task --jobs 1
     done
 }
+# amendment 16: training-seed replicates of aug_all_plus_drift, and amendment 8's of raw, on RemoveTubeFromBalance
+rep16() {  # rep16 SEED: one seed's pair
+    stage exp2 run --settings raw_seed$1 --tasks $REMOVE --jobs 1
+    stage rep16 run --settings aug_all_plus_drift_seed$1 --tasks $REMOVE --jobs 1
+}
 if [ -n "${DRY:-}" ]; then
-    lane5; lane6
+    lane5; lane6; rep16 1002; rep16 1001
 else
-    lane5 &
-    lane6 &
+    { lane5; lane6; rep16 1002; } &
+    rep16 1001 &
     wait
 fi
 stage exp2 run --settings more_demos_ep,aug_all_ep --tasks $PICK,$CLOSE,$PLACE --jobs 2   # amendment 6, the rest
