@@ -134,9 +134,12 @@ EPOCH_MATCHED = {
 """Amendment 6: the data of the setting named, trained for as many passes over it as ``raw`` gets in
 S steps (:func:`matched_steps`)."""
 REPLICATE_SEEDS = (1001, 1002)
-REPLICATES = {f"{s}_seed{seed}": (s, seed) for seed in REPLICATE_SEEDS for s in ("raw", "aug_all")}
+REPLICATED = {"amendment 8": "aug_all", "amendment 16": "aug_all_plus_drift"}
+"""The settings trained again with other training seeds, each read against raw's replicates."""
+REPLICATES = {f"{s}_seed{seed}": (s, seed) for seed in REPLICATE_SEEDS for s in ("raw", *REPLICATED.values())}
 """Amendment 8: the primary comparison's settings trained again with other training seeds on the same
-data, evaluated on the nominal and shifted suites; run after the registered cells (``--settings``)."""
+data, evaluated on the nominal and shifted suites; run after the registered cells (``--settings``).
+Amendment 16: aug_all_plus_drift's, the same way (RemoveTubeFromBalance)."""
 SUITE_SETTINGS = {
     "nominal": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, *CORRECTIVE),
     "shifted": (*SETTINGS[:5], *SEGMENTED, *EPOCH_MATCHED, *REPLICATES, *CORRECTIVE),
@@ -914,31 +917,32 @@ sets were made by the code before 3360bdc (the same setting, its data different 
 PlaceTubeOnBalance's cause is not known. Counts only (their episodes were lost): no paired test."""
 
 
-def replicate_rows(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
-    """Amendment 8 on one suite, per task: raw's and aug_all's successes at each training seed, every
-    aug_all seed against every raw seed, and McNemar exact on the seed-matched episode pairs (Holm over
-    the tasks)."""
+def replicate_rows(cells: Cells, tasks: list[str], setting: str = "aug_all") -> list[dict[str, Any]]:
+    """Amendment 8 (``aug_all``) or 16 (``aug_all_plus_drift``) on one suite, per task: raw's and the
+    setting's successes at each training seed, every seed of the setting against every raw seed, and
+    McNemar exact on the seed-matched episode pairs (Holm over the tasks)."""
     rows: list[dict[str, Any]] = []
     for task in tasks:
         runs = {
             base: [cells.get((task, s), {}) for s in (base, *(f"{base}_seed{n}" for n in REPLICATE_SEEDS))]
-            for base in ("raw", "aug_all")
+            for base in ("raw", setting)
         }
-        found = runs["raw"] + runs["aug_all"]
+        found = runs["raw"] + runs[setting]
         if not all(found) or any(set(o) != set(found[0]) for o in found):
             continue  # a seed not run yet, or not every episode of it
         counts = {base: [sum(o.values()) for o in found] for base, found in runs.items()}
-        crossed = [a - r for a in counts["aug_all"] for r in counts["raw"]]
+        crossed = [a - r for a in counts[setting] for r in counts["raw"]]
         left, right = ({(f"{i}:{t}", e): v for i, o in enumerate(runs[b]) for (t, e), v in o.items()} for b in runs)
         test = compare(left, right).as_dict()
         rows.append(
             {
                 "task": task,
                 "seeds": [TRAIN_SEED, *REPLICATE_SEEDS],
+                "setting": setting,
                 "raw": counts["raw"],
-                "aug_all": counts["aug_all"],
+                setting: counts[setting],
                 "episodes": len(runs["raw"][0]),
-                "mean_difference": (fmean(counts["aug_all"]) - fmean(counts["raw"])) / len(runs["raw"][0]),
+                "mean_difference": (fmean(counts[setting]) - fmean(counts["raw"])) / len(runs["raw"][0]),
                 "crossed_differences": crossed,
                 "same_sign": all(d > 0 for d in crossed) or all(d < 0 for d in crossed),
                 "p_value": test["p_value"],
@@ -949,21 +953,26 @@ def replicate_rows(cells: Cells, tasks: list[str]) -> list[dict[str, Any]]:
     return rows
 
 
-def replicate_section(name: str, rows: list[dict[str, Any]]) -> list[str]:
+def replicate_section(name: str, rows: list[dict[str, Any]], family: str = "amendment 8") -> list[str]:
+    setting = REPLICATED[family]
     lines = [
-        f"### Training-seed replicates, {name} suite (amendment 8)",
+        f"### Training-seed replicates, {name} suite ({family}: {setting})",
         "",
-        "| task | raw (seeds " + ", ".join(map(str, (TRAIN_SEED, *REPLICATE_SEEDS))) + ") | aug_all | mean difference "
-        "| aug_all - raw, every seed pair | same sign | p (McNemar, seed-matched) | p (Holm) |",
+        "| task | raw (seeds "
+        + ", ".join(map(str, (TRAIN_SEED, *REPLICATE_SEEDS)))
+        + f") | {setting} | mean difference "
+        f"| {setting} - raw, every seed pair | same sign | p (McNemar, seed-matched) | p (Holm) |",
         "|---|---|---|---:|---|---|---:|---:|",
     ]
     lines += [
-        f"| {r['task']} | {', '.join(map(str, r['raw']))} | {', '.join(map(str, r['aug_all']))} "
+        f"| {r['task']} | {', '.join(map(str, r['raw']))} | {', '.join(map(str, r[setting]))} "
         f"| {100 * r['mean_difference']:+.0f} pt | {min(r['crossed_differences']):+d} to {max(r['crossed_differences']):+d} "
         f"| {'yes' if r['same_sign'] else 'no'} | {r['p_value']:.3g} | {r['p_holm']:.3g}{' *' if r['significant'] else ''} |"
         for r in rows
     ]
-    earlier = [f"- {key}: {found[name]}/50" for key, found in EARLIER.items() if name in found]
+    earlier = [
+        f"- {key}: {found[name]}/50" for key, found in EARLIER.items() if name in found and family == "amendment 8"
+    ]
     if earlier:
         lines += ["", "The lost first run's counts of the same settings (another realization; no paired test):", ""]
         lines += earlier
@@ -1158,14 +1167,15 @@ def report(ex: Experiment, tasks: list[TaskSpec], docs: Path, steps: int, ceilin
         cells = {(t.id, s): outcomes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings}
         rows = comparisons(cells, ids, name)
         lines += suite_section(name, cells, ids, rows)
-        replicated = replicate_rows(cells, ids) if name != "clutter" else []
-        lines += replicate_section(name, replicated) if replicated else []
+        replicated = {f: replicate_rows(cells, ids, s) if name != "clutter" else [] for f, s in REPLICATED.items()}
+        lines += [line for f, found in replicated.items() if found for line in replicate_section(name, found, f)]
         modes = {f"{t.id} {s}": failure_modes(ex.folder(t, "eval", name, s)) for t in tasks for s in settings}
         lines += failure_section(name, modes)
         results["suites"][name] = {
             "cells": {f"{t} {s}": {"successes": sum(o.values()), "episodes": len(o)} for (t, s), o in cells.items()},
             "comparisons": rows,
-            "replicates": replicated,
+            "replicates": replicated["amendment 8"],
+            "replicates_amendment_16": replicated["amendment 16"],
             "failure_modes": modes,
         }
     marks = [steps // 4, steps // 2]

@@ -481,6 +481,32 @@ def test_amendment_8_replicates_train_the_same_data_with_other_seeds_and_are_rea
     assert "PickUpTestTube-v1 aug_object: 14/50" in text  # the lost run's realization beside it
 
 
+def test_amendment_16_replicates_aug_all_plus_drift_and_reads_it_against_raws_seeds(tmp_path, monkeypatch) -> None:
+    task, suites = pick_and_suites()
+    ex = experiment.Experiment(tmp_path / "work", 1, 64, "fast")
+    assert experiment.data_of("aug_all_plus_drift_seed1001") == "aug_all_plus_drift"
+    assert [
+        f.parent.name for _, f, *_ in experiment.evaluations(ex, task, "aug_all_plus_drift_seed1002", 2000, suites)
+    ] == [
+        "nominal",
+        "shifted",
+    ]
+    cells = {}
+    for i, (raw, aug, drift) in enumerate([(6, 2, 14), (8, 3, 9), (5, 9, 13)]):
+        suffix = "" if i == 0 else f"_seed{experiment.REPLICATE_SEEDS[i - 1]}"
+        for setting, k in (("raw", raw), ("aug_all", aug), ("aug_all_plus_drift", drift)):
+            cells[(PICK, f"{setting}{suffix}")] = outcomes(PICK, [1] * k + [0] * (20 - k))
+    rows = experiment.replicate_rows(cells, [PICK], "aug_all_plus_drift")
+    assert rows[0]["setting"] == "aug_all_plus_drift" and rows[0]["aug_all_plus_drift"] == [14, 9, 13]
+    assert min(rows[0]["crossed_differences"]) == 1 and rows[0]["same_sign"]
+    assert not experiment.replicate_rows(cells, [PICK])[0]["same_sign"]  # amendment 8's aug_all: 9 - 8 > 0 > 2 - 6
+    text = "\n".join(experiment.replicate_section("shifted", rows, "amendment 16"))
+    assert "(amendment 16: aug_all_plus_drift)" in text and "| 6, 8, 5 | 14, 9, 13 |" in text
+    assert "aug_object: 14/50" not in text  # the lost run's counts are amendment 8's
+    del cells[(PICK, "aug_all_plus_drift_seed1002")]  # a seed not run yet: no row
+    assert experiment.replicate_rows(cells, [PICK], "aug_all_plus_drift") == []
+
+
 def test_data_hashes_follow_the_arrays_but_not_wall_time_or_string_pointers(tmp_path, monkeypatch) -> None:
     import h5py
     import numpy as np
