@@ -17,7 +17,8 @@ from pipette_cli.agent.catalog import CommandInfo
 from pipette_cli.agent.plan import StepRef
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
 from pipette_cli.lerobot.convert import DatasetVersion, default_root
-from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, LAST_CHECKPOINT, Policy, run_dir
+from pipette_cli.lerobot.layout import LAST_CHECKPOINT
+from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, Policy, run_dir
 
 
 def _arg(info: CommandInfo, args: dict[str, Any], name: str) -> Any:

@@ -18,6 +18,7 @@ from rich.text import Text
 
 from pipette_cli.demos.check import placed_on
 from pipette_cli.demos.embodiment import on_robot
+from pipette_cli.lerobot.layout import policy_folder
 from pipette_cli.progress import ProgressLines
 from pipette_cli.registry import load_registry, registry_dirs
 
@@ -220,3 +221,12 @@ def wrote_task_line(path: Path, task_id: str, verify: bool) -> str:
     use = f"; then use it, e.g. pipette{flag} sim render {task_id}"
     away = "" if found else f" ({path.parent} is not a registry folder: give --registry-dir or PIPETTE_REGISTRY_PATH)"
     return f"wrote {path}; {check}pipette tasks validate {path}{use}{away}"
+
+
+def policy_folder_of(path: Path) -> Path:
+    """``--policy``'s LeRobot policy folder (:func:`~pipette_cli.lerobot.layout.policy_folder`: a run
+    folder is its last checkpoint), said on stderr when it is not the folder given."""
+    found = policy_folder(path)
+    if found != Path(path):
+        err_console.print(f"policy: {found}", soft_wrap=True)
+    return found

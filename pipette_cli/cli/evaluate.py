@@ -14,6 +14,7 @@ from pipette_cli.cli.common import (
     RobotOption,
     err_console,
     out_console,
+    policy_folder_of,
     print_json,
     show_progress,
     spec_default,
@@ -81,7 +82,12 @@ def eval_command(
         ),
     ] = None,
     policy: Annotated[
-        Path | None, typer.Option("--policy", help="Or: a policy folder evaluated in this process (no server).")
+        Path | None,
+        typer.Option(
+            "--policy",
+            help="Or: a policy evaluated in this process (no server): its pretrained_model folder, or a training "
+            "run folder (its last checkpoint).",
+        ),
     ] = None,
     policy_type: Annotated[
         str | None,
@@ -146,6 +152,7 @@ def eval_command(
         raise PipetteError(f"--dataset-version must be raw or augmented, not {dataset_version!r}")
     from pipette_cli.evaluation.runner import PolicySource, check_servers  # deferred: zmq, scipy (~0.9 s)
 
+    policy = policy_folder_of(policy) if policy is not None else None
     source = PolicySource(checkpoint=policy, endpoints=tuple(endpoint or ()), device=device, dead_after_s=dead_after)
     registry = load_registry(STATE.registry_dirs)
     config = DecodeConfig.for_policy(resolve_policy_type(policy_type, policy))

@@ -8,14 +8,19 @@ from typing import Annotated
 
 import typer
 
-from pipette_cli.cli.common import STATE, err_console, out_console, print_json
+from pipette_cli.cli.common import STATE, err_console, out_console, policy_folder_of, print_json
 from pipette_cli.errors import plural
 from pipette_cli.serving.protocol import DEFAULT_DEVICE, DEFAULT_ENDPOINT, DEFAULT_MAX_REQUEST_BYTES
 
 
 def serve(
     policy: Annotated[
-        Path, typer.Option("--policy", help="LeRobot policy folder (config.json, model.safetensors, processor files).")
+        Path,
+        typer.Option(
+            "--policy",
+            help="LeRobot policy folder (config.json, model.safetensors, processor files), or a training run "
+            "folder (its last checkpoint).",
+        ),
     ],
     bind: Annotated[
         str, typer.Option("--bind", help="ZeroMQ endpoint (paper A.4); port 0 lets the OS pick one.")
@@ -41,11 +46,12 @@ def serve(
     typed error (bad_request, bad_shape, bad_dtype, nan, out_of_range, too_large, internal)
     after which the server keeps serving. Stop it with Ctrl-C.
 
-    Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw/checkpoints/last/pretrained_model
+    Example: pipette serve --policy outputs/train/act/pipette_PickUpTestTube-v1_raw
     """
     from pipette_cli.serving.server import LeRobotRunner, PolicyServer, check_endpoint  # deferred: zmq (~15 ms)
 
     check_endpoint(bind, allow_remote=allow_remote)  # before the slow policy load
+    policy = policy_folder_of(policy)
     runner = LeRobotRunner(policy, device=device)
     server = PolicyServer(runner, bind, allow_remote=allow_remote, max_request_bytes=int(max_request_mb * 2**20))
     spec = runner.spec

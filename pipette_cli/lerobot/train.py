@@ -30,6 +30,7 @@ from typing import IO
 
 from pipette_cli.errors import DatasetError, PipetteError, plural
 from pipette_cli.lerobot.convert import DatasetVersion, slug
+from pipette_cli.lerobot.layout import LAST_CHECKPOINT
 from pipette_cli.lerobot.output import Abridged
 from pipette_cli.specs.base import described
 
@@ -38,7 +39,6 @@ logger = logging.getLogger(__name__)
 PI0_BASE = "lerobot/pi0_base"
 DEFAULT_DATASETS_ROOT = Path("datasets")
 DEFAULT_OUTPUT_ROOT = Path("outputs/train")
-LAST_CHECKPOINT = Path("checkpoints/last/pretrained_model")
 
 
 class TrainError(PipetteError):

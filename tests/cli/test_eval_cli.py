@@ -126,6 +126,17 @@ def test_eval_refuses_a_policy_type_that_contradicts_the_checkpoint(run_cli, cap
     assert "--policy-type act contradicts" in result.stderr and "'pi0'" in result.stderr
 
 
+def test_eval_takes_a_training_run_folder_as_its_last_checkpoint(run_cli, captured, tmp_path: Path) -> None:
+    run = tmp_path / "act" / "pipette_PickUpTestTube-v1_raw"
+    checkpoint(run / "checkpoints" / "last" / "pretrained_model", "pi0")
+    result = run_cli("eval", "PickUpTestTube", "--policy", run, "--policy-type", "act", "--episodes", "1")
+    said = " ".join(result.stderr.split())
+    assert result.exit_code == 1 and f"policy: {run}/checkpoints/last/pretrained_model" in said
+    assert f"contradicts {run}/checkpoints/last/pretrained_model/config.json" in said  # the run's checkpoint read
+    result = run_cli("eval", "PickUpTestTube", "--policy", tmp_path / "act" / "nowhere", "--episodes", "1")
+    assert result.exit_code == 1 and "no such policy folder" in result.stderr and "policy_type" not in captured
+
+
 def test_resolve_policy_type(tmp_path: Path) -> None:
     assert resolve_policy_type(None, None) == "act"  # a server: nothing to read
     assert resolve_policy_type("pi0", None) == "pi0"

@@ -66,6 +66,31 @@ def test_serve_answers_a_client_then_stops_after_max_requests(run_cli, tmp_path)
     assert answers["error"] == "bad_shape"
 
 
+def test_serve_takes_a_training_run_folder_as_its_last_checkpoint(run_cli, tmp_path) -> None:
+    run = tmp_path / "outputs" / "train" / "act" / "pipette_PickUpTestTube-v1_raw"
+    make_tiny_act(run / "checkpoints" / "000005" / "pretrained_model", image_size=16)
+    (run / "checkpoints" / "last").symlink_to("000005")
+    endpoint = f"tcp://127.0.0.1:{_free_port()}"
+    thread = threading.Thread(target=lambda: _info(endpoint), daemon=True)
+    thread.start()
+    result = run_cli("serve", "--policy", run, "--bind", endpoint, "--device", "cpu", "--max-requests", "1")
+    thread.join(10)
+    last = run / "checkpoints" / "last" / "pretrained_model"
+    assert result.exit_code == 0, result.stderr
+    assert f"policy: {last}" in " ".join(result.stderr.split()) and f"serving act from {last}" in result.stdout
+    # the folder above holds two runs now: it names them instead of picking one
+    make_tiny_act(run.parent / "other_raw" / "checkpoints" / "last" / "pretrained_model", image_size=16)
+    result = run_cli("serve", "--policy", run.parent, "--bind", endpoint)
+    assert result.exit_code == 1 and "holds 2 training runs; pass one of them" in result.stderr
+
+
+def _info(endpoint: str) -> None:
+    from pipette_cli.serving.client import PolicyClient
+
+    with PolicyClient(endpoint, timeout_ms=30_000) as c:
+        c.info()
+
+
 def test_serve_refuses_a_folder_that_is_not_a_policy(run_cli, tmp_path) -> None:
     result = run_cli("serve", "--policy", tmp_path)
     assert result.exit_code == 1

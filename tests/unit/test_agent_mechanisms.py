@@ -301,6 +301,16 @@ def test_a_multiplier_before_augmentation_counts_draws_and_one_with_speed_words_
     assert args["variants"] == "object" and args["object_range"] == 2.0  # its number is the range's, no count
 
 
+def test_the_last_checkpoint_of_a_run_folder_is_what_serve_and_eval_load() -> None:
+    # both take a training run folder as its last checkpoint (lerobot.layout.policy_folder)
+    serve = AGENT.plan("take the last checkpoint in runs/act/x and serve it on port 5600")
+    assert serve.steps[0].command == "serve" and serve.steps[0].args["policy"] == "runs/act/x"
+    assert serve.unused == ["take"]
+    evaluate = AGENT.plan("evaluate the latest checkpoint of runs/act/x on the tube pick-up task, 5 episodes")
+    assert [s.command for s in evaluate.steps] == ["eval"] and evaluate.steps[0].args["policy"] == "runs/act/x"
+    assert evaluate.unused == []
+
+
 def test_the_served_policy_is_the_endpoint_an_eval_plan_reads() -> None:
     served = AGENT.plan("evaluate the served policy at localhost:5600 on the tube pick-up task for 5 episodes")
     assert served.steps[0].args["endpoint"] == ["tcp://localhost:5600"] and served.unused == []
