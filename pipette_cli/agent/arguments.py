@@ -112,7 +112,16 @@ class ArgumentReader:
         ]
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before) or names_no_file(m.path)]  # "..., id mylab/X-v1"
-        assign_paths(info, paths, args, self.catalog, self.readers, self.vocab.file_inputs(info.name))
+        assign_paths(
+            info,
+            paths,
+            args,
+            self.catalog,
+            self.readers,
+            self.vocab.file_inputs(info.name),
+            self.vocab.consumed(info.name),
+            self.vocab.files,
+        )
         saved = [m.path for m in paths]
         policy = self.policy(words)
         if policy:

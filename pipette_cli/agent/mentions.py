@@ -8,6 +8,7 @@ required choice (``eval --policy``), or its only path option.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from pathlib import Path
 from typing import Any
@@ -64,9 +65,12 @@ def assign_paths(
     catalog: CommandCatalog,
     readers: dict[str, list[str]] | None = None,
     file_inputs: AbstractSet[str] = frozenset(),
+    consumed: Mapping[str, str] | None = None,
+    files: Mapping[str, str] | None = None,
 ) -> None:
     """Put each of ``paths`` into the path option of ``info`` it is for (``args`` is updated);
-    a path written as a folder ("videos/") never goes to one of ``file_inputs``.
+    a path written as a folder ("videos/") never goes to one of ``file_inputs``, a file of a kind
+    ``files`` names (``h5``: demos) never to an option ``consumed`` says reads another kind.
 
     Raises:
         AgentError: a path that fits none of the command's free path options.
@@ -78,6 +82,9 @@ def assign_paths(
 
     choice = catalog.one_of.get(info.name, ())
     values = {v.lower() for p in info.params.values() if not p.path for v in p.values()}
+    # the one-word name of another option names that option, not a path ("4 variants each, into x.h5": not
+    # --rejected, whose "rejected variants" holds the word)
+    values |= {singular(p.name) for p in info.params.values() if not p.path and "_" not in p.name}
     named_strings = [p for p in info.params.values() if p.kind == "str" and not p.address and not p.values()]
     previous: ParamInfo | None = None
     for mention in paths:
@@ -100,6 +107,10 @@ def assign_paths(
         folder = mention.path.endswith("/")  # "GIFs of them in videos/incub/": an output, not the input file
         suffix = mention.path.rsplit(".", 1)[-1].lower() if FILE_SUFFIX.search(mention.path) else ""
         other_file = bool(suffix) and suffix not in (readers or {})  # "a gif of it at x.gif": never the .h5 read
+        # an option that reads another kind of thing never takes the file ("compare a.h5 and b.h5": eval report
+        # reads evaluation folders, not demos)
+        kind = (files or {}).get(suffix)
+        unread = {o for o, k in (consumed or {}).items() if kind and k != kind}
         reads = [
             p
             for p in options
@@ -107,6 +118,7 @@ def assign_paths(
             and free(p)
             and p.name not in barred
             and not ((folder or other_file) and p.name in file_inputs)
+            and p.name not in unread
         ]
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output

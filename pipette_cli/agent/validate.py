@@ -367,14 +367,28 @@ class Validator:
         self, info: CommandInfo, args: dict[str, Any], task: str | None, notes: list[str], taken: set[str]
     ) -> None:
         """Fill the vocabulary's default outputs; one an earlier step of the plan already writes gets
-        the step's robot, else a number ("10 on the Franka and 10 on the UR5e": two files)."""
-        for key, template in self.vocab.defaults.items():
+        the step's robot or policy folder's name, else a number ("10 on the Franka and 10 on the UR5e":
+        two files)."""
+        suite = args.get("suite_id")
+        known = {
+            "Task": short_name(task) if task else None,
+            "Suite": short_name(suite) if isinstance(suite, str) else None,
+        }
+        for key, templates in self.vocab.defaults.items():
             command, _, name = key.rpartition(".")
-            if command != info.name or name not in info.params or not is_empty(args.get(name)) or task is None:
+            if command != info.name or name not in info.params or not is_empty(args.get(name)):
                 continue
-            path = template.format(Task=short_name(task))
+            filled = [
+                t.format(**known)
+                for t in ([templates] if isinstance(templates, str) else templates)
+                if all(known.get(k) for k in re.findall(r"\{(\w+)\}", t))
+            ]
+            if not filled:
+                continue
+            path = filled[0]
             stem, dot, suffix = path.rpartition(".") if "." in path.rsplit("/", 1)[-1] else (path, "", "")
             tags = [str(args["robot"])] if args.get("robot") else []
+            tags += [Path(args["policy"]).name] if isinstance(args.get("policy"), str) else []  # eval's policy folder
             tags += [str(n) for n in range(2, len(taken) + 3)]
             for tag in tags:
                 if path not in taken:

@@ -108,7 +108,9 @@ class WorkflowVocabularySpec(Spec):
     """Parameters that count from 0 (episode indices)."""
     policies: dict[str, PolicySpec]
     tasks: TaskWordsSpec
-    defaults: dict[str, str]
+    defaults: dict[str, str | list[str]]
+    """Command.option -> the output it gets when the request gives none: the first template whose
+    names are known (``{Task}``: the task's short name, ``{Suite}``: the suite's)."""
     carry: list[str]
     carry_to: dict[str, list[str]]
     task_params: dict[str, str] = Field(default_factory=dict)

@@ -314,3 +314,36 @@ def test_the_last_checkpoint_of_a_run_folder_is_what_serve_and_eval_load() -> No
 def test_the_served_policy_is_the_endpoint_an_eval_plan_reads() -> None:
     served = AGENT.plan("evaluate the served policy at localhost:5600 on the tube pick-up task for 5 episodes")
     assert served.steps[0].args["endpoint"] == ["tcp://localhost:5600"] and served.unused == []
+
+
+def test_a_word_that_names_another_option_does_not_name_a_path_option() -> None:
+    # "variants" is --variants' name, though --rejected's "rejected variants" holds it: "into" the output
+    plan = AGENT.plan("augment demos/a.h5 for PickUpTestTube with lighting changes, 4 variants each, into demos/b.h5")
+    args = plan.steps[0].args
+    assert args["output"] == "demos/b.h5" and "rejected" not in args and args["variants"] == "light*4"
+    named = AGENT.plan(
+        "augment demos/a.h5 for PickUpTestTube with lighting and save the rejected variants to demos/r.h5"
+    )
+    assert named.steps[0].args["rejected"] == "demos/r.h5"
+
+
+def test_replays_as_a_noun_ask_for_no_replay_and_radians_are_joint_noise() -> None:
+    plan = AGENT.plan(
+        "augment demos/a.h5 for PickUpTestTube with joint noise of 0.02 rad, keep only successful replays"
+    )
+    assert [s.command for s in plan.steps] == ["augment"] and plan.unused == []
+    assert plan.steps[0].args["noise_sigma"] == 0.02
+
+
+def test_comparing_eval_folders_is_a_report_and_suite_evals_get_an_output_a_report_can_read() -> None:
+    report = AGENT.plan("compare evals/raw and evals/aug")
+    assert [s.command for s in report.steps] == ["eval report"]
+    assert report.steps[0].args["folders"] == ["evals/raw", "evals/aug"]
+    with pytest.raises(AgentError, match="'pipette eval report' does not read 'data/a.h5'"):
+        AGENT.plan("compare data/a.h5 and data/b.h5")  # demos, not evaluation folders
+    listed = AGENT.plan("show the episodes in demos/pick.h5")
+    assert [(s.command, s.args) for s in listed.steps] == [("data inspect", {"file": "demos/pick.h5"})]
+    both = AGENT.plan("evaluate runs/act/raw and runs/act/aug on the shifted suite and compare them")
+    assert [s.command for s in both.steps] == ["eval", "eval", "eval report"] and both.unused == []
+    # no task: the suite names the folder; the second is told apart by its policy folder's name
+    assert [s.args["out"] for s in both.steps[:2]] == ["evals/AugmentationShifted", "evals/AugmentationShifted_aug"]
