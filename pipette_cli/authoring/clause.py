@@ -19,6 +19,9 @@ from pipette_cli.language.phrases import Token, first_match, match
 MEASURES = ("ml", "ul", "mm")
 """Size classes that measure rather than name (a lone "6 cm" is a distance, not a 60 mm dish)."""
 PART_LINKS = ("of", "on", "in", "inside", "at")
+MAX_COUNT = 6
+"""Objects of one kind a count before a noun may ask for ("put two microtubes in the rack"); a larger
+number ("96 tubes") is listed as not understood."""
 """Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
 
 
@@ -36,6 +39,8 @@ class Mention:
     prep: str | None = None  # near | source | over | dest | of | None (the direct object)
     prep_phrase: str | None = None
     part: str | None = None
+    count: int = 1
+    """How many objects of its kind it names ("two microtubes": 2; up to :data:`MAX_COUNT`)."""
 
     @property
     def is_bench(self) -> bool:
@@ -133,6 +138,10 @@ class ClauseReader:
         """A button's name -> the action its press is ("start button" -> run, "green button" -> run)."""
         self.button_names = sorted(self.buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
+        self.counts = {w: int(v) for w, v in words.numbers.items() if float(v).is_integer()} | {
+            str(n): n for n in range(MAX_COUNT + 1)
+        }
+        """A count before a noun, written either way ("two", "2")."""
         self.said: list[str] = []
         """The kinds of the objects the clauses read so far name (one reader reads one description)."""
 
@@ -269,7 +278,10 @@ class ClauseReader:
                 found = (alias_kind, alias[0], alias[1])
             if bench and (found is None or bench[1] > found[2]):
                 found = ("bench", bench[0], bench[1])
-            if found is None and pronoun and not part:
+            counts = pronoun is not None and pronoun[0] in self.counts  # "one microtube": a count, not "the one"
+            if counts and pronoun is not None and name_at(tokens, i + pronoun[1], self.aliases, stop=verbs) is None:
+                counts = False
+            if found is None and pronoun and not part and not counts:
                 found = ("pronoun", pronoun[0], pronoun[1])
             button = first_match(tokens, i, self.button_names) if found is None else None
             if button is not None and clause.action in ("press", *self.buttons.values()):
@@ -325,7 +337,10 @@ class ClauseReader:
                 if tokens[k].kind == "size":
                     m.sizes.append(tokens[k].text)
                     tokens[k].used = True
-                elif not tokens[k].used and not tokens[k].text.isdigit():  # "2 microtubes": a count, listed
+                elif not tokens[k].used and (tokens[k].text.isdigit() or tokens[k].text in self.counts):
+                    if 1 <= self.counts.get(tokens[k].text, 0) <= MAX_COUNT:  # "two microtubes"; "96 tubes" listed
+                        m.count, tokens[k].used = self.counts[tokens[k].text], True
+                elif not tokens[k].used:
                     two = f"{tokens[k].text} {tokens[k + 1].text}" if k + 1 < m.start else ""
                     modifier = self.modifiers.get(two) or self.modifiers.get(tokens[k].text)
                     m.modifiers.append(modifier or tokens[k].text)

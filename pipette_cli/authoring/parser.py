@@ -129,6 +129,12 @@ class Builder:
             if not self.steps or not direct:
                 raise PlanError(f"no action in '{clause.text}': start with a verb such as {ACTION_WORDS}")
             action = self.steps[-1].action  # "put the tube in the rack, the vial in the box"
+        counted = next((m for m in clause.mentions if m.count > 1), None)
+        if counted is not None and (action not in ("pick", "place", "remove", "position") or counted.prep):
+            raise PlanError(
+                f"'{clause.text}': a count is read only for objects the robot moves, one after another ('put two "
+                f"microtubes in the rack'); name each {counted.phrase} this step acts on"
+            )
         if action in ("run", "tare"):
             self._run(clause, direct, action)
             return
@@ -225,6 +231,10 @@ class Builder:
             o = self.obj(m, clause, "item", taken)
             taken.append(o)
             items.append(o)
+            for _ in range(m.count - 1):  # "two microtubes": the one named, then new ones of its kind, in turn
+                self.objects.append(Obj(m, o.wanted))
+                taken.append(self.objects[-1])
+                items.append(self.objects[-1])
         if not items:
             raise PlanError(
                 f"found no object to {clause.verb or action} in '{clause.text}'; name one from the asset library"

@@ -11,6 +11,7 @@ in words ("Place the 1.5 mL microtube in the microcentrifuge.").
 from __future__ import annotations
 
 import re
+from collections import Counter
 from collections.abc import Iterator
 
 from pipette_cli.taskgen.plan import PlanStepSpec
@@ -20,6 +21,8 @@ MAX_ID = 48
 """Characters of a generated id under the default namespace (``generated/...-v1``)."""
 MAX_NAME = MAX_ID - len("generated/") - len("-v1")
 HATCHES = ("lid", "door", "drawer", "sash")
+ORDINALS = ("first", "second", "third", "fourth", "fifth", "sixth", "seventh", "eighth", "ninth", "tenth")
+"""How objects of one asset are told apart in a stage's instruction, in the plan's order."""
 INTO_SITES = ("slot_", "well", "opening", "inside_bottom", "cuvette_slot", "rotor_center", "shelf_")
 """Sites of a holder that things go *in* (a rack, a rotor, a box, a shelf); other holders are surfaces."""
 RELATION_WORDS = {
@@ -141,8 +144,16 @@ def task_id(checked: CheckedPlan, namespace: str) -> str:
 
 
 def step_name(step: PlanStepSpec, checked: CheckedPlan) -> str:
-    """``place the 15 mL conical tube on the balance`` for one step."""
+    """``place the 15 mL conical tube on the balance`` for one step; objects of the same asset are told
+    apart in the plan's order ("the second 2 mL microtube")."""
     n = {name: o.info.human_name() for name, o in checked.objects.items()}
+    same = Counter(n.values())
+    seen: Counter[str] = Counter()
+    for name, human in list(n.items()):
+        if same[human] > 1:
+            seen[human] += 1
+            k = seen[human]
+            n[name] = f"{ORDINALS[k - 1] if k <= len(ORDINALS) else f'{k}th'} {human}"
     obj = n[step.object]
     part = step.part if step.part in HATCHES else ""
     if step.action == "place" and step.relation:
