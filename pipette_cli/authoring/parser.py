@@ -103,6 +103,16 @@ class Builder:
 
     def obj(self, mention: Mention, clause: Clause, role: str, taken: list[Obj]) -> Obj:
         """The plan object ``mention`` names: an earlier one of the same kind, or a new one."""
+        if mention.is_pronoun and "other" in mention.phrase.split() and role == "item":
+            # "the other one": not the one just named; another object named before, else a new one of its kind
+            last = taken[-1] if taken else self.pronoun(role, clause)
+            other = [
+                o for o in self._moved() or self.objects if o is not last and not self._static(o) and o not in taken
+            ]
+            if other:
+                return other[-1]
+            self.objects.append(Obj(last.mention, last.wanted))
+            return self.objects[-1]
         if mention.is_pronoun:
             return self.pronoun(role, clause)
         wanted = Wanted(mention.kind, tuple(mention.sizes), tuple(m for m in mention.modifiers if m not in NEW_OBJECT))
