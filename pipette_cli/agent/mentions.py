@@ -21,7 +21,7 @@ from pipette_cli.specs.task import TASK_ID_PATTERN
 SAVE_VERBS = "save|write|store|put|keep|place"
 """Verbs that ask a command to write somewhere."""
 SAVE = re.compile(
-    rf"\b(?:{SAVE_VERBS})s?\b(?:\s+(?:it|them|this|that|the \w+))?\s+"
+    rf"\b(?:{SAVE_VERBS})s?\b(?:\s+(?:it|them|this|that|the \w+|its \w+|their \w+|\w+))?\s+"
     r"(?:to|in|into|under|at|as)$"
 )
 """Words before a path that say the command should write there (present tense: "saved in" does not)."""
@@ -122,8 +122,11 @@ def assign_paths(
         ]
         wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
+        saves = bool(
+            SAVE.search(mention.before)
+        )  # "save checkpoints to runs/x": where it writes, not a checkpoint read
         candidates = [
-            _named(mention.before, reads if reads_from else writes + reads, values),
+            _named(mention.before, reads if reads_from else writes if saves else writes + reads, values),
             writes[0] if wants_output and writes else None,
             next((p for p in reads if p.required), None),
             next((p for p in reads if p.name in choice), None),

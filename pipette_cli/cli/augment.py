@@ -148,7 +148,9 @@ def augment(
     image_size: Annotated[
         int, typer.Option("--image-size", min=0, help="Square image side (0: the input's).")
     ] = spec_default(AugmentSpec, "image_size"),
-    rejected: Annotated[Path | None, typer.Option("--rejected", help="Also keep failed variants in this file.")] = None,
+    rejected: Annotated[
+        Path | None, typer.Option("--rejected", help="Also write the failed variants to this file.")
+    ] = None,
     workers: Annotated[
         int | None, typer.Option("--workers", "-w", min=1, help="Worker processes (default: all cores).")
     ] = None,

@@ -347,3 +347,22 @@ def test_comparing_eval_folders_is_a_report_and_suite_evals_get_an_output_a_repo
     assert [s.command for s in both.steps] == ["eval", "eval", "eval report"] and both.unused == []
     # no task: the suite names the folder; the second is told apart by its policy folder's name
     assert [s.args["out"] for s in both.steps[:2]] == ["evals/AugmentationShifted", "evals/AugmentationShifted_aug"]
+
+
+def test_saving_checkpoints_somewhere_is_the_output_and_data_from_a_folder_the_datasets() -> None:
+    plan = AGENT.plan(
+        "please train ACT on PickUpTestTube for 3000 steps on data from datasets/pick, batch 32, and save "
+        "checkpoints to runs/pick"
+    )
+    args = plan.steps[0].args
+    assert args["datasets_root"] == "datasets/pick" and args["output_root"] == "runs/pick"
+    assert "pretrained_path" not in args and plan.unused == []  # "checkpoints" is what it saves, not a start
+
+
+def test_how_well_a_policy_does_is_an_eval_and_copies_of_every_demo_an_augmentation() -> None:
+    how = AGENT.plan("how well does runs/pick do on 30 episodes of PickUpTestTube")
+    assert [(s.command, s.args["policy"], s.args["episodes"]) for s in how.steps] == [("eval", "runs/pick", 30)]
+    copies = AGENT.plan("make 5 copies of every demo in data/pick.h5 of PickUpTestTube with light changes")
+    assert [s.command for s in copies.steps] == ["augment"] and copies.steps[0].args["variants"] == "light*5"
+    frames = AGENT.plan("how many frames does the dataset at datasets/pick have")
+    assert [(s.command, s.args) for s in frames.steps] == [("data stats", {"root": "datasets/pick"})]
