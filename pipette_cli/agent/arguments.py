@@ -18,6 +18,7 @@ from pipette_cli.agent.catalog import TASK_PARAMS, AgentError, CommandCatalog, C
 from pipette_cli.agent.clauses import Intents
 from pipette_cli.agent.mentions import SAVE, assign_paths, names_no_file, option_words
 from pipette_cli.agent.numbers import control_rate, counted, read_numbers
+from pipette_cli.agent.products import train_run_of
 from pipette_cli.agent.tasks import TaskIndex, task_in_file_name
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec, distributed
 from pipette_cli.errors import TaskNotFound
@@ -112,6 +113,11 @@ class ArgumentReader:
         ]
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before) or names_no_file(m.path)]  # "..., id mylab/X-v1"
+        if {"output_root", "policy", "tasks", "dataset_version"} <= set(info.params):  # "continue training <run>"
+            for m in [m for m in paths if train_run_of(m.path, self.registry.ids())]:
+                found = train_run_of(m.path, self.registry.ids()) or {}
+                args.update({k: v for k, v in found.items() if is_empty(args.get(k))})
+                paths.remove(m)
         assign_paths(
             info,
             paths,

@@ -16,7 +16,7 @@ from typing import Any
 from pipette_cli.agent.catalog import CommandInfo
 from pipette_cli.agent.plan import StepRef
 from pipette_cli.agent.vocabulary import WorkflowVocabularySpec
-from pipette_cli.lerobot.convert import DatasetVersion, default_root
+from pipette_cli.lerobot.convert import DatasetVersion, default_root, slug
 from pipette_cli.lerobot.layout import LAST_CHECKPOINT
 from pipette_cli.lerobot.train import DEFAULT_OUTPUT_ROOT, Policy, run_dir
 
@@ -42,6 +42,19 @@ def _train(info: CommandInfo, args: dict[str, Any], task: str | None) -> Path | 
         return None
     root = Path(_arg(info, args, "output_root") or DEFAULT_OUTPUT_ROOT)
     return run_dir(tasks, Policy(policy), DatasetVersion(version), root) / LAST_CHECKPOINT
+
+
+def train_run_of(path: str, task_ids: list[str]) -> dict[str, str] | None:
+    """The ``train`` arguments a run folder in its layout stands for (``outputs/train/act/
+    pipette_PickUpTestTube-v1_raw[/checkpoints/...]``: ``--output-root outputs/train --policy act --tasks
+    pipette/PickUpTestTube-v1 --dataset-version raw``), or None for any other path."""
+    policies = "|".join(p.value for p in Policy)
+    versions = "|".join(v.value for v in DatasetVersion)
+    m = re.fullmatch(rf"(?:(.*)/)?({policies})/([\w.-]+)_({versions})(?:/checkpoints(?:/.*)?)?/?", path)
+    task = next((t for t in task_ids if m and slug(t) == m.group(3)), None)
+    if m is None or task is None:
+        return None
+    return {"output_root": m.group(1) or ".", "policy": m.group(2), "tasks": task, "dataset_version": m.group(4)}
 
 
 def version_in_path(path: str) -> str | None:

@@ -366,3 +366,15 @@ def test_how_well_a_policy_does_is_an_eval_and_copies_of_every_demo_an_augmentat
     assert [s.command for s in copies.steps] == ["augment"] and copies.steps[0].args["variants"] == "light*5"
     frames = AGENT.plan("how many frames does the dataset at datasets/pick have")
     assert [(s.command, s.args) for s in frames.steps] == [("data stats", {"root": "datasets/pick"})]
+
+
+def test_a_training_run_folder_in_trains_layout_says_which_run_to_continue() -> None:
+    plan = AGENT.plan("continue training outputs/train/act/pipette_PickUpTestTube-v1_raw up to 4000 steps")
+    args = plan.steps[0].args
+    assert (args["output_root"], args["policy"], args["tasks"], args["dataset_version"]) == (
+        "outputs/train",
+        "act",
+        "pipette/PickUpTestTube-v1",
+        "raw",
+    )
+    assert args["if_exists"] == "continue" and "datasets_root" not in args and plan.unused == []
