@@ -338,6 +338,7 @@ class Accountant:
             for atom in value.split("+"):
                 phrases += self.vocab.values.get(param.name, {}).get(atom, [])
             phrases += self.vocab.combined
+        phrases += self.vocab.every.get(param.name, [])  # "on each robot": every value, one step each
         if param.name == "suite_id":  # "the paper benchmark with paraphrased instructions": its name's words
             phrases += self._suite_name(value).split()
         if param.kind == "path":  # "the SmolVLM2 backbone from /models/smolvlm2": the folder's name

@@ -335,7 +335,12 @@ class ArgumentReader:
 
     def both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:
         """A parameter the clause gives two values joined by "and" ("the raw and the augmented
-        data"), for a command that takes one: the step is made once per value."""
+        data"), or asks for every value ("on each robot"), for a command that takes one: the step is made
+        once per value."""
+        for name, phrases in self.vocab.every.items():
+            param = info.params.get(name)
+            if param is not None and not param.multiple and self.vocab.values.get(name) and find_phrase(phrases, words):
+                return name, list(self.vocab.values[name])
         for param in info.params.values():
             if param.multiple or param.comma_list or param.kind != "str":
                 continue

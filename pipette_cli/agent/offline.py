@@ -11,6 +11,7 @@ the CLI is understood by the words of its own name. The plan then goes through t
 
 from __future__ import annotations
 
+import itertools
 import re
 from typing import Any
 
@@ -272,7 +273,17 @@ class OfflineAgent:
                 if many and find_phrase(self.vocab.together, words_of(text)):  # "convert both into one dataset"
                     return [{name: [{"from_step": i} for i in made]}]
                 return [{name: [{"from_step": i}] if many else {"from_step": i}} for i in made]
-        return []
+        # "convert both raw and augmented, then train ACT on each": what the last steps of one command tell
+        # apart (their dataset version), when this command reads none of their outputs
+        group = list(itertools.takewhile(lambda s: s.command == steps[-1].command, reversed(steps))) if steps else []
+        apart = [
+            n
+            for n in info.params
+            if is_empty(args.get(n))
+            and all(isinstance(s.args.get(n), str) for s in group)
+            and len({s.args[n] for s in group}) == len(group) > 1
+        ]
+        return [{apart[0]: s.args[apart[0]]} for s in reversed(group)] if len(apart) == 1 else []
 
     def _done_before(self, text: str) -> bool:
         """A clause of only a word of the vocabulary's ``done_before`` and a cue ("after training",

@@ -178,6 +178,8 @@ class WorkflowVocabularySpec(Spec):
     counts_of: list[str] = Field(default_factory=list)
     """Words between a count and the values it is for ("3 draws each of lighting and camera jitter")."""
     distributes: list[str] = Field(default_factory=list)
+    every: dict[str, list[str]] = Field(default_factory=dict)
+    """Option -> words asking for every one of its values ("on each robot"): one step per value."""
     """Nouns that words coordinated before them each take ("object and clutter variants")."""
     filler: list[str] = Field(default_factory=list)
     """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""

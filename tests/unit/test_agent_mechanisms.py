@@ -378,3 +378,19 @@ def test_a_training_run_folder_in_trains_layout_says_which_run_to_continue() -> 
         "raw",
     )
     assert args["if_exists"] == "continue" and "datasets_root" not in args and plan.unused == []
+
+
+def test_on_each_robot_is_one_step_per_robot() -> None:
+    plan = AGENT.plan("collect 10 demos of CloseCentrifugeLid on each robot")
+    robots = sorted(s.args["robot"] for s in plan.steps)
+    assert [s.command for s in plan.steps] == ["collect"] * 3 and plan.unused == []
+    assert robots == sorted(AGENT.vocab.values["robot"]) and len({s.args["out"] for s in plan.steps}) == 3
+
+
+def test_raw_and_augmented_alone_ask_for_no_comparison_and_each_follows_the_steps_before() -> None:
+    plan = AGENT.plan(
+        "record 10 demos of PlaceTubeOnBalance, augment them with lighting, convert both raw and augmented to "
+        "datasets, then train ACT on each"
+    )
+    assert [s.command for s in plan.steps] == ["collect", "augment", "convert", "convert", "train", "train"]
+    assert [s.args["dataset_version"] for s in plan.steps[4:]] == ["raw", "augmented"] and plan.unused == []
