@@ -221,6 +221,12 @@ class Accountant:
                     self._value(words, param, value, hz)
                     for word in option_words(param):  # "the same suite": a value taken from the step before
                         words.phrase(f"same {word}")
+            for name, spec in self.vocab.ranges.items():  # "seeds 100 to 149": --seed 100 --episodes 50
+                first, count = step.args.get(name), step.args.get(spec.count)
+                if isinstance(first, int) and isinstance(count, int):
+                    for n in spec.names:  # "seeds 100 to 149", "seeds 0-9" (one word)
+                        words.phrase(f"{n} {first} (to|through|thru|until|-|–) {first + count - 1}")
+                        words.phrase(f"{n} {first}-{first + count - 1}")
             if info.task_param() is not None:
                 words.phrase("same (task|tasks)")
         words.before_used_numbers(self.vocab.number_leads)

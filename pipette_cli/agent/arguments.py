@@ -135,6 +135,7 @@ class ArgumentReader:
             if param is not None:
                 args[param.name] = policy
         words = self._indexed(info, words, args)
+        words = self._ranges(info, words, args)
         copied = self.vocab.task_params.get(info.name)
         if copied and is_empty(args.get(copied)) and self.index.explicit(mentions.words):
             args[copied] = self.index.explicit(mentions.words)[0]  # "copy CloseCentrifugeLid into ..."
@@ -331,6 +332,18 @@ class ArgumentReader:
                 if m:
                     args[param.name] = f"{value}:{m.group(1)}"
                     words = words[: m.start(1)] + " " * len(m.group(1)) + words[m.end(1) :]
+        return words
+
+    def _ranges(self, info: CommandInfo, words: str, args: dict[str, Any]) -> str:
+        """A range of an option's values ("seeds 100 to 149"): its first value and the count of the
+        option that counts it (``--seed 100 --episodes 50``); ``words`` without it (never a bare count)."""
+        for name, spec in self.vocab.ranges.items():
+            if not {name, spec.count} <= set(info.params) or not is_empty(args.get(name)):
+                continue
+            m = spec.pattern().search(words)
+            if m and int(m.group(2)) >= int(m.group(1)) and is_empty(args.get(spec.count)):
+                args[name], args[spec.count] = int(m.group(1)), int(m.group(2)) - int(m.group(1)) + 1
+                words = words[: m.start()] + " " * (m.end() - m.start()) + words[m.end() :]
         return words
 
     def both(self, info: CommandInfo, words: str) -> tuple[str, list[str]] | None:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import Field
 
 from pipette_cli.language.lexicon import registry_values
+from pipette_cli.language.phrases import phrase_pattern
 from pipette_cli.specs.base import Spec
 from pipette_cli.specs.yaml_io import read_spec
 
@@ -92,6 +93,18 @@ class RecipeSpec(Spec):
     """Words the workflow explains without asking for it ("compare")."""
     defaults: dict[str, Any] = Field(default_factory=dict)
     steps: list[RecipeStepSpec] = Field(min_length=1)
+
+
+class RangeSpec(Spec):
+    """A range of an option's values ("seeds 100 to 149"): its first value and how many (``count``)."""
+
+    count: str
+    names: list[str]
+
+    def pattern(self) -> re.Pattern[str]:
+        """``<name> A (to|through|-) B``: groups 1 and 2 are A and B."""
+        names = "|".join(phrase_pattern(n).pattern for n in self.names)
+        return re.compile(rf"(?<![\w-])(?:{names})\s+(\d+)\s*(?:to|through|thru|until|-|–)\s*(\d+)(?![\w.-])")
 
 
 class WorkflowVocabularySpec(Spec):
@@ -178,6 +191,8 @@ class WorkflowVocabularySpec(Spec):
     counts_of: list[str] = Field(default_factory=list)
     """Words between a count and the values it is for ("3 draws each of lighting and camera jitter")."""
     distributes: list[str] = Field(default_factory=list)
+    ranges: dict[str, RangeSpec] = Field(default_factory=dict)
+    """Option -> how a range of its values is said and which option counts it ("seeds 100 to 149")."""
     every: dict[str, list[str]] = Field(default_factory=dict)
     """Option -> words asking for every one of its values ("on each robot"): one step per value."""
     """Nouns that words coordinated before them each take ("object and clutter variants")."""

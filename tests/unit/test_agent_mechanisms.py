@@ -394,3 +394,10 @@ def test_raw_and_augmented_alone_ask_for_no_comparison_and_each_follows_the_step
     )
     assert [s.command for s in plan.steps] == ["collect", "augment", "convert", "convert", "train", "train"]
     assert [s.args["dataset_version"] for s in plan.steps[4:]] == ["raw", "augmented"] and plan.unused == []
+
+
+def test_a_range_of_seeds_is_the_first_seed_and_a_count() -> None:
+    plan = AGENT.plan("evaluate runs/a on PickUpTestTube with seeds 100 to 149")
+    assert (plan.steps[0].args["seed"], plan.steps[0].args["episodes"]) == (100, 50) and plan.unused == []
+    short = AGENT.plan("collect demos of PickUpTestTube for seeds 0-9")
+    assert (short.steps[0].args["seed"], short.steps[0].args["episodes"]) == (0, 10) and short.unused == []
