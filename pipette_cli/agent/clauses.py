@@ -256,6 +256,10 @@ def split_clauses(text: str, intents: Intents) -> list[Clause]:
         best, score = intents.best(clause.text) if command or not told else intents.best(text)  # "...; resume it"
         if best is not None and best.startswith(RECIPE_PREFIX):
             command = best  # "train X with and without augmentation": the workflow, not its first command
+        elif best is not None and command is not None and score > intents.scores(text).get(command, 0) + 1:
+            # the clause as a whole asks for another command far more clearly than the piece that began it
+            # ("export episode 2 and 5 of x.h5 as mp4": a video, not the export verb's convert)
+            command = best
         after = "strong" if clause.after == "start" or (told and not clauses) else clause.after
         clauses.append(Clause(text, command or best, score, after))
         told = ""

@@ -32,10 +32,12 @@ def plain(text: str) -> str:
 
 def words_of(text: str) -> str:
     """Lowercased words for cue matching: contractions spelled out ("what's" -> "what is"),
-    thousands without their commas, punctuation other than ``' - . + %`` turned into spaces."""
+    thousands without their commas, "X-free" written "without-X" (no word for X matches it),
+    punctuation other than ``' - . + %`` turned into spaces."""
     lowered = re.sub(r"(\d),(\d{3})\b", r"\1\2", plain(text))  # 1,500 -> 1500
     for pattern, spelled in _CONTRACTIONS:
         lowered = pattern.sub(spelled, lowered)
+    lowered = re.sub(r"\b([a-z][\w']*)-free\b", r"without-\1", lowered)  # "teleop-free": never teleop* itself
     return " ".join(re.sub(r"[^\w'.+%π-]+", " ", lowered).split()).replace(" .", " ").rstrip(".")
 
 

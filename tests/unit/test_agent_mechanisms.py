@@ -401,3 +401,14 @@ def test_a_range_of_seeds_is_the_first_seed_and_a_count() -> None:
     assert (plan.steps[0].args["seed"], plan.steps[0].args["episodes"]) == (100, 50) and plan.unused == []
     short = AGENT.plan("collect demos of PickUpTestTube for seeds 0-9")
     assert (short.steps[0].args["seed"], short.steps[0].args["episodes"]) == (0, 10) and short.unused == []
+
+
+def test_the_whole_clause_decides_its_command_and_a_crashed_file_is_packed() -> None:
+    video = AGENT.plan("export episode 2 and 5 of data/x.h5 as mp4")
+    assert [(s.command, s.args["episode"]) for s in video.steps] == [("data video", [2, 5])] and video.unused == []
+    fixed = AGENT.plan("the collect writing data/x.h5 crashed, fix the file")
+    assert [(s.command, s.args) for s in fixed.steps] == [("data pack", {"file": "data/x.h5"})]
+    timeout = AGENT.plan("evaluate against tcp://gpu-box:5555 on the clutter suite with a 60 second connect timeout")
+    assert timeout.steps[0].args["connect_timeout"] == 60 and "episodes" not in timeout.steps[0].args
+    free = AGENT.plan("gather 12 teleop-free expert demos of the balance placing task")
+    assert "source" not in free.steps[0].args and free.unused == ["without-teleop"]  # never --source teleop
