@@ -259,7 +259,53 @@ def score(
     )
 
 
-ANSWERS = {"answer tasks": tasks, "answer demos": demos, "answer score": score}
+@app.command("robots")
+def robots() -> Answer:
+    """Which robots tasks can run on (`--robot` of collect, augment, eval; `with the UR5e` in new-task):
+    the arm's joints, the gripper's opening, the reach and payload, and how many tasks name each.
+
+    Example: answer robots
+    """
+    from pipette_cli.specs.robot import load_robot_specs  # deferred: the robot specs (`pipette --help` imports this)
+
+    registry = load_registry()
+    rows, data = [], []
+    for name, spec in sorted(load_robot_specs().items()):
+        own = sum(registry.get(t).embodiment.robot == name for t in registry.ids())
+        item = {
+            "robot": name,
+            "short_name": spec.aliases[0] if spec.aliases else name,
+            "arm_joints": spec.arm_dof,
+            "gripper_opening_mm": round(1000 * spec.gripper.max_opening),
+            "reach_m": spec.reach,
+            "payload_kg": spec.payload_kg,
+            "tasks": own,
+        }
+        data.append(item)
+        rows.append(
+            [
+                name,
+                str(item["short_name"]),
+                str(spec.arm_dof),
+                f"{item['gripper_opening_mm']} mm",
+                f"{spec.reach:.2f} m",
+                f"{spec.payload_kg:g} kg",
+                str(own),
+            ]
+        )
+    text = (
+        f"{plural(len(rows), 'robot')}: {', '.join(r[0] for r in rows)}; a task runs on another robot with --robot "
+        "(check its expert there first: pipette experts check TASK --robot NAME)"
+    )
+    return Answer(
+        text,
+        ["robot", "short name", "arm joints", "gripper opens", "reach", "payload", "tasks made for it"],
+        rows,
+        {"robots": data},
+    )
+
+
+ANSWERS = {"answer tasks": tasks, "answer demos": demos, "answer score": score, "answer robots": robots}
 
 
 def answer(command: str, args: dict[str, Any], registry: Registry | None = None) -> Answer:

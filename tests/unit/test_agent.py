@@ -400,6 +400,16 @@ def test_answers_list_tasks_from_the_registry() -> None:
     assert answer("answer tasks", {}).data["count"] == len(REGISTRY.ids())
 
 
+def test_answers_list_the_robots_from_their_specs() -> None:
+    plan = AGENT.plan("what robots can I use?")
+    assert [s.command for s in plan.steps] == ["answer robots"] and plan.unused == []
+    found = answer("answer robots", plan.steps[0].args).data["robots"]
+    by_name = {r["robot"]: r for r in found}
+    assert sorted(by_name) == ["agilex_piper", "franka_panda", "ur5e_robotiq"]
+    assert by_name["franka_panda"]["gripper_opening_mm"] == 80 and by_name["franka_panda"]["arm_joints"] == 7
+    assert by_name["agilex_piper"]["tasks"] == 1  # PlaceFlaskOnShaker names the Piper
+
+
 # -- the command -------------------------------------------------------------------------------
 
 
