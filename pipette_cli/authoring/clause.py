@@ -141,6 +141,7 @@ class ClauseReader:
         self.counts = {w: int(v) for w, v in words.numbers.items() if float(v).is_integer()} | {
             str(n): n for n in range(MAX_COUNT + 1)
         }
+        self.counts["both"] = 2  # "pick up both microtubes"
         """A count before a noun, written either way ("two", "2")."""
         self.said: list[str] = []
         """The kinds of the objects the clauses read so far name (one reader reads one description)."""

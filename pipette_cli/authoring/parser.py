@@ -145,6 +145,7 @@ class Builder:
                 f"'{clause.text}': a count is read only for objects the robot moves, one after another ('put two "
                 f"microtubes in the rack'); name each {counted.phrase} this step acts on"
             )
+
         if action in ("run", "tare"):
             self._run(clause, direct, action)
             return
@@ -305,6 +306,12 @@ class Builder:
                 raise PlanError(
                     f"say where the {items[0].wanted.words()} is taken from ('out of the rack', 'off the balance')"
                 )
+        counted = next((m for m in direct if m.count > 1), None)
+        if counted is not None and action == "pick":  # "pick up both microtubes": held at once
+            raise PlanError(
+                f"'{clause.text}': the gripper holds one object at a time, so it cannot pick up {counted.count} "
+                f"and hold them; say where each goes ('put both microtubes in the rack')"
+            )
         for k, item in enumerate(items):
             target, part = targets[min(k, len(targets) - 1)] if targets else (None, None)
             self.steps.append(RawStep(action, item, target, source, part, relation))
