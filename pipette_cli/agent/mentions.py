@@ -21,10 +21,11 @@ from pipette_cli.specs.task import TASK_ID_PATTERN
 SAVE_VERBS = "save|write|store|put|keep|place"
 """Verbs that ask a command to write somewhere."""
 SAVE = re.compile(
-    rf"\b(?:{SAVE_VERBS})s?\b(?:\s+(?:it|them|this|that|the \w+|its \w+|their \w+|\w+))?\s+"
+    rf"\b(?:{SAVE_VERBS})s?\b(?:\s+(?:the |its |their )?\w+)?\s+"
     r"(?:to|in|into|under|at|as)$"
 )
-"""Words before a path that say the command should write there (present tense: "saved in" does not)."""
+"""Words before a path that say the command should write there ("save it to", "keep the rejects in", "save
+checkpoints to"; present tense: "saved in" does not)."""
 _TO = re.compile(r"\b(?:to|into|as|write|writes|save|saves|store|stores)$")
 """Words right before a path that make it where the command writes ("... into x.h5", "and write x.h5")."""
 _INTO = re.compile(r"\b(?:to|into)$")
@@ -120,11 +121,9 @@ def assign_paths(
             and not ((folder or other_file) and p.name in file_inputs)
             and p.name not in unread
         ]
-        wants_output = bool(SAVE.search(mention.before) or _TO.search(mention.before))
+        saves = bool(SAVE.search(mention.before))  # "save checkpoints to runs/x": where it writes, never a read
+        wants_output = saves or bool(_TO.search(mention.before))
         reads_from = bool(_FROM.search(mention.before))  # "a results table from evals/": a source, never an output
-        saves = bool(
-            SAVE.search(mention.before)
-        )  # "save checkpoints to runs/x": where it writes, not a checkpoint read
         candidates = [
             _named(mention.before, reads if reads_from else writes if saves else writes + reads, values),
             writes[0] if wants_output and writes else None,
