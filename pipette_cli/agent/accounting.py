@@ -224,9 +224,8 @@ class Accountant:
             for name, spec in self.vocab.ranges.items():  # "seeds 100 to 149": --seed 100 --episodes 50
                 first, count = step.args.get(name), step.args.get(spec.count)
                 if isinstance(first, int) and isinstance(count, int):
-                    for n in spec.names:  # "seeds 100 to 149", "seeds 0-9" (one word)
-                        words.phrase(f"{n} {first} (to|through|thru|until|-|–) {first + count - 1}")
-                        words.phrase(f"{n} {first}-{first + count - 1}")
+                    for phrase in spec.phrases(first, first + count - 1):
+                        words.phrase(phrase)
             if info.task_param() is not None:
                 words.phrase("same (task|tasks)")
         words.before_used_numbers(self.vocab.number_leads)

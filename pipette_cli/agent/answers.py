@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -269,9 +270,10 @@ def robots() -> Answer:
     from pipette_cli.specs.robot import load_robot_specs  # deferred: the robot specs (`pipette --help` imports this)
 
     registry = load_registry()
+    named = Counter(registry.get(t).embodiment.robot for t in registry.ids())
     rows, data = [], []
     for name, spec in sorted(load_robot_specs().items()):
-        own = sum(registry.get(t).embodiment.robot == name for t in registry.ids())
+        own = named[name]
         item = {
             "robot": name,
             "short_name": spec.aliases[0] if spec.aliases else name,

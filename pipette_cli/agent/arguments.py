@@ -114,10 +114,12 @@ class ArgumentReader:
         if "description" in info.params:  # free text: only "save it to PATH" is a path, the rest describes
             paths = [m for m in paths if SAVE.search(m.before) or names_no_file(m.path)]  # "..., id mylab/X-v1"
         if {"output_root", "policy", "tasks", "dataset_version"} <= set(info.params):  # "continue training <run>"
-            for m in [m for m in paths if train_run_of(m.path, self.registry.ids())]:
-                found = train_run_of(m.path, self.registry.ids()) or {}
-                args.update({k: v for k, v in found.items() if is_empty(args.get(k))})
-                paths.remove(m)
+            ids = self.registry.ids()
+            for m in list(paths):
+                found = train_run_of(m.path, ids)
+                if found is not None:
+                    args.update({k: v for k, v in found.items() if is_empty(args.get(k))})
+                    paths.remove(m)
         assign_paths(
             info,
             paths,

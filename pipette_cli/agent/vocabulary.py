@@ -95,6 +95,10 @@ class RecipeSpec(Spec):
     steps: list[RecipeStepSpec] = Field(min_length=1)
 
 
+RANGE_WORDS = ("to", "through", "thru", "until", "-", "–")
+"""What stands between the ends of a range ("seeds 100 to 149", "seeds 0-9")."""
+
+
 class RangeSpec(Spec):
     """A range of an option's values ("seeds 100 to 149"): its first value and how many (``count``)."""
 
@@ -104,7 +108,13 @@ class RangeSpec(Spec):
     def pattern(self) -> re.Pattern[str]:
         """``<name> A (to|through|-) B``: groups 1 and 2 are A and B."""
         names = "|".join(phrase_pattern(n).pattern for n in self.names)
-        return re.compile(rf"(?<![\w-])(?:{names})\s+(\d+)\s*(?:to|through|thru|until|-|–)\s*(\d+)(?![\w.-])")
+        between = "|".join(map(re.escape, RANGE_WORDS))
+        return re.compile(rf"(?<![\w-])(?:{names})\s+(\d+)\s*(?:{between})\s*(\d+)(?![\w.-])")
+
+    def phrases(self, first: int, last: int) -> list[str]:
+        """How the range from ``first`` to ``last`` is said, as vocabulary phrases ("seeds 0-9" is one word)."""
+        between = "|".join(RANGE_WORDS)
+        return [p for n in self.names for p in (f"{n} {first} ({between}) {last}", f"{n} {first}-{last}")]
 
 
 class WorkflowVocabularySpec(Spec):
@@ -191,11 +201,11 @@ class WorkflowVocabularySpec(Spec):
     counts_of: list[str] = Field(default_factory=list)
     """Words between a count and the values it is for ("3 draws each of lighting and camera jitter")."""
     distributes: list[str] = Field(default_factory=list)
+    """Nouns that words coordinated before them each take ("object and clutter variants")."""
     ranges: dict[str, RangeSpec] = Field(default_factory=dict)
     """Option -> how a range of its values is said and which option counts it ("seeds 100 to 149")."""
     every: dict[str, list[str]] = Field(default_factory=dict)
     """Option -> words asking for every one of its values ("on each robot"): one step per value."""
-    """Nouns that words coordinated before them each take ("object and clutter variants")."""
     filler: list[str] = Field(default_factory=list)
     """Words that carry no request of their own ("please", "the", "could"): never "not understood"."""
     recipes: dict[str, RecipeSpec] = Field(default_factory=dict)

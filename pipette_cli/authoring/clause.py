@@ -19,10 +19,10 @@ from pipette_cli.language.phrases import Token, first_match, match
 MEASURES = ("ml", "ul", "mm")
 """Size classes that measure rather than name (a lone "6 cm" is a distance, not a 60 mm dish)."""
 PART_LINKS = ("of", "on", "in", "inside", "at")
+"""Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
 MAX_COUNT = 6
 """Objects of one kind a count before a noun may ask for ("put two microtubes in the rack"); a larger
 number ("96 tubes") is listed as not understood."""
-"""Words between a part and its owner: "the lid of the centrifuge", "the button on the microfuge"."""
 
 
 @dataclass
@@ -139,10 +139,10 @@ class ClauseReader:
         self.button_names = sorted(self.buttons, key=lambda p: -len(p.split()))
         self.modifiers = words.modifiers
         self.counts = {w: int(v) for w, v in words.numbers.items() if float(v).is_integer()} | {
-            str(n): n for n in range(MAX_COUNT + 1)
+            **{str(n): n for n in range(MAX_COUNT + 1)},
+            "both": 2,
         }
-        self.counts["both"] = 2  # "pick up both microtubes"
-        """A count before a noun, written either way ("two", "2")."""
+        """A count before a noun, written either way ("two", "2"; "both microtubes")."""
         self.said: list[str] = []
         """The kinds of the objects the clauses read so far name (one reader reads one description)."""
 
