@@ -301,7 +301,7 @@ def robots() -> Answer:
     )
     return Answer(
         text,
-        ["robot", "short name", "arm joints", "gripper opens", "reach", "payload", "tasks made for it"],
+        ["robot", "short", "joints", "opens", "reach", "payload", "tasks"],  # reads at 80 columns
         rows,
         {"robots": data},
     )

@@ -403,7 +403,10 @@ def test_answers_list_tasks_from_the_registry() -> None:
 def test_answers_list_the_robots_from_their_specs() -> None:
     plan = AGENT.plan("what robots can I use?")
     assert [s.command for s in plan.steps] == ["answer robots"] and plan.unused == []
-    found = answer("answer robots", plan.steps[0].args).data["robots"]
+    said = answer("answer robots", plan.steps[0].args)
+    widths = [max(len(c), *(len(r[i]) for r in said.rows)) for i, c in enumerate(said.columns)]
+    assert sum(widths) + 3 * len(widths) + 1 <= 80  # its table, borders and padding included, reads at 80 columns
+    found = said.data["robots"]
     by_name = {r["robot"]: r for r in found}
     assert sorted(by_name) == ["agilex_piper", "franka_panda", "ur5e_robotiq"]
     assert by_name["franka_panda"]["gripper_opening_mm"] == 80 and by_name["franka_panda"]["arm_joints"] == 7
